@@ -1,0 +1,22 @@
+"""Reach's planner: the method of Zhao, Liu & Badler (SAE 2005) as pure Python.
+
+This package never imports ``bpy``. It works on numpy arrays, plain settings and, for
+collisions, a ``mathutils.bvhtree.BVHTree`` handed in by the caller (``mathutils`` is part
+of Blender; with the bpy wheel it becomes importable once ``bpy`` has been imported).
+
+Entry point: :func:`plan` (or a :class:`Planner`, which keeps the workspace between plans).
+"""
+
+from .arm import ArmConfig, ArmModel, Capsule, Pose, config_from_joints, forward_kinematics
+from .collision import Obstacles
+from .errors import (NO_PATH, OUT_OF_REACH, REASONS, START_IN_COLLISION, TARGET_IN_OBSTACLE,
+                     ReachError)
+from .settings import Settings
+from .tasks import TASK_KINDS, Plan, Planner, Segment, Stats, Task, plan
+
+__all__ = [
+    "ArmConfig", "ArmModel", "Capsule", "Pose", "config_from_joints", "forward_kinematics",
+    "Obstacles", "ReachError", "REASONS", "OUT_OF_REACH", "TARGET_IN_OBSTACLE", "NO_PATH",
+    "START_IN_COLLISION", "Settings", "TASK_KINDS", "Plan", "Planner", "Segment", "Stats",
+    "Task", "plan",
+]

@@ -1,0 +1,394 @@
+"""The sternum-rooted arm: its geometry, the shoulder angle convention and forward kinematics.
+
+Frames
+------
+The core works in the **canonical arm frame**: origin on the vertical axis through the
+spine at chest height, **x toward the reaching arm's side**, y forward, z up. A right arm's
+canonical frame is the body frame; a left arm's is the body frame mirrored in x, so one set
+of formulas (written for a right arm, as the paper's Algorithm 1 is) serves both arms.
+:attr:`ArmModel.to_world` maps canonical points to world space; obstacles stay in world
+space and are queried there.
+
+Five angles (degrees) describe a configuration, as in the paper: body (chest) rotation
+about the spine axis, three shoulder angles α, β, γ and elbow flexion.
+
+Shoulder angles
+---------------
+Let ``u`` be the upper arm direction in the (rotated) chest frame. Its elevation
+``θ = acos(-u_z)`` is the angle from hanging straight down, and its plane of elevation
+``φ = atan2(u_y, u_x)`` says which way it is raised (0 = to the side, 90° = forward).
+Then::
+
+    α = θ cos φ        (abduction +, adduction −)
+    β = θ sin φ        (flexion +, extension −)
+
+so: arm hanging α = β = 0; straight out to the side α = 90; straight forward β = 90;
+overhead by either route 180; behind the back β < 0; across the body α < 0. (α, β) is θ
+times the unit horizontal direction of ``u``: the map is continuous everywhere (at θ = 0
+both vanish whatever φ) except straight overhead (θ = 180°), which
+``Settings.elevation_max`` (170°) keeps out of the reachable range.
+
+Humeral twist γ is measured against a reference carried along with the arm: the forward
+direction (0, 1, 0) swung by the smallest rotation that takes "hanging" to ``u``
+(:func:`swing_reference`). γ is the angle about ``-u`` from that reference to the direction
+the forearm bends toward (internal rotation positive). With the arm hanging and γ = 0 a
+bent elbow brings the hand forward; at 90° abduction γ = 0 points the forearm forward and
+γ = 90° (internal) points it down.
+
+Joint limits (``Settings``) follow the normal ranges of motion of the American Academy of
+Orthopaedic Surgeons (AAOS, *Joint Motion: Method of Measuring and Recording*, 1965):
+shoulder flexion 180°, extension 60°, abduction 180°, external rotation 90°, internal
+rotation 70° (measured at 90° abduction; see ``gamma_max``), elbow flexion 150°.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ReachError, require_finite
+from .torso import rotate_about_spine, spine_rotation_matrix
+
+#: Joint order of :attr:`Pose.joints`.
+JOINTS = ("sternum", "shoulder", "elbow", "wrist", "hand")
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """A body part the arm may not pass through: the segment ``a``-``b`` (canonical frame)
+    swept by ``radius``. ``turns_with_chest`` capsules (chest, head) follow the chest
+    rotation; the others (abdomen, pelvis) stay."""
+
+    name: str
+    a: np.ndarray
+    b: np.ndarray
+    radius: float
+    turns_with_chest: bool = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "a", require_finite(f"body capsule '{self.name}'", self.a))
+        object.__setattr__(self, "b", require_finite(f"body capsule '{self.name}'", self.b))
+        if not self.radius > 0:
+            raise ReachError(f"body capsule '{self.name}' has radius {self.radius}; it must be > 0")
+
+
+@dataclass(frozen=True)
+class ArmModel:
+    """Geometry of one arm and the body it hangs on, in the canonical arm frame.
+
+    Lengths and radii are in the figure's own units (whatever the rig uses); the planner's
+    settings are in arm lengths (:attr:`arm_length` = upper arm + forearm, shoulder to
+    wrist, the wrist being the end-effector).
+
+    ``sternum`` is the IK root, ``shoulder`` the glenohumeral centre at rest (chest
+    rotation 0), ``waist`` the point Algorithm 1 uses for the body plane. ``to_world`` is a
+    4×4 rigid transform (a reflection allowed, no scale) from canonical to world space.
+    """
+
+    sternum: np.ndarray
+    shoulder: np.ndarray
+    waist: np.ndarray
+    upper_arm_length: float
+    forearm_length: float
+    hand_length: float
+    upper_arm_radius: float
+    forearm_radius: float
+    hand_radius: float
+    to_world: np.ndarray = field(default_factory=lambda: np.eye(4))
+    body_capsules: tuple = ()
+    side: str = "right"
+    name: str = "arm"
+
+    def __post_init__(self):
+        label = f"arm '{self.name}'"
+        for key in ("sternum", "shoulder", "waist"):
+            value = require_finite(f"{label} {key}", getattr(self, key))
+            if value.shape != (3,):
+                raise ReachError(f"{label} {key} must be a 3-vector, got shape {value.shape}")
+            object.__setattr__(self, key, value)
+        for key in ("upper_arm_length", "forearm_length", "hand_length", "upper_arm_radius",
+                    "forearm_radius", "hand_radius"):
+            value = float(require_finite(f"{label} {key.replace('_', ' ')}", getattr(self, key)))
+            if key in ("upper_arm_length", "forearm_length") and not value > 1e-9:
+                raise ReachError(
+                    f"{label}: the {key.replace('_', ' ')} is {value:g}, a zero-length "
+                    "segment; check the bone map (upper arm, forearm and hand must be "
+                    "different bones with length)")
+            if value < 0:
+                raise ReachError(f"{label} {key.replace('_', ' ')} is negative ({value:g})")
+            object.__setattr__(self, key, value)
+        m = require_finite(f"{label} transform", self.to_world)
+        if m.shape != (4, 4):
+            raise ReachError(f"{label} transform must be 4×4")
+        linear = m[:3, :3]
+        if not np.allclose(linear @ linear.T, np.eye(3), atol=1e-6):
+            raise ReachError(
+                f"{label}: the body frame is not rigid (scaled or sheared); "
+                "apply scale is not needed, but the frame passed to the core must be orthonormal")
+        object.__setattr__(self, "to_world", m)
+        object.__setattr__(self, "_from_world", np.linalg.inv(m))
+        if self.side not in ("right", "left"):
+            raise ReachError(f"{label}: side must be 'right' or 'left', got {self.side!r}")
+        if np.linalg.norm(self.shoulder - self.sternum) < 1e-9:
+            raise ReachError(f"{label}: shoulder and sternum coincide; check the bone map")
+        caps = tuple(self.body_capsules)
+        object.__setattr__(self, "body_capsules", caps)
+        object.__setattr__(self, "_capsule_arrays", (
+            np.array([c.a for c in caps]).reshape(-1, 3),
+            np.array([c.b for c in caps]).reshape(-1, 3),
+            np.array([c.radius for c in caps]),
+            np.array([c.turns_with_chest for c in caps], dtype=bool),
+        ))
+
+    def capsules_at(self, body_rotation: float):
+        """Body capsule ends (C, 3) and (C, 3) and radii (C,) with the chest turned by
+        ``body_rotation`` degrees (capsules that do not turn with the chest stay)."""
+        a, b, radii, turns = self._capsule_arrays
+        if body_rotation == 0.0 or not turns.any():
+            return a, b, radii
+        a, b = a.copy(), b.copy()
+        a[turns] = rotate_about_spine(a[turns], body_rotation)
+        b[turns] = rotate_about_spine(b[turns], body_rotation)
+        return a, b, radii
+
+    @property
+    def arm_length(self) -> float:
+        """Upper arm + forearm: the unit of every length setting."""
+        return self.upper_arm_length + self.forearm_length
+
+    @property
+    def max_reach(self) -> float:
+        """Farthest wrist distance from the shoulder (straight arm)."""
+        return self.upper_arm_length + self.forearm_length
+
+    def min_reach(self, elbow_max_deg: float) -> float:
+        """Nearest wrist distance from the shoulder at the elbow flexion limit (law of
+        cosines with interior angle 180° - flexion)."""
+        l1, l2 = self.upper_arm_length, self.forearm_length
+        interior = np.radians(180.0 - elbow_max_deg)
+        return float(np.sqrt(max(l1 * l1 + l2 * l2 - 2 * l1 * l2 * np.cos(interior), 0.0)))
+
+    def to_world_points(self, points):
+        """Canonical points (..., 3) to world space."""
+        p = np.asarray(points, dtype=float)
+        return p @ self.to_world[:3, :3].T + self.to_world[:3, 3]
+
+    def to_world_vectors(self, vectors):
+        """Canonical directions (..., 3) to world space (no translation)."""
+        return np.asarray(vectors, dtype=float) @ self.to_world[:3, :3].T
+
+    def to_canonical_points(self, points):
+        """World points (..., 3) to the canonical arm frame."""
+        inv = self._from_world
+        p = np.asarray(points, dtype=float)
+        return p @ inv[:3, :3].T + inv[:3, 3]
+
+
+@dataclass(frozen=True)
+class ArmConfig:
+    """The five angles of one arm posture, in degrees."""
+
+    body_rotation: float
+    alpha: float
+    beta: float
+    gamma: float
+    elbow: float
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.body_rotation, self.alpha, self.beta, self.gamma, self.elbow])
+
+    @classmethod
+    def from_array(cls, values) -> ArmConfig:
+        return cls(*(float(v) for v in values))
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A solved posture: its angles, its joint positions (canonical frame, in
+    :data:`JOINTS` order; "hand" is the hand's far end), the unit direction the forearm
+    bends toward (perpendicular to the upper arm; defined even with a straight elbow, from
+    γ), its strength category f_R and the wrist's two angles (:func:`hand_direction`)."""
+
+    config: ArmConfig
+    joints: np.ndarray
+    bend: np.ndarray
+    f_r: int
+    hand: tuple = (0.0, 0.0)
+
+    @property
+    def wrist(self) -> np.ndarray:
+        return self.joints[3]
+
+    @property
+    def elbow(self) -> np.ndarray:
+        return self.joints[2]
+
+    @property
+    def shoulder(self) -> np.ndarray:
+        return self.joints[1]
+
+
+# --- the shoulder angle convention --------------------------------------------------------
+
+def shoulder_angles(u):
+    """(α, β) in degrees of upper-arm directions ``u`` (..., 3), chest frame.
+
+    .. math:: θ = \\arccos(-u_z),\\quad (α, β) = θ \\frac{(u_x, u_y)}{\\sqrt{u_x^2 + u_y^2}}
+    """
+    u = np.asarray(u, dtype=float)
+    theta = np.degrees(np.arccos(np.clip(-u[..., 2], -1.0, 1.0)))
+    h = np.hypot(u[..., 0], u[..., 1])
+    safe = np.where(h > 1e-12, h, 1.0)
+    scale = np.where(h > 1e-12, theta / safe, 0.0)
+    return scale * u[..., 0], scale * u[..., 1]
+
+
+def elevation(alpha, beta):
+    """Elevation θ of the upper arm from hanging: √(α² + β²) (degrees)."""
+    return np.hypot(alpha, beta)
+
+
+def upper_arm_direction(alpha, beta):
+    """Inverse of :func:`shoulder_angles`: the unit direction (chest frame) with these
+    angles, u = (sin θ cos φ, sin θ sin φ, -cos θ), θ = √(α² + β²), φ = atan2(β, α)."""
+    alpha = np.asarray(alpha, dtype=float)
+    beta = np.asarray(beta, dtype=float)
+    theta = np.radians(np.hypot(alpha, beta))
+    phi = np.arctan2(beta, alpha)
+    s = np.sin(theta)
+    return np.stack([s * np.cos(phi), s * np.sin(phi), -np.cos(theta)], -1)
+
+
+def swing_reference(u):
+    """The twist reference for upper-arm directions ``u`` (..., 3): forward (0, 1, 0)
+    carried by the smallest rotation from hanging (0, 0, -1) to ``u``.
+
+    Rodrigues' formula with axis (u_y, -u_x, 0)/|·| reduces to
+
+    .. math:: r = \\left(\\frac{-u_x u_y}{1 - u_z},\\ -u_z + \\frac{u_x^2}{1 - u_z},\\ u_y\\right)
+
+    a unit vector perpendicular to ``u``, singular only straight overhead (u_z = 1).
+    """
+    u = np.asarray(u, dtype=float)
+    ux, uy, uz = u[..., 0], u[..., 1], u[..., 2]
+    k = 1.0 / np.maximum(1.0 - uz, 1e-12)
+    return np.stack([-ux * uy * k, -uz + ux * ux * k, uy], -1)
+
+
+def twist_angle(u, bend):
+    """γ (degrees) of a forearm bending toward unit ``bend`` (⊥ ``u``): the signed angle
+    about ``-u`` from :func:`swing_reference` to ``bend``, internal rotation positive."""
+    ref = swing_reference(u)
+    axis = -np.asarray(u, dtype=float)
+    sin = np.einsum("...i,...i->...", np.cross(ref, bend), axis)
+    cos = np.einsum("...i,...i->...", ref, bend)
+    return np.degrees(np.arctan2(sin, cos))
+
+
+def bend_direction(u, gamma):
+    """Unit direction the forearm bends toward for twist γ: the reference rotated by γ
+    about ``-u`` (inverse of :func:`twist_angle`)."""
+    ref = swing_reference(u)
+    axis = -np.asarray(u, dtype=float)
+    g = np.radians(np.asarray(gamma, dtype=float))[..., None]
+    return ref * np.cos(g) + np.cross(axis, ref) * np.sin(g)
+
+
+def hand_direction(upper, bend, forearm, wrist_bend_deg, wrist_side_deg):
+    r"""Unit direction of the hand (wrist → hand end) for the wrist's two angles.
+
+    The paper takes the wrist as the end-effector and leaves the hand free ("the position
+    of the palm center is just a further search for a point on a sphere"). We model the
+    hand as a segment that continues the forearm ``f`` at neutral and turns by
+    ``wrist_bend`` in the elbow's plane (toward ``p = h × f``, where the elbow's hinge
+    axis is ``h = u × b``) and by ``wrist_side`` across it (toward ``h``):
+
+    .. math:: d = f \cos β_w \cos σ_w + p \sin β_w \cos σ_w + h \sin σ_w
+
+    Forearm pronation is not modelled, so these are bends of the hand relative to the elbow
+    plane rather than anatomical flexion and deviation; their ranges follow the AAOS wrist
+    ranges (``Settings.wrist_bend_max``, ``Settings.wrist_side_max``). Vectors (3,).
+    """
+    (ux, uy, uz), (bx, by, bz), (fx, fy, fz) = (np.asarray(v, float).tolist()
+                                                 for v in (upper, bend, forearm))
+    hx, hy, hz = uy * bz - uz * by, uz * bx - ux * bz, ux * by - uy * bx
+    hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
+    hx, hy, hz = hx / hn, hy / hn, hz / hn
+    px, py, pz = hy * fz - hz * fy, hz * fx - hx * fz, hx * fy - hy * fx
+    fb, fs = math.radians(wrist_bend_deg), math.radians(wrist_side_deg)
+    cf, cp, ch = math.cos(fb) * math.cos(fs), math.sin(fb) * math.cos(fs), math.sin(fs)
+    return np.array([fx * cf + px * cp + hx * ch, fy * cf + py * cp + hy * ch,
+                     fz * cf + pz * cp + hz * ch])
+
+
+def forward_kinematics(arm: ArmModel, configs):
+    """Joint positions (..., 5, 3) and bend directions (..., 3), canonical frame, for
+    configurations (..., 5) = (body rotation, α, β, γ, elbow) in degrees.
+
+    .. math::
+        s = R_z(θ_b)\\, s_0,\\quad e = s + L_1 R_z(θ_b) u(α, β),\\quad
+        w = e + L_2 R_z(θ_b)(\\cos ε\\, u + \\sin ε\\, b(u, γ)),\\quad
+        h = w + L_h (w - e)/L_2
+
+    where ε is elbow flexion and b the bend direction.
+    """
+    c = np.asarray(configs, dtype=float)
+    body, alpha, beta, gamma, flex = (c[..., i] for i in range(5))
+    u = upper_arm_direction(alpha, beta)
+    bend = bend_direction(u, gamma)
+    eps = np.radians(flex)[..., None]
+    f = u * np.cos(eps) + bend * np.sin(eps)
+    rot = spine_rotation_matrix(body)
+    u_c = np.einsum("...ij,...j->...i", rot, u)
+    f_c = np.einsum("...ij,...j->...i", rot, f)
+    bend_c = np.einsum("...ij,...j->...i", rot, bend)
+    sternum = rotate_about_spine(arm.sternum, body)
+    shoulder = rotate_about_spine(arm.shoulder, body)
+    elbow = shoulder + arm.upper_arm_length * u_c
+    wrist = elbow + arm.forearm_length * f_c
+    hand = wrist + arm.hand_length * f_c
+    return np.stack([sternum, shoulder, elbow, wrist, hand], -2), bend_c
+
+
+def pose_from_config(arm: ArmModel, config: ArmConfig, f_r: int = -1,
+                     hand=(0.0, 0.0)) -> Pose:
+    """A :class:`Pose` from five angles (forward kinematics) and the wrist's two angles."""
+    joints, bend = forward_kinematics(arm, config.as_array())
+    if hand != (0.0, 0.0):
+        s, e, w = joints[1], joints[2], joints[3]
+        u = (e - s) / np.linalg.norm(e - s)
+        f = (w - e) / np.linalg.norm(w - e)
+        joints[4] = w + arm.hand_length * hand_direction(u, bend, f, *hand)
+    return Pose(config, joints, bend, f_r, tuple(float(v) for v in hand))
+
+
+def config_from_joints(arm: ArmModel, elbow, wrist, body_rotation=0.0, gamma_if_straight=0.0):
+    """The five angles of a posture given by joint positions (canonical frame): the inverse
+    of :func:`forward_kinematics`, used to read a rig's current pose.
+
+    The shoulder is the arm's rest shoulder turned by ``body_rotation``. The elbow and
+    wrist need not sit at exactly the arm's segment lengths (a rig's pose may stretch
+    slightly): the directions are what count. With a straight elbow the twist is not
+    observable and ``gamma_if_straight`` is used.
+    """
+    elbow = require_finite("elbow position", elbow)
+    wrist = require_finite("wrist position", wrist)
+    shoulder = rotate_about_spine(arm.shoulder, body_rotation)
+    inverse = spine_rotation_matrix(body_rotation).T
+    upper = inverse @ (elbow - shoulder)
+    fore = inverse @ (wrist - elbow)
+    for name, vec in (("upper arm", upper), ("forearm", fore)):
+        if np.linalg.norm(vec) < 1e-9:
+            raise ReachError(f"the {name} of arm '{arm.name}' has zero length in this pose")
+    u = upper / np.linalg.norm(upper)
+    f = fore / np.linalg.norm(fore)
+    alpha, beta = shoulder_angles(u)
+    flex = float(np.degrees(np.arccos(np.clip(u @ f, -1.0, 1.0))))
+    perp = f - (f @ u) * u
+    if np.linalg.norm(perp) < 1e-6:
+        gamma = gamma_if_straight
+    else:
+        gamma = float(twist_angle(u, perp / np.linalg.norm(perp)))
+    return ArmConfig(float(body_rotation), float(alpha), float(beta), gamma, flex)

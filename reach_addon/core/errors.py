@@ -1,0 +1,43 @@
+"""The core's one exception type.
+
+Everything the planner rejects as *bad input* (NaN coordinates, a zero-length bone, an
+unknown setting) raises :class:`ReachError` with a message a user can act on: it names the
+thing that is wrong and says what to do. The Blender operators turn it into
+``self.report({'ERROR'}, ...)``; the command line prints it on one stderr line and exits
+with status 2.
+
+A target the arm cannot reach is *not* an error: the planner answers it with a failed
+:class:`~reach_addon.core.tasks.Plan` and one of the reasons in :data:`REASONS`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Why a plan failed. Each is a distinct, documented outcome (never raised).
+OUT_OF_REACH = "out_of_reach"
+TARGET_IN_OBSTACLE = "target_in_obstacle"
+NO_PATH = "no_path"
+START_IN_COLLISION = "start_in_collision"
+REASONS = (OUT_OF_REACH, TARGET_IN_OBSTACLE, NO_PATH, START_IN_COLLISION)
+
+
+class ReachError(ValueError):
+    """Bad input to the planner: the message names the culprit and the fix."""
+
+
+def require_finite(name: str, values) -> np.ndarray:
+    """Return ``values`` as a float array, or raise :class:`ReachError` if it holds NaN/inf.
+
+    ``name`` is what the user knows the value as (``"target 'Cup'"``, ``"upper arm length"``).
+    """
+    try:
+        array = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ReachError(f"{name} is not a number ({values!r})") from exc
+    if not np.isfinite(array).all():
+        raise ReachError(
+            f"{name} is not finite ({np.round(array, 6).tolist()}); "
+            "fix the transform or value that produced it"
+        )
+    return array

@@ -1,0 +1,227 @@
+"""Settings: the one object behind the UI properties, the presets and the CLI flags.
+
+Every tunable of the planner is a field here, with its default, its unit, its range and a
+sentence on where the default comes from. The Blender property group, the preset files and
+the command-line flags are all generated from :func:`fields` so there is one source of
+defaults.
+
+Units: angles in degrees; lengths in **arm lengths** (upper arm + forearm of the rig in
+hand, so a figure 4.7 units tall plans exactly like one 1.75 m tall); times in seconds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from .errors import ReachError
+from .strength import PREFERRED_LEVEL_H, PREFERRED_LEVEL_V, S_H_MIN, S_V_MIN
+from .torso import TABLE1_FADE_START_M, TABLE1_REFERENCE_ARM_LENGTH_M
+
+
+def _f(default, label, doc, group, lo=None, hi=None, unit="", choices=None):
+    meta = {"label": label, "doc": doc, "group": group, "min": lo, "max": hi, "unit": unit}
+    if choices:
+        meta["choices"] = choices
+    return field(default=default, metadata=meta)
+
+
+GROUPS = ("strength", "limits", "body", "ik", "collision", "search", "workspace", "motion")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """All planner settings; frozen, so a plan can keep the exact settings it used."""
+
+    # --- strength model (paper, "Human strength model") ------------------------------------
+    preferred_level_h: float = _f(
+        PREFERRED_LEVEL_H, "Preferred level SL_H",
+        "Horizontal strength a comfortable posture keeps; default S_H(60°), the ISO 11226 "
+        "limit of acceptable upper-arm elevation", "strength", round(S_H_MIN + 0.1, 3), 65.0)
+    preferred_level_v: float = _f(
+        PREFERRED_LEVEL_V, "Preferred level SL_V",
+        "Vertical strength a comfortable posture keeps; default S_V(60°) by the same "
+        "argument", "strength", round(S_V_MIN + 0.1, 3), 65.75)
+    weight_alpha: float = _f(
+        1.0, "Weight ω_α", "Exertion weight of abduction/adduction (1 / relative peak "
+        "strength: S_H peaks at 65, the reference)", "strength", 0.0, 10.0)
+    weight_beta: float = _f(
+        1.0, "Weight ω_β", "Exertion weight of flexion/extension (S_V peaks at 65.75, "
+        "within 1% of S_H's peak)", "strength", 0.0, 10.0)
+    weight_gamma: float = _f(
+        1.5, "Weight ω_γ", "Exertion weight of humeral twist. The paper has no rotation "
+        "curve; the rotator cuff is taken as about two thirds as strong as the abductors",
+        "strength", 0.0, 10.0)
+    elbow_side: str = _f(
+        "require", "Elbow side", "Algorithm 1: 'require' keeps only elbows on the preferred "
+        "side, 'prefer' tries them first, 'off' ignores the rule", "strength",
+        choices=("require", "prefer", "off"))
+
+    # --- joint limits (AAOS normal ranges of motion; see core.arm) -------------------------
+    alpha_min: float = _f(-60.0, "Adduction limit", "Least α (the S_H curve's domain)",
+                          "limits", -90.0, 0.0, "deg")
+    alpha_max: float = _f(180.0, "Abduction limit", "Greatest α (AAOS: 180°)",
+                          "limits", 90.0, 180.0, "deg")
+    beta_min: float = _f(-60.0, "Extension limit", "Least β (AAOS: 60° extension)",
+                         "limits", -90.0, 0.0, "deg")
+    beta_max: float = _f(180.0, "Flexion limit", "Greatest β (AAOS: 180°)",
+                         "limits", 90.0, 180.0, "deg")
+    gamma_min: float = _f(-90.0, "External rotation limit", "Least γ (AAOS: 90° external)",
+                          "limits", -180.0, 0.0, "deg")
+    gamma_max: float = _f(90.0, "Internal rotation limit", "Greatest γ (AAOS gives 70° at "
+                          "90° abduction; at the side the trunk, not the joint, stops it)",
+                          "limits", 0.0, 180.0, "deg")
+    elbow_min: float = _f(0.0, "Elbow extension limit", "Least elbow flexion", "limits",
+                          0.0, 90.0, "deg")
+    elbow_max: float = _f(150.0, "Elbow flexion limit", "Greatest elbow flexion (AAOS: 150°)",
+                          "limits", 90.0, 170.0, "deg")
+    wrist_bend_max: float = _f(
+        70.0, "Wrist bend limit", "Greatest bend of the hand in the elbow's plane (AAOS "
+        "wrist extension 70°, flexion 80°)", "limits", 0.0, 90.0, "deg")
+    wrist_side_max: float = _f(
+        25.0, "Wrist side limit", "Greatest bend of the hand across the elbow's plane "
+        "(AAOS radial 20°, ulnar 30°)", "limits", 0.0, 45.0, "deg")
+    elevation_max: float = _f(
+        170.0, "Elevation limit", "Greatest angle between the upper arm and the hanging "
+        "direction; the shoulder-angle decomposition is singular straight overhead",
+        "limits", 90.0, 179.0, "deg")
+
+    # --- body rotation (paper, Table 1) -----------------------------------------------------
+    chest_rotation: bool = _f(True, "Body rotation", "Read chest rotation from the reach "
+                              "direction by Table 1", "body")
+    chest_rotation_max: float = _f(
+        45.0, "Chest rotation limit", "Greatest chest rotation (thoracic axial rotation "
+        "range, about 45° each way)", "body", 0.0, 90.0, "deg")
+    table1_arm_length_m: float = _f(
+        TABLE1_REFERENCE_ARM_LENGTH_M, "Table 1 subject arm",
+        "Shoulder-to-wrist length of the subject Table 1 was measured on; a figure's reach "
+        "distance is scaled by this over its own arm length", "body", 0.3, 1.0, "m")
+    table1_fade_start_m: float = _f(
+        TABLE1_FADE_START_M, "Rotation fade start",
+        "Below 75 cm Table 1 has no data: rotation fades linearly from the 75 cm row to zero "
+        "at this distance", "body", 0.0, 0.75, "m")
+    chest_phase_delay: float = _f(
+        0.25, "Chest phase delay", "Fraction of a reach's duration before the chest starts "
+        "to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)
+
+    # --- analytic IK -------------------------------------------------------------------------
+    swivel_step: float = _f(5.0, "Swivel step", "Sampling step of the elbow swivel circle",
+                            "ik", 0.5, 45.0, "deg")
+    max_joint_step: float = _f(
+        15.0, "Smoothness bound", "Greatest change of any joint angle between consecutive "
+        "wrist positions one search step apart (scaled up for longer moves)", "ik",
+        1.0, 90.0, "deg")
+
+    # --- collisions -------------------------------------------------------------------------
+    clearance: float = _f(0.02, "Clearance", "Margin kept between arm and obstacles",
+                          "collision", 0.0, 0.5, "arm lengths")
+    check_hand: bool = _f(True, "Check the hand", "Test the hand (wrist to its far end) "
+                          "against obstacles and the body too, turning it at the wrist to "
+                          "clear them", "collision")
+
+    # --- search (paper, "Guided path planning") --------------------------------------------
+    step: float = _f(
+        0.02, "Step", "Distance between consecutive wrist positions. The paper's text on it "
+        "is lost; Table 2 implies it: path length / nodes in solution = 0.020 arm lengths "
+        "in all four tasks", "search", 0.002, 0.2, "arm lengths")
+    directions: int = _f(
+        26, "Candidate directions", "Directions tried around each node besides the "
+        "straight line to the guiding node (evenly spread on a sphere)", "search", 6, 200)
+    goal_tolerance: float = _f(0.005, "Goal tolerance", "Wrist within this of the target "
+                               "counts as reached", "search", 1e-6, 0.2, "arm lengths")
+    visited_resolution: float = _f(
+        0.5, "Visited resolution", "Positions closer than this many steps count as "
+        "already visited", "search", 0.05, 2.0)
+    node_budget: int = _f(4000, "Node budget", "Most wrist positions one search may test",
+                          "search", 10, 1000000)
+    stall_budget: int = _f(
+        800, "Stall budget", "Give up after this many positions without getting closer to "
+        "the target", "search", 10, 1000000)
+    max_pose_tries: int = _f(
+        24, "Poses per position", "Most ranked poses tested for collision at one wrist "
+        "position before it is declared blocked", "search", 1, 720)
+    guided_fallback: bool = _f(
+        True, "Guided fallback", "When the straight best-first search finds no path, search "
+        "again through the workspace's guiding nodes", "search")
+    chase_nodes_per_frame: int = _f(
+        60, "Chase nodes per frame", "Search budget for each frame of a chase", "search",
+        1, 100000)
+    chase_max_speed: float = _f(
+        2.0, "Chase speed limit", "Fastest wrist speed while chasing", "search",
+        0.05, 20.0, "arm lengths/s")
+
+    # --- workspace (paper, "preprocessing") -------------------------------------------------
+    grid_cells: int = _f(11, "Grid cells", "Cells along each side of the workspace grid "
+                         "(the paper uses 11)", "workspace", 3, 41)
+    guide_radius: float = _f(
+        0.5, "Guide radius", "A guiding node counts as passed when the wrist is within this "
+        "many cells of it", "workspace", 0.05, 2.0)
+
+    # --- motion ---------------------------------------------------------------------------
+    smoothing: bool = _f(True, "Shortcut smoothing", "Replace detours of the search path by "
+                         "straight, collision-checked shortcuts", "motion")
+    mean_speed: float = _f(
+        0.8, "Mean wrist speed", "Automatic duration = path length / this speed",
+        "motion", 0.05, 10.0, "arm lengths/s")
+    min_duration: float = _f(0.5, "Shortest reach", "Automatic duration is at least this",
+                             "motion", 0.0, 60.0, "s")
+
+    def __post_init__(self):
+        validate(self)
+
+    def replace(self, **changes) -> Settings:
+        """A copy with some fields changed (validated)."""
+        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise ReachError(f"unknown setting(s) {sorted(unknown)}; known: {names()}")
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, values: dict) -> Settings:
+        """Settings from a mapping, e.g. a preset file or a JSON report (unknown keys are an
+        error so that a typo in a preset does not pass silently)."""
+        return cls().replace(**dict(values))
+
+
+def fields():
+    """The dataclass fields of :class:`Settings`, with their metadata (label, doc, group,
+    min, max, unit, choices)."""
+    return dataclasses.fields(Settings)
+
+
+def names():
+    return [f.name for f in fields()]
+
+
+def validate(settings: Settings) -> None:
+    """Check types and ranges of every field; raise :class:`ReachError` naming the field."""
+    for f in fields():
+        value = getattr(settings, f.name)
+        meta = f.metadata
+        kind = type(f.default)
+        if kind is bool:
+            ok = isinstance(value, bool)
+        elif kind is int:
+            ok = isinstance(value, int) and not isinstance(value, bool)
+        elif kind is float:
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        else:
+            ok = isinstance(value, kind)
+        if not ok:
+            raise ReachError(f"setting {f.name} must be {kind.__name__}, got {value!r}")
+        if "choices" in meta and value not in meta["choices"]:
+            raise ReachError(f"setting {f.name} must be one of {meta['choices']}, got {value!r}")
+        if kind in (int, float):
+            if value != value:  # NaN
+                raise ReachError(f"setting {f.name} is NaN")
+            if meta["min"] is not None and value < meta["min"]:
+                raise ReachError(f"setting {f.name} = {value} is below its minimum {meta['min']}")
+            if meta["max"] is not None and value > meta["max"]:
+                raise ReachError(f"setting {f.name} = {value} is above its maximum {meta['max']}")
+    if settings.alpha_min >= settings.alpha_max or settings.beta_min >= settings.beta_max:
+        raise ReachError("shoulder limits: each minimum must be below its maximum")
+    if settings.gamma_min >= settings.gamma_max or settings.elbow_min >= settings.elbow_max:
+        raise ReachError("twist/elbow limits: each minimum must be below its maximum")

@@ -1,0 +1,397 @@
+"""The four reach tasks of the paper, and the one entry point every caller uses: :func:`plan`.
+
+* ``reach`` — collision-free reach: best-first search straight toward one target. If that
+  finds no path (and the target is not out of reach or inside an obstacle) and
+  ``Settings.guided_fallback`` is on, the search is repeated through guiding nodes.
+* ``sequence`` — rotation reach: several targets in order, each reach starting where the
+  last ended; body rotation engages (Table 1) as the targets move round to the side.
+* ``guided`` — guided reach: the search follows the guiding nodes of the workspace grid.
+* ``chase`` — chase reach: the target moves along a given trajectory (one position per
+  frame); each frame re-plans from the current pose with a node budget
+  (``Settings.chase_nodes_per_frame``) and commits at most as many steps as the wrist
+  speed limit allows (``Settings.chase_max_speed``).
+
+Input targets are in **world space**; the returned poses are in the canonical arm frame
+(``Plan.world_joints()`` gives world space). Everything is deterministic: the same task,
+arm, obstacles and settings give the same poses.
+
+Targets that cannot be reached are answered, not forced: the plan fails with reason
+``out_of_reach``, ``target_in_obstacle`` or ``no_path`` (or ``start_in_collision`` for a
+start pose that already touches something) and carries the closest-approach motion.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .arm import ArmConfig, ArmModel, Pose
+from .collision import Obstacles
+from .errors import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
+                     ReachError, require_finite)
+from .generator import ConfigurationGenerator
+from .motion import auto_duration, shortcut, time_path, wrist_path_length
+from .search import BestFirstSearch, SearchResult
+from .settings import Settings
+from .workspace import Workspace, build_workspace
+
+TASK_KINDS = ("reach", "sequence", "guided", "chase")
+
+
+@dataclass(frozen=True)
+class Task:
+    """What to plan. ``targets``: world positions (k, 3) — one for ``reach``, one or more in
+    order for ``sequence`` and ``guided``, one per frame for ``chase`` (frame 0 first).
+    ``start``: the arm's configuration at the first frame. ``duration_s``: seconds per
+    reach (None = from the path length, :func:`~reach_addon.core.motion.auto_duration`).
+    ``names``: what the user calls each target (for messages)."""
+
+    kind: str
+    targets: np.ndarray
+    start: ArmConfig
+    fps: float = 24.0
+    duration_s: float | None = None
+    names: tuple = ()
+
+    def __post_init__(self):
+        if self.kind not in TASK_KINDS:
+            raise ReachError(f"unknown task '{self.kind}'; choose one of {', '.join(TASK_KINDS)}")
+        targets = require_finite("target position", self.targets).reshape(-1, 3)
+        if len(targets) == 0:
+            raise ReachError(f"the {self.kind} task has no target; give at least one")
+        if self.kind == "reach" and len(targets) != 1:
+            raise ReachError("a reach task takes exactly one target; use 'sequence' for several")
+        if self.kind == "chase" and len(targets) < 2:
+            raise ReachError("a chase needs the target's position on at least two frames")
+        object.__setattr__(self, "targets", targets)
+        require_finite("start configuration", self.start.as_array())
+        if not (self.fps > 0 and math.isfinite(self.fps)):
+            raise ReachError(f"frame rate must be positive, got {self.fps}")
+        if self.duration_s is not None and not (self.duration_s > 0):
+            raise ReachError(f"duration must be positive seconds, got {self.duration_s}")
+
+    def name(self, i: int) -> str:
+        return self.names[i] if i < len(self.names) else f"target {i + 1}"
+
+
+@dataclass
+class Stats:
+    """Table 2's statistics (first five fields) and more, for a segment or a whole plan.
+    Lengths are in arm lengths."""
+
+    search_time_s: float = 0.0
+    preprocess_time_s: float = 0.0
+    nodes_searched: int = 0
+    nodes_in_solution: int = 0
+    path_length_arm_lengths: float = 0.0
+    motion_path_length_arm_lengths: float = 0.0
+    frames: int = 0
+    snapped_frames: int = 0
+    strength_categories: list = field(default_factory=lambda: [0, 0, 0])
+    min_clearance_arm_lengths: float = math.inf
+    planning_time_s: float = 0.0
+
+    @property
+    def mean_f_r(self) -> float:
+        n = sum(self.strength_categories)
+        return (self.strength_categories[1] + 2 * self.strength_categories[2]) / n if n else 0.0
+
+    def add(self, other: Stats) -> None:
+        for name in ("search_time_s", "preprocess_time_s", "nodes_searched",
+                     "nodes_in_solution", "path_length_arm_lengths",
+                     "motion_path_length_arm_lengths", "frames", "snapped_frames",
+                     "planning_time_s"):
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+        self.strength_categories = [a + b for a, b in
+                                    zip(self.strength_categories, other.strength_categories)]
+        self.min_clearance_arm_lengths = min(self.min_clearance_arm_lengths,
+                                             other.min_clearance_arm_lengths)
+
+    def to_dict(self) -> dict:
+        d = {k: getattr(self, k) for k in self.__dataclass_fields__}
+        d["mean_f_r"] = self.mean_f_r
+        if math.isinf(d["min_clearance_arm_lengths"]):
+            d["min_clearance_arm_lengths"] = None
+        return d
+
+
+@dataclass
+class Segment:
+    """One target's part of a plan: frames ``frame_start``..``frame_end`` (indices into
+    ``Plan.poses``; the wrist arrives at the target on ``frame_end`` when successful)."""
+
+    index: int
+    name: str
+    target: np.ndarray
+    success: bool
+    reason: str | None
+    message: str
+    frame_start: int
+    frame_end: int
+    stats: Stats
+    search_path: np.ndarray       # world wrist positions of the searched solution path
+    guiding_nodes: np.ndarray     # world positions
+
+
+@dataclass
+class Plan:
+    """Poses per frame (frame 0 = the start pose) + statistics + success / reason."""
+
+    task: Task
+    arm: ArmModel
+    settings: Settings
+    poses: list
+    segments: list
+    stats: Stats
+    workspace: Workspace | None = None
+
+    @property
+    def success(self) -> bool:
+        return all(s.success for s in self.segments)
+
+    @property
+    def reason(self) -> str | None:
+        return next((s.reason for s in self.segments if not s.success), None)
+
+    @property
+    def message(self) -> str:
+        failed = [s.message for s in self.segments if not s.success]
+        if failed:
+            return "; ".join(failed)
+        return f"reached {len(self.segments)} target(s) in {len(self.poses)} frames"
+
+    def world_joints(self) -> np.ndarray:
+        """Joint positions per frame in world space, (frames, 5, 3) in JOINTS order."""
+        return self.arm.to_world_points(np.array([p.joints for p in self.poses]))
+
+    def world_bends(self) -> np.ndarray:
+        """Forearm bend direction per frame in world space, (frames, 3)."""
+        return self.arm.to_world_vectors(np.array([p.bend for p in self.poses]))
+
+    def wrist_trajectory(self) -> np.ndarray:
+        return self.world_joints()[:, 3]
+
+    def search_path(self) -> np.ndarray:
+        parts = [s.search_path for s in self.segments if len(s.search_path)]
+        return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+    def guiding_nodes(self) -> np.ndarray:
+        parts = [s.guiding_nodes for s in self.segments if len(s.guiding_nodes)]
+        return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+
+class Planner:
+    """Plans tasks for one arm among one set of obstacles, keeping what can be reused
+    between plans (the configuration generator and the workspace grid)."""
+
+    def __init__(self, arm: ArmModel, obstacles: Obstacles | None, settings: Settings | None = None):
+        self.arm = arm
+        self.obstacles = obstacles if obstacles is not None else Obstacles(None)
+        self.settings = settings if settings is not None else Settings()
+        self.generator = ConfigurationGenerator(arm, self.obstacles, self.settings)
+        self._workspace: Workspace | None = None
+
+    @property
+    def workspace(self) -> Workspace:
+        """The workspace grid, built on first use."""
+        if self._workspace is None:
+            self._workspace = build_workspace(self.generator)
+        return self._workspace
+
+    @property
+    def has_workspace(self) -> bool:
+        return self._workspace is not None
+
+    # --- searching ---------------------------------------------------------------------
+    def search(self, start: Pose, target_c, guided: bool = False, **limits) -> SearchResult:
+        """One best-first search (canonical target), through guiding nodes if ``guided``."""
+        guides, radius = None, 0.0
+        if guided:
+            ws = self.workspace
+            guides = ws.guiding_nodes(start.wrist, target_c)
+            radius = self.settings.guide_radius * float(np.min(ws.cell))
+        searcher = BestFirstSearch(self.generator, start, target_c, guides, radius, **limits)
+        searcher.run()
+        return searcher.result()
+
+    # --- tasks -------------------------------------------------------------------------
+    def plan(self, task: Task) -> Plan:
+        """Plan ``task`` from its start configuration (see the module docstring)."""
+        t0 = time.perf_counter()
+        start = self.generator.config_pose(task.start)
+        require_finite("start pose", start.joints)
+        if task.kind == "chase":
+            plan = self._chase(task, start)
+        else:
+            plan = self._reaches(task, start, guided=task.kind == "guided")
+        plan.stats.planning_time_s = time.perf_counter() - t0
+        return plan
+
+    def _start_failure(self, task: Task, start: Pose, problem) -> Plan:
+        part, obstacle = problem
+        msg = (f"the start pose already touches '{obstacle}' (at the {part}); move the arm "
+               "or the obstacle apart, or lower the clearance, before planning")
+        segs = [Segment(i, task.name(i), task.targets[i], False, START_IN_COLLISION, msg, 0, 0,
+                        Stats(), np.zeros((0, 3)), np.zeros((0, 3)))
+                for i in range(1 if task.kind == "chase" else len(task.targets))]
+        return Plan(task, self.arm, self.settings, [start], segs, Stats(frames=1))
+
+    def _reaches(self, task: Task, start: Pose, guided: bool) -> Plan:
+        problem = self.generator.start_problem(start)
+        if problem is not None:
+            return self._start_failure(task, start, problem)
+        poses = [start]
+        segments = []
+        total = Stats()
+        for i, target in enumerate(task.targets):
+            seg, seg_poses = self._reach_segment(task, i, poses[-1], target, guided,
+                                                 frame_start=len(poses) - 1)
+            poses += seg_poses[1:]
+            segments.append(seg)
+            total.add(seg.stats)
+        total.frames = len(poses)
+        return Plan(task, self.arm, self.settings, poses, segments, total,
+                    self._workspace)
+
+    def _reach_segment(self, task: Task, i: int, start: Pose, target_w, guided: bool,
+                       frame_start: int):
+        s, arm, gen = self.settings, self.arm, self.generator
+        length = arm.arm_length
+        name = task.name(i)
+        target = arm.to_canonical_points(target_w)
+        stats = Stats()
+        had_workspace = self.has_workspace
+        diagnosis = gen.diagnose_target(target)
+
+        # A target known to be unreachable still gets a closest approach, on a shorter leash.
+        limits = {} if diagnosis is None else {"stall_budget": max(20, s.stall_budget // 4)}
+        result = self.search(start, target, guided=guided, **limits)
+        if not result.success and not guided and diagnosis is None and s.guided_fallback:
+            retry = self.search(start, target, guided=True)
+            retry.nodes_searched += result.nodes_searched
+            retry.search_time_s += result.search_time_s
+            if retry.success or retry.closest_distance < result.closest_distance:
+                result = retry
+            else:
+                result.nodes_searched = retry.nodes_searched
+                result.search_time_s = retry.search_time_s
+        if self.has_workspace and not had_workspace:
+            stats.preprocess_time_s = self._workspace.build_time_s
+
+        stats.search_time_s = result.search_time_s
+        stats.nodes_searched = result.nodes_searched
+        stats.nodes_in_solution = result.nodes_in_solution
+        stats.path_length_arm_lengths = result.path_length() / length
+
+        reason, message = None, f"reached '{name}'"
+        if not result.success:
+            reason, message = self._failure(name, result, diagnosis, start)
+
+        dense = shortcut(gen, result.path) if s.smoothing else list(result.path)
+        motion_length = wrist_path_length(dense) / length
+        if len(dense) < 2:
+            seg_poses, snapped = [start], 0
+        else:
+            duration = task.duration_s or auto_duration(motion_length, s)
+            frames = max(2, int(round(duration * task.fps)) + 1)
+            seg_poses, snapped = time_path(gen, dense, frames)
+        self._motion_stats(stats, seg_poses, motion_length, snapped)
+        seg = Segment(i, name, np.asarray(target_w, float), result.success, reason, message,
+                      frame_start, frame_start + len(seg_poses) - 1, stats,
+                      arm.to_world_points(np.array([p.wrist for p in result.path])),
+                      arm.to_world_points(result.guides) if len(result.guides) else np.zeros((0, 3)))
+        return seg, seg_poses
+
+    def _failure(self, name: str, result: SearchResult, diagnosis, start: Pose):
+        length = self.arm.arm_length
+        gap = result.closest_distance / length
+        if diagnosis is not None and diagnosis[0] == OUT_OF_REACH:
+            return OUT_OF_REACH, (
+                f"target '{name}' is out of reach: {diagnosis[1] / length:.2f} arm lengths "
+                f"from the shoulder, the arm reaches 1.00 (closest approach {gap:.2f} arm "
+                "lengths short); move the target or the character closer")
+        if diagnosis is not None and diagnosis[0] == TARGET_IN_OBSTACLE:
+            return TARGET_IN_OBSTACLE, (
+                f"target '{name}' is inside or against obstacle '{diagnosis[1]}': no pose "
+                f"puts the wrist there without touching it (closest approach {gap:.2f} arm "
+                "lengths); move the target clear of it or lower the clearance")
+        return NO_PATH, (
+            f"no collision-free path to target '{name}' within {result.nodes_searched} "
+            f"tested positions (closest approach {gap:.2f} arm lengths); try the guided "
+            "task, a larger node budget or a smaller clearance")
+
+    def _motion_stats(self, stats: Stats, poses, motion_length: float, snapped: int):
+        length = self.arm.arm_length
+        stats.motion_path_length_arm_lengths = motion_length
+        stats.frames = len(poses)
+        stats.snapped_frames = snapped
+        for p in poses:
+            stats.strength_categories[max(0, min(2, int(p.f_r)))] += 1
+        checker = self.generator.checker
+        search_radius = 0.5 * length
+        for p in poses:
+            c = checker.clearance(self.arm.to_world_points(p.joints), search_radius)
+            stats.min_clearance_arm_lengths = min(stats.min_clearance_arm_lengths, c / length)
+
+    def _chase(self, task: Task, start: Pose) -> Plan:
+        s, arm, gen = self.settings, self.arm, self.generator
+        problem = gen.start_problem(start)
+        if problem is not None:
+            return self._start_failure(task, start, problem)
+        length = arm.arm_length
+        steps_per_frame = max(1, int(s.chase_max_speed / task.fps / s.step + 1e-9))
+        trajectory = arm.to_canonical_points(task.targets)
+        poses = [start]
+        stats = Stats()
+        path = [start.wrist]
+        on_target = 0
+        for f in range(1, len(trajectory)):
+            searcher = BestFirstSearch(gen, poses[-1], trajectory[f],
+                                       node_budget=s.chase_nodes_per_frame,
+                                       stall_budget=s.chase_nodes_per_frame,
+                                       depth_limit=steps_per_frame)
+            searcher.run()
+            res = searcher.result()
+            stats.nodes_searched += res.nodes_searched
+            stats.search_time_s += res.search_time_s
+            nxt = res.path[min(steps_per_frame, len(res.path) - 1)]
+            stats.nodes_in_solution += min(steps_per_frame, len(res.path) - 1)
+            poses.append(nxt)
+            path.append(nxt.wrist)
+            if np.linalg.norm(nxt.wrist - trajectory[f]) <= s.goal_tolerance * length:
+                on_target += 1
+        stats.nodes_in_solution += 1  # the start, as in the reach tasks
+        stats.path_length_arm_lengths = float(
+            np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
+        self._motion_stats(stats, poses, stats.path_length_arm_lengths, 0)
+        gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
+        success = gap <= s.goal_tolerance
+        name = task.name(0)
+        if success:
+            reason, message = None, f"caught '{name}' ({on_target} of {len(poses) - 1} frames on target)"
+        else:
+            diagnosis = gen.diagnose_target(trajectory[-1])
+            fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
+                                trajectory[-1])
+            reason, message = self._failure(name, fake, diagnosis, start)
+            if reason == NO_PATH:
+                message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
+                           "lengths behind); raise the chase speed limit or the nodes per frame")
+        seg = Segment(0, name, task.targets[-1], success, reason, message, 0, len(poses) - 1,
+                      stats, arm.to_world_points(np.array(path)), np.zeros((0, 3)))
+        total = Stats()
+        total.add(stats)
+        total.frames = len(poses)
+        return Plan(task, arm, s, poses, [seg], total, self._workspace)
+
+
+def plan(task: Task, arm: ArmModel, obstacles: Obstacles | None, settings: Settings | None = None,
+         planner: Planner | None = None) -> Plan:
+    """Plan one task: the pipeline's single entry into the core. Pass ``planner`` to reuse
+    its workspace and generator across plans (same arm, obstacles and settings)."""
+    if planner is None:
+        planner = Planner(arm, obstacles, settings)
+    return planner.plan(task)

@@ -1,0 +1,166 @@
+"""Body (chest) rotation read from the reach direction: the paper's Table 1.
+
+The paper (after Delleman 2003) found a linear relation between the horizontal direction
+of a reach and the rotation of the chest about the vertical axis::
+
+    reach distance   slope   intercept   starting angle
+    75 cm            0.50    -26.7       53°
+    85 cm            0.45    -18.9       42°
+
+    chest rotation = max(0, reach direction × slope + intercept)
+
+The chest turns only once the direction passes the starting angle (-intercept / slope):
+distal segments move first, the trunk joins for sideward reaches.
+
+Frame: the *canonical arm frame* of :mod:`reach_addon.core.arm` — origin on the vertical
+axis through the spine at chest height, x toward the reaching arm's side, y forward, z up.
+Reach direction is the horizontal angle of the target from straight ahead, positive toward
+the reaching side (90° = straight out to that side, 180° = behind, negative = across the
+body); reach distance is the horizontal distance from the spine axis.
+
+Choices where the paper is silent (each a setting):
+
+* **Other figure sizes.** The distance is scaled by ``TABLE1_REFERENCE_ARM_LENGTH_M / arm
+  length`` before the table is read, so the table sees every figure as the paper's subject.
+  The reference, 0.58 m shoulder-to-wrist, is a 1.75 m adult by Drillis & Contini's
+  segment proportions (upper arm 0.186 H, forearm 0.146 H).
+* **Between the rows** slope and intercept are interpolated linearly in distance.
+* **Beyond 85 cm** the 85 cm row is used (no data to extrapolate from).
+* **Below 75 cm** the 75 cm row's rotation fades linearly to zero at
+  ``TABLE1_FADE_START_M`` (0.50 m): close targets need no trunk, and extrapolating a
+  two-point regression towards the body would make the hanging arm (wrist beside the hip,
+  reach direction 90°) twist the chest.
+* **Across the body** (negative direction) the formula gives 0: Table 1 covers reaches to
+  the arm's own side only.
+* The result is capped at ``Settings.chest_rotation_max``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .numeric import ARRAY, SCALAR, ops
+
+#: Table 1: (reach distance in metres, slope, intercept in degrees).
+TABLE1 = ((0.75, 0.50, -26.7), (0.85, 0.45, -18.9))
+#: Shoulder-to-wrist length of the subject behind Table 1 (see the module docstring).
+TABLE1_REFERENCE_ARM_LENGTH_M = 0.58
+#: Distance at which the below-table fade reaches zero rotation.
+TABLE1_FADE_START_M = 0.50
+
+
+def _operand(x):
+    """(namespace, value): plain numbers stay numbers, anything else becomes an array."""
+    m = ops(x)
+    return (m, x) if m is SCALAR else (m, np.asarray(x, dtype=float))
+
+
+def table1_coefficients(distance_m):
+    """(slope, intercept) of Table 1 at a reach distance: linear between the 75 cm and
+    85 cm rows, the nearest row outside them."""
+    m, distance = _operand(distance_m)
+    (d0, s0, i0), (d1, s1, i1) = TABLE1
+    t = m.clip((distance - d0) / (d1 - d0), 0.0, 1.0)
+    return s0 + (s1 - s0) * t, i0 + (i1 - i0) * t
+
+
+def starting_angle_deg(distance_m):
+    """The reach direction at which the chest starts to turn: -intercept / slope
+    (53.4° at 75 cm, 42.0° at 85 cm)."""
+    slope, intercept = table1_coefficients(distance_m)
+    return -intercept / slope
+
+
+def chest_rotation_deg(direction_deg, distance_m, fade_start_m=TABLE1_FADE_START_M,
+                       max_deg=None):
+    """Chest rotation from reach direction and distance (Table 1).
+
+    .. math:: θ_{chest} = \\max(0,\\ direction × slope(d) + intercept(d))
+
+    with slope and intercept interpolated between the 75 cm and 85 cm rows. Below 75 cm
+    the value is multiplied by a weight that falls linearly from 1 at 75 cm to 0 at
+    ``fade_start_m``; beyond 85 cm the 85 cm row holds. ``distance_m`` is already scaled to
+    the paper's subject (see :func:`body_rotation_deg`). Floats in, float out; arrays in,
+    array out.
+    """
+    m, direction = _operand(direction_deg)
+    m2, distance = _operand(distance_m)
+    if m is not m2:
+        m, direction, distance = ARRAY, np.asarray(direction, float), np.asarray(distance, float)
+    slope, intercept = table1_coefficients(distance)
+    rotation = m.maximum(0.0, direction * slope + intercept)
+    near = TABLE1[0][0]
+    if fade_start_m < near:
+        rotation = rotation * m.clip((distance - fade_start_m) / (near - fade_start_m), 0.0, 1.0)
+    else:
+        rotation = m.where(distance >= near, rotation, 0.0)
+    if max_deg is not None:
+        rotation = m.minimum(rotation, max_deg)
+    return rotation
+
+
+def reach_direction_deg(points):
+    """Horizontal direction of canonical-frame points from straight ahead, positive toward
+    the reaching side: atan2(x, y) in degrees, in (-180°, 180°]."""
+    p = np.asarray(points, dtype=float)
+    return np.degrees(np.arctan2(p[..., 0], p[..., 1]))
+
+
+def reach_distance(points):
+    """Horizontal distance of canonical-frame points from the spine axis: √(x² + y²)."""
+    p = np.asarray(points, dtype=float)
+    return np.hypot(p[..., 0], p[..., 1])
+
+
+def body_rotation_deg(wrists, arm_length, settings):
+    """Chest rotation for wrist positions (canonical frame, the figure's units): a float
+    for one point (3,), an array for (..., 3).
+
+    The multi-joint function of the paper: the distance is scaled to the Table 1 subject
+    (× ``settings.table1_arm_length_m / arm_length``) and Table 1 is read. Zero when
+    ``settings.chest_rotation`` is off.
+    """
+    wrists = np.asarray(wrists, dtype=float)
+    scale = settings.table1_arm_length_m / arm_length
+    if wrists.shape == (3,):
+        if not settings.chest_rotation:
+            return 0.0
+        x, y = float(wrists[0]), float(wrists[1])
+        return chest_rotation_deg(math.degrees(math.atan2(x, y)), math.hypot(x, y) * scale,
+                                  settings.table1_fade_start_m, settings.chest_rotation_max)
+    if not settings.chest_rotation:
+        return np.zeros(wrists.shape[:-1])
+    return np.asarray(chest_rotation_deg(
+        reach_direction_deg(wrists), reach_distance(wrists) * scale,
+        settings.table1_fade_start_m, settings.chest_rotation_max))
+
+
+def spine_rotation_matrix(angle_deg):
+    """Rotation about the vertical spine axis turning the chest by ``angle_deg`` toward the
+    reaching side (+x): forward (0, 1, 0) goes to (sin θ, cos θ, 0). Shape (..., 3, 3)."""
+    t = np.radians(np.asarray(angle_deg, dtype=float))
+    c, s = np.cos(t), np.sin(t)
+    zero, one = np.zeros_like(t), np.ones_like(t)
+    return np.stack([
+        np.stack([c, s, zero], -1),
+        np.stack([-s, c, zero], -1),
+        np.stack([zero, zero, one], -1),
+    ], -2)
+
+
+def rotate_about_spine(points, angle_deg):
+    """Points carried by a chest rotation of ``angle_deg`` (broadcasts over angles):
+    the initial shoulder position rotated about the vertical axis through the spine,
+    (x, y, z) → (x cos θ + y sin θ, -x sin θ + y cos θ, z)."""
+    p = np.asarray(points, dtype=float)
+    t = np.radians(np.asarray(angle_deg, dtype=float))
+    c, s = np.cos(t), np.sin(t)
+    x, y = p[..., 0], p[..., 1]
+    shape = np.broadcast_shapes(p.shape[:-1], np.shape(t))
+    out = np.empty(shape + (3,))
+    out[..., 0] = x * c + y * s
+    out[..., 1] = y * c - x * s
+    out[..., 2] = p[..., 2]
+    return out

@@ -1,0 +1,181 @@
+"""The partitioned workspace and its guiding nodes (paper, "Guided path planning module").
+
+Preprocessing splits the box the wrist can reach into ``Settings.grid_cells`` cells along
+each axis (11 in the paper). The box is axis-aligned in the canonical arm frame and holds
+every wrist position at any chest rotation: ``|xy| ≤ |shoulder_xy| + L`` and
+``|z - shoulder_z| ≤ L``.
+
+A cell is **occupied** when an obstacle surface comes within its circumscribed sphere (one
+bounded BVH query per cell, conservative) or when it lies inside a closed obstacle. Free
+cells that do not touch a surface form connected regions that a surface cannot cross
+without occupying a cell between them (two 26-neighbours' centres are at most two
+half-diagonals apart), so one inside/outside test per region settles all of its cells.
+
+A free cell is a **valid guiding node** when the wrist can be at its centre with at least
+one legal, collision-free pose (the configuration generator, without a previous pose).
+Guiding nodes for a reach are the centres along the shortest path (Dijkstra, Euclidean
+edge lengths, 26-connected) through valid cells from the cell nearest the start to the
+cell nearest the target.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import ik
+from .generator import ConfigurationGenerator
+
+_NEIGHBOURS = np.array([d for d in itertools.product((-1, 0, 1), repeat=3) if any(d)])
+
+
+@dataclass
+class Workspace:
+    """The grid: canonical-frame box, per-cell occupancy and validity."""
+
+    lower: np.ndarray       # (3,) corner of the box
+    cell: np.ndarray        # (3,) cell size along each axis
+    n: int
+    occupied: np.ndarray    # (n, n, n) bool
+    valid: np.ndarray       # (n, n, n) bool: valid guiding nodes
+    build_time_s: float
+
+    def center(self, index) -> np.ndarray:
+        return self.lower + (np.asarray(index, dtype=float) + 0.5) * self.cell
+
+    def centers(self) -> np.ndarray:
+        """All cell centres, (n, n, n, 3)."""
+        idx = np.stack(np.meshgrid(*(np.arange(self.n),) * 3, indexing="ij"), -1)
+        return self.center(idx)
+
+    def valid_centers(self) -> np.ndarray:
+        return self.centers()[self.valid]
+
+    def nearest_valid(self, point):
+        """Index of the valid cell whose centre is nearest ``point`` (ties: lowest index),
+        or None if no cell is valid."""
+        cells = np.argwhere(self.valid)
+        if len(cells) == 0:
+            return None
+        d = np.linalg.norm(self.center(cells) - np.asarray(point), axis=-1)
+        return tuple(int(v) for v in cells[int(np.argmin(d))])
+
+    def shortest_path(self, start, goal):
+        """Cell indices of the shortest path through valid cells (26-connected, Euclidean
+        edge lengths, Dijkstra), or None if the cells are not connected."""
+        start, goal = tuple(start), tuple(goal)
+        n = self.n
+        dist = {start: 0.0}
+        parent = {}
+        heap = [(0.0, start)]
+        steps = [(tuple(d), float(np.linalg.norm(d * self.cell))) for d in _NEIGHBOURS]
+        while heap:
+            d, cur = heapq.heappop(heap)
+            if cur == goal:
+                path = [cur]
+                while cur in parent:
+                    cur = parent[cur]
+                    path.append(cur)
+                return path[::-1]
+            if d > dist.get(cur, np.inf):
+                continue
+            for (dx, dy, dz), w in steps:
+                nxt = (cur[0] + dx, cur[1] + dy, cur[2] + dz)
+                if not (0 <= nxt[0] < n and 0 <= nxt[1] < n and 0 <= nxt[2] < n):
+                    continue
+                if not self.valid[nxt]:
+                    continue
+                nd = d + w
+                if nd < dist.get(nxt, np.inf) - 1e-12:
+                    dist[nxt] = nd
+                    parent[nxt] = cur
+                    heapq.heappush(heap, (nd, nxt))
+        return None
+
+    def guiding_nodes(self, start_point, goal_point) -> np.ndarray:
+        """Guiding node positions (k, 3) leading from ``start_point`` toward ``goal_point``:
+        the centres of the shortest valid-cell path, without its first cell (where the
+        wrist already is) and its last (the target itself follows). Empty if start and goal
+        share a cell or are not connected."""
+        a = self.nearest_valid(start_point)
+        b = self.nearest_valid(goal_point)
+        if a is None or b is None or a == b:
+            return np.zeros((0, 3))
+        path = self.shortest_path(a, b)
+        if path is None or len(path) <= 2:
+            return np.zeros((0, 3))
+        return self.center(np.array(path[1:-1]))
+
+
+def workspace_box(arm, settings):
+    """(lower corner, cell size) of the grid in the canonical frame."""
+    length = arm.arm_length
+    radius = float(np.hypot(arm.shoulder[0], arm.shoulder[1])) + length
+    lower = np.array([-radius, -radius, arm.shoulder[2] - length])
+    upper = np.array([radius, radius, arm.shoulder[2] + length])
+    return lower, (upper - lower) / settings.grid_cells
+
+
+def build_workspace(generator: ConfigurationGenerator) -> Workspace:
+    """Preprocess the workspace for one arm and one obstacle set (see the module doc)."""
+    t0 = time.perf_counter()
+    arm, obstacles, settings = generator.arm, generator.obstacles, generator.settings
+    n = settings.grid_cells
+    lower, cell = workspace_box(arm, settings)
+    idx = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1).reshape(-1, 3)
+    centers = lower + (idx + 0.5) * cell
+    world = arm.to_world_points(centers)
+    half_diagonal = 0.5 * float(np.linalg.norm(cell))
+    occupied = np.zeros(n ** 3, dtype=bool)
+    if not obstacles.empty:
+        tree = obstacles.tree
+        bound = half_diagonal + generator.checker.margin
+        for k, p in enumerate(world.tolist()):
+            occupied[k] = tree.find_nearest(p, bound)[0] is not None
+        occupied = occupied.reshape(n, n, n)
+        _mark_inside_regions(occupied, world.reshape(n, n, n, 3), obstacles)
+    else:
+        occupied = occupied.reshape(n, n, n)
+
+    valid = np.zeros((n, n, n), dtype=bool)
+    free = np.flatnonzero(~occupied.reshape(-1))
+    if free.size:
+        sol = ik.solve(arm, centers[free], settings)
+        for row, flat in enumerate(free):
+            order = sol.order(row, settings.elbow_side)[: settings.max_pose_tries]
+            if order.size == 0:
+                continue
+            joints = sol.joints(row, order)
+            clear = ~ik.self_collision(arm, float(sol.body[row]), joints, include_hand=False)
+            if any(not generator.checker.collides(j, include_hand=False)
+                   for j in arm.to_world_points(joints[clear])):
+                valid.reshape(-1)[flat] = True
+    return Workspace(lower, cell, n, occupied, valid, time.perf_counter() - t0)
+
+
+def _mark_inside_regions(occupied, world_centers, obstacles):
+    """Flood-fill the cells clear of any surface into 26-connected regions and mark a
+    region occupied when its first cell is inside a closed obstacle."""
+    n = occupied.shape[0]
+    seen = occupied.copy()
+    for start in map(tuple, np.argwhere(~occupied)):
+        if seen[start]:
+            continue
+        region = [start]
+        seen[start] = True
+        stack = [start]
+        while stack:
+            cur = stack.pop()
+            for d in _NEIGHBOURS:
+                nxt = (cur[0] + d[0], cur[1] + d[1], cur[2] + d[2])
+                if 0 <= nxt[0] < n and 0 <= nxt[1] < n and 0 <= nxt[2] < n and not seen[nxt]:
+                    seen[nxt] = True
+                    region.append(nxt)
+                    stack.append(nxt)
+        if obstacles.point_inside(world_centers[start]):
+            for cell in region:
+                occupied[cell] = True

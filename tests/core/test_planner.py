@@ -1,0 +1,260 @@
+"""The four tasks on scenes of real meshes, checked frame by frame by an independent test.
+
+The figure stands at the origin facing -Y, chest at 1.4 m; its right shoulder is at about
+(-0.19, 0, 1.4) and the hanging right wrist near (-0.29, -0.14, 0.85).
+"""
+
+import numpy as np
+import pytest
+
+from geometry import (HANGING, arm_penetration, obstacles, shelf, standard_arm, table,
+                      triangles_of)
+from reach_addon.core import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
+                              ArmConfig, Obstacles, Planner, ReachError, Settings, Task, plan)
+from reach_addon.core.motion import minimum_jerk
+
+WALL = {"Crate": [((-0.60, -0.36, 0.70), (0.00, -0.30, 1.08))]}
+BEHIND_WALL = np.array([-0.28, -0.46, 1.14])
+
+
+def check_plan(p, named_parts, settings=None):
+    """Every frame legal and clear of the obstacles by the independent check."""
+    s = settings or p.settings
+    arm = p.arm
+    tris = triangles_of(named_parts) if named_parts else None
+    joints = p.world_joints()
+    for f, pose in enumerate(p.poses):
+        c = pose.config
+        assert s.alpha_min - 1e-6 <= c.alpha <= s.alpha_max + 1e-6, f
+        assert s.beta_min - 1e-6 <= c.beta <= s.beta_max + 1e-6, f
+        assert s.gamma_min - 1e-6 <= c.gamma <= s.gamma_max + 1e-6, f
+        assert s.elbow_min - 1e-6 <= c.elbow <= s.elbow_max + 1e-6, f
+        # segment lengths are the arm's
+        assert np.linalg.norm(joints[f, 2] - joints[f, 1]) == pytest.approx(arm.upper_arm_length)
+        assert np.linalg.norm(joints[f, 3] - joints[f, 2]) == pytest.approx(arm.forearm_length)
+        if tris is not None:
+            depth = arm_penetration(arm, joints[f], tris)
+            assert depth >= 0.0, f"frame {f} passes {-depth:.4f} m into an obstacle"
+
+
+def straight_line_blocked(a, b, lo, hi, samples=400):
+    pts = a + np.linspace(0, 1, samples)[:, None] * (b - a)
+    return bool(((pts >= lo) & (pts <= hi)).all(axis=1).any())
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return standard_arm()
+
+
+@pytest.fixture(scope="module")
+def start_wrist(arm):
+    return Planner(arm, None).generator.config_pose(HANGING).wrist
+
+
+def test_collision_free_reach_around_a_blocking_crate(arm):
+    obs = obstacles(WALL)
+    start = arm.to_world_points(Planner(arm, obs).generator.config_pose(HANGING).wrist)
+    lo, hi = np.array(WALL["Crate"][0][0]), np.array(WALL["Crate"][0][1])
+    assert straight_line_blocked(start, BEHIND_WALL, lo, hi), "the scene must block the straight path"
+    p = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obs)
+    assert p.success, p.message
+    assert np.linalg.norm(p.wrist_trajectory()[-1] - BEHIND_WALL) <= 0.005 * arm.arm_length
+    check_plan(p, WALL)
+    st = p.stats
+    assert st.nodes_in_solution == len(p.segments[0].search_path) >= 2
+    assert st.nodes_searched >= st.nodes_in_solution - 1
+    steps = np.linalg.norm(np.diff(p.search_path(), axis=0), axis=1)
+    assert steps.max() <= Settings().step * arm.arm_length + 1e-9
+    assert st.path_length_arm_lengths == pytest.approx(steps.sum() / arm.arm_length)
+    assert st.search_time_s > 0 and st.frames == len(p.poses)
+    assert st.min_clearance_arm_lengths >= 0
+
+
+def test_the_clearance_margin_is_kept(arm):
+    s = Settings(clearance=0.05)
+    p = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(WALL), s)
+    assert p.success, p.message
+    tris = triangles_of(WALL)
+    worst = min(arm_penetration(arm, j, tris) for j in p.world_joints())
+    assert worst >= 0.05 * arm.arm_length - 0.002
+
+
+def test_rotation_reach_engages_the_chest_past_the_starting_angle(arm):
+    # in front, then to the side, then behind-side at the edge of reach
+    targets = np.array([[-0.30, -0.45, 1.30], [-0.70, -0.15, 1.35], [-0.62, 0.35, 1.35]])
+    p = plan(Task("sequence", targets, HANGING, names=("front", "side", "behind")), arm, None)
+    assert p.success, p.message
+    wrists = p.wrist_trajectory()
+    body = np.array([q.config.body_rotation for q in p.poses])
+    for seg, target in zip(p.segments, targets):
+        assert seg.success
+        assert np.linalg.norm(wrists[seg.frame_end] - target) <= 0.005 * arm.arm_length
+    assert [s.name for s in p.segments] == ["front", "side", "behind"]
+    assert p.segments[1].frame_start == p.segments[0].frame_end
+    assert abs(body[p.segments[0].frame_end]) < 1e-9          # in front: no chest rotation
+    assert body[p.segments[2].frame_end] > 15.0               # behind the side: the chest turns
+    assert np.all(np.diff(body[p.segments[2].frame_start:p.segments[2].frame_end + 1]) > -1e-6)
+    check_plan(p, None)
+
+
+def test_guided_reach_follows_guiding_nodes_through_free_cells(arm):
+    scene = {"Shelf": shelf((-0.25, -0.55), 0.9, 0.3, (0.95, 1.25, 1.55))}
+    target = np.array([-0.25, -0.46, 1.10])          # between the two lower boards
+    planner = Planner(arm, obstacles(scene))
+    p = planner.plan(Task("guided", target[None], HANGING))
+    assert p.success, p.message
+    check_plan(p, scene)
+    ws = planner.workspace
+    assert ws.valid.shape == (11, 11, 11) and ws.valid.sum() > 50
+    guides = p.guiding_nodes()
+    assert len(guides) >= 1
+    for g in arm.to_canonical_points(guides):
+        idx = tuple(np.floor((g - ws.lower) / ws.cell).astype(int))
+        assert ws.valid[idx] and not ws.occupied[idx]
+    assert p.stats.preprocess_time_s > 0
+
+
+def test_chase_reach_follows_a_moving_target(arm):
+    frames = 48
+    t = np.linspace(0, 1, frames)
+    path = np.stack([-0.30 + 0.2 * np.cos(2 * np.pi * t), -0.45 + 0.05 * np.sin(2 * np.pi * t),
+                     1.30 + 0.1 * np.sin(2 * np.pi * t)], 1)
+    scene = {"Table": table((-0.3, -0.6), (1.0, 0.5), 0.95)}
+    s = Settings()
+    p = plan(Task("chase", path, HANGING, fps=24.0), arm, obstacles(scene), s)
+    assert len(p.poses) == frames
+    assert p.success, p.message
+    wrists = p.wrist_trajectory()
+    assert np.linalg.norm(wrists[-1] - path[-1]) <= s.goal_tolerance * arm.arm_length
+    per_frame = np.linalg.norm(np.diff(wrists, axis=0), axis=1)
+    limit = int(s.chase_max_speed / 24.0 / s.step) * s.step * arm.arm_length
+    assert per_frame.max() <= limit + 1e-9
+    check_plan(p, scene)
+
+
+def test_target_out_of_reach_gets_the_closest_approach(arm):
+    far = np.array([-0.3, -1.6, 1.4])
+    p = plan(Task("reach", far[None], HANGING, names=("Lamp",)), arm, None)
+    assert not p.success and p.reason == OUT_OF_REACH
+    assert "Lamp" in p.message and "out of reach" in p.message
+    wrists = p.wrist_trajectory()
+    assert len(p.poses) > 2
+    assert np.linalg.norm(wrists[-1] - far) < np.linalg.norm(wrists[0] - far) - 0.3
+    check_plan(p, None)
+
+
+def test_target_inside_an_obstacle(arm):
+    scene = {"Cabinet": [((-0.5, -0.7, 0.9), (0.0, -0.4, 1.3))]}
+    inside = np.array([-0.25, -0.5, 1.1])
+    p = plan(Task("reach", inside[None], HANGING, names=("Mug",)), arm, obstacles(scene))
+    assert not p.success and p.reason == TARGET_IN_OBSTACLE
+    assert "Cabinet" in p.message and "Mug" in p.message
+    check_plan(p, scene)
+
+
+def test_no_path_within_the_node_budget(arm):
+    p = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(WALL),
+             Settings(node_budget=10, guided_fallback=False))
+    assert not p.success and p.reason == NO_PATH
+    assert p.stats.nodes_searched == 10
+    check_plan(p, WALL)
+
+
+def test_start_pose_in_collision_is_reported(arm, start_wrist):
+    w = arm.to_world_points(start_wrist)
+    scene = {"Box": [(tuple(w - 0.05), tuple(w + 0.05))]}
+    p = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(scene))
+    assert not p.success and p.reason == START_IN_COLLISION and "Box" in p.message
+    assert len(p.poses) == 1
+
+
+def test_plans_are_deterministic(arm):
+    scene = {**WALL, "Table": table((-0.3, -0.7), (1.0, 0.4), 0.9)}
+    a = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(scene))
+    b = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(scene))
+    assert len(a.poses) == len(b.poses)
+    assert np.array_equal(a.world_joints(), b.world_joints())
+    assert [q.config for q in a.poses] == [q.config for q in b.poses]
+    assert a.stats.nodes_searched == b.stats.nodes_searched
+
+
+def test_left_arm_mirrors_the_right(arm):
+    left = standard_arm("left")
+    target_right = np.array([-0.30, -0.45, 1.25])
+    target_left = target_right * [-1, 1, 1]
+    pr = plan(Task("reach", target_right[None], HANGING), arm, None)
+    pl = plan(Task("reach", target_left[None], HANGING), left, None)
+    assert pr.success and pl.success
+    np.testing.assert_allclose(pl.world_joints(), pr.world_joints() * [-1, 1, 1], atol=1e-9)
+    # the left elbow stays on the left of the body plane
+    assert pl.world_joints()[-1, 2, 0] > 0
+
+
+def test_figure_size_does_not_change_the_plan():
+    """A figure 100 times bigger (centimetres) among obstacles 100 times bigger plans the
+    same motion: every length setting is in arm lengths."""
+    small, big = standard_arm(), standard_arm(scale=100.0, position=(0, 0, 140.0))
+    scene_big = {"Crate": [(tuple(np.array(lo) * 100), tuple(np.array(hi) * 100))
+                           for lo, hi in WALL["Crate"]]}
+    a = plan(Task("reach", BEHIND_WALL[None], HANGING), small, obstacles(WALL))
+    b = plan(Task("reach", BEHIND_WALL[None] * 100, HANGING), big, obstacles(scene_big))
+    assert a.success and b.success
+    assert a.stats.nodes_searched == b.stats.nodes_searched
+    assert a.stats.path_length_arm_lengths == pytest.approx(b.stats.path_length_arm_lengths)
+    np.testing.assert_allclose(b.world_joints(), a.world_joints() * 100, atol=1e-6)
+
+
+def test_minimum_jerk_timing_and_phased_chest(arm):
+    target = np.array([-0.72, 0.05, 1.35])           # out to the side: the chest turns
+    p = plan(Task("reach", target[None], HANGING, duration_s=1.5, fps=30.0), arm, None)
+    assert p.success and len(p.poses) == 46
+    wrists = p.wrist_trajectory()
+    speed = np.linalg.norm(np.diff(wrists, axis=0), axis=1)
+    assert speed[0] < 0.2 * speed.max() and speed[-1] < 0.2 * speed.max()
+    assert 0.3 * len(speed) < int(np.argmax(speed)) < 0.7 * len(speed)
+    body = np.array([q.config.body_rotation for q in p.poses])
+    assert body[-1] > 5.0
+    # arm first, chest after: a quarter of the way in, the wrist has covered much more of
+    # its path than the chest of its turn
+    travelled = np.concatenate([[0], np.cumsum(speed)]) / speed.sum()
+    q = len(p.poses) // 4
+    assert body[q] / body[-1] < 0.5 * travelled[q]
+    assert minimum_jerk(0.5) == pytest.approx(0.5) and minimum_jerk(1.0) == 1.0
+
+
+def test_bad_input_raises_the_core_error(arm):
+    with pytest.raises(ReachError, match="not finite"):
+        Task("reach", np.array([[np.nan, 0, 1]]), HANGING)
+    with pytest.raises(ReachError, match="unknown task"):
+        Task("wave", BEHIND_WALL[None], HANGING)
+    with pytest.raises(ReachError, match="exactly one target"):
+        Task("reach", np.zeros((2, 3)), HANGING)
+    with pytest.raises(ReachError, match="not finite"):
+        Task("reach", BEHIND_WALL[None], ArmConfig(0, np.inf, 0, 0, 0))
+    with pytest.raises(ReachError):
+        Settings(step=float("nan"))
+    with pytest.raises(ReachError, match="unknown setting"):
+        Settings().replace(stepp=0.1)
+    with pytest.raises(ReachError, match="below its minimum"):
+        Settings(grid_cells=1)
+
+
+def test_open_and_closed_meshes_inside_test():
+    closed = obstacles({"Box": [((0, 0, 0), (1, 1, 1))]})
+    assert closed.point_inside((0.5, 0.5, 0.5))
+    assert not closed.point_inside((1.5, 0.5, 0.5))
+    verts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    plane = Obstacles.from_triangles(verts, [[0, 1, 2], [0, 2, 3]])
+    assert not plane.point_inside((0.5, 0.5, 0.5)) and not plane.point_inside((0.5, 0.5, -0.5))
+    assert Obstacles(None).point_inside((0, 0, 0)) is False
+
+
+def test_the_independent_check_sees_a_penetration(arm):
+    """The check used above is not vacuous: a pose through a box reads negative."""
+    pose = Planner(arm, None).generator.config_pose(ArmConfig(0.0, 0.0, 90.0, 0.0, 0.0))
+    joints = arm.to_world_points(pose.joints)
+    mid = 0.5 * (joints[2] + joints[3])                   # middle of the forearm
+    scene = {"Post": [(tuple(mid - [0.02, 0.02, 0.3]), tuple(mid + [0.02, 0.02, 0.3]))]}
+    assert arm_penetration(arm, joints, triangles_of(scene)) < -0.03
+    assert Planner(arm, obstacles(scene)).generator.pose_collides(pose)

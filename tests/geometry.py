@@ -1,0 +1,70 @@
+"""Test geometry: the sample furniture and figure, and an independent collision check.
+
+The furniture (``reach_addon.samples``) is ordinary closed triangle meshes in world space,
+metres; the planner sees them through a real ``mathutils`` BVHTree. The check below shares no
+code with the planner: it samples each arm segment densely and measures exact
+point-to-triangle distances with numpy.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from reach_addon.samples import (CHEST_Z, HANGING, box, figure_transform, obstacles, shelf,
+                                 standard_arm, table, triangle_soup)
+
+__all__ = ["CHEST_Z", "HANGING", "box", "figure_transform", "obstacles", "shelf", "standard_arm",
+           "table", "triangles_of", "arm_penetration", "segment_clearance",
+           "point_triangle_distance"]
+
+
+def triangles_of(named_parts):
+    """All triangles (T, 3, 3) of a scene of {name: [boxes]}, for the independent check."""
+    verts, tris, _owners, _names = triangle_soup(named_parts)
+    return verts[tris]
+
+
+# --- independent checks ----------------------------------------------------------------
+
+def point_triangle_distance(points, tris):
+    """Exact distances (P, T) from points (P, 3) to triangles (T, 3, 3): the nearest point is
+    inside the face (plane distance) or on one of its edges."""
+    p = points[:, None, :]
+    a, b, c = tris[None, :, 0], tris[None, :, 1], tris[None, :, 2]
+    n = np.cross(b - a, c - a)
+    n_len = np.linalg.norm(n, axis=-1, keepdims=True)
+    n = n / np.where(n_len > 0, n_len, 1)
+    dist_plane = np.einsum("ptk,ptk->pt", p - a, n)
+    proj = p - dist_plane[..., None] * n
+
+    def inside_edge(x, y):
+        return np.einsum("ptk,ptk->pt", np.cross(y - x, proj - x), n) >= 0
+
+    inside = inside_edge(a, b) & inside_edge(b, c) & inside_edge(c, a)
+
+    def edge_distance(x, y):
+        xy = y - x
+        t = np.clip(np.einsum("ptk,ptk->pt", p - x, xy) / np.einsum("ptk,ptk->pt", xy, xy), 0, 1)
+        return np.linalg.norm(p - (x + t[..., None] * xy), axis=-1)
+
+    edges = np.minimum(np.minimum(edge_distance(a, b), edge_distance(b, c)), edge_distance(c, a))
+    return np.where(inside, np.abs(dist_plane), edges)
+
+
+def segment_clearance(p, q, tris, spacing=0.002):
+    """Least distance from the segment p-q to the triangles, to within ``spacing`` / 2."""
+    n = max(2, int(np.ceil(np.linalg.norm(q - p) / spacing)) + 1)
+    pts = p + np.linspace(0, 1, n)[:, None] * (q - p)
+    return float(point_triangle_distance(pts, tris).min())
+
+
+def arm_penetration(arm, world_joints, tris, include_hand=True):
+    """For one pose, the worst (distance - radius) over the arm's segments; negative means a
+    segment passes through an obstacle."""
+    radii = [arm.upper_arm_radius, arm.upper_arm_radius, arm.forearm_radius, arm.hand_radius]
+    worst = np.inf
+    for k, r in enumerate(radii):
+        if k == 3 and not include_hand:
+            continue
+        worst = min(worst, segment_clearance(world_joints[k], world_joints[k + 1], tris) - r)
+    return worst
