@@ -11,6 +11,7 @@ search, shortcut smoothing, frame resampling, the workspace) goes through it.
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -20,6 +21,7 @@ from .arm import ArmConfig, ArmModel, Pose, hand_direction, pose_from_config
 from .collision import CollisionChecker, Obstacles
 from .errors import OUT_OF_REACH, TARGET_IN_OBSTACLE
 from .strength import f_r
+from .torso import ChestPath
 
 
 class ConfigurationGenerator:
@@ -37,6 +39,16 @@ class ConfigurationGenerator:
         samples = [(0.0, 0.0), (0.5 * b, 0.0), (-0.5 * b, 0.0), (b, 0.0), (-b, 0.0),
                    (0.0, side), (0.0, -side)]
         self.hand_samples = list(dict.fromkeys(samples))
+        self.chest = None
+
+    def for_reach(self, start: Pose, target) -> ConfigurationGenerator:
+        """A view of this generator for one reach from ``start`` to ``target``: the chest
+        rotation follows :class:`~reach_addon.core.torso.ChestPath` instead of Table 1
+        alone (the search, the smoothing and the timing of that reach all use it)."""
+        view = copy.copy(self)
+        view.chest = ChestPath(self.arm.arm_length, self.settings, start.wrist,
+                               start.config.body_rotation, target)
+        return view
 
     def max_change(self, previous: Pose, wrist) -> float:
         """Smoothness bound for a move of the wrist from ``previous``: the bound per step,
@@ -57,6 +69,8 @@ class ConfigurationGenerator:
         against the body and the obstacles, then the hand at each wrist angle, the previous
         one first, until one is clear."""
         wrist = np.asarray(wrist, dtype=float)
+        if body_rotation is None and self.chest is not None:
+            body_rotation = self.chest(wrist)
         max_change = None if previous is None else self.max_change(previous, wrist)
         sol = ik.solve(self.arm, wrist[None], self.settings,
                        None if previous is None else previous.config, body_rotation, max_change)

@@ -208,25 +208,40 @@ class Planner:
     # --- searching ---------------------------------------------------------------------
     def search(self, start: Pose, target_c, guided: bool = False, **limits) -> SearchResult:
         """One best-first search (canonical target), through guiding nodes if ``guided``."""
+        return _drain(self.search_steps(start, target_c, guided, **limits))
+
+    def search_steps(self, start: Pose, target_c, guided: bool = False, chunk: int = 0,
+                     **limits):
+        """:meth:`search` as a generator: yields the nodes searched so far every ``chunk``
+        nodes (never, if 0) and returns the :class:`SearchResult`."""
         guides, radius = None, 0.0
         if guided:
             ws = self.workspace
             guides = ws.guiding_nodes(start.wrist, target_c)
             radius = self.settings.guide_radius * float(np.min(ws.cell))
-        searcher = BestFirstSearch(self.generator, start, target_c, guides, radius, **limits)
-        searcher.run()
+        generator = self.generator.for_reach(start, target_c)
+        searcher = BestFirstSearch(generator, start, target_c, guides, radius, **limits)
+        while not searcher.run(chunk or None):
+            yield searcher.nodes_searched
         return searcher.result()
 
     # --- tasks -------------------------------------------------------------------------
     def plan(self, task: Task) -> Plan:
         """Plan ``task`` from its start configuration (see the module docstring)."""
+        return _drain(self.plan_steps(task))
+
+    def plan_steps(self, task: Task, chunk: int = 50):
+        """:meth:`plan` as a generator, for callers that must stay responsive (a modal
+        operator, live mode): it yields ``(fraction done, what it is doing)`` every
+        ``chunk`` searched nodes and between stages, and returns the :class:`Plan`. The
+        plan is the same however it is consumed."""
         t0 = time.perf_counter()
         start = self.generator.config_pose(task.start)
         require_finite("start pose", start.joints)
         if task.kind == "chase":
-            plan = self._chase(task, start)
+            plan = yield from self._chase(task, start, chunk)
         else:
-            plan = self._reaches(task, start, guided=task.kind == "guided")
+            plan = yield from self._reaches(task, start, task.kind == "guided", chunk)
         plan.stats.planning_time_s = time.perf_counter() - t0
         return plan
 
@@ -239,16 +254,18 @@ class Planner:
                 for i in range(1 if task.kind == "chase" else len(task.targets))]
         return Plan(task, self.arm, self.settings, [start], segs, Stats(frames=1))
 
-    def _reaches(self, task: Task, start: Pose, guided: bool) -> Plan:
+    def _reaches(self, task: Task, start: Pose, guided: bool, chunk: int):
         problem = self.generator.start_problem(start)
         if problem is not None:
             return self._start_failure(task, start, problem)
         poses = [start]
         segments = []
         total = Stats()
+        n = len(task.targets)
         for i, target in enumerate(task.targets):
-            seg, seg_poses = self._reach_segment(task, i, poses[-1], target, guided,
-                                                 frame_start=len(poses) - 1)
+            steps = self._reach_segment(task, i, poses[-1], target, guided,
+                                        frame_start=len(poses) - 1, chunk=chunk)
+            seg, seg_poses = yield from _progress(steps, i, n, task.name(i))
             poses += seg_poses[1:]
             segments.append(seg)
             total.add(seg.stats)
@@ -257,7 +274,7 @@ class Planner:
                     self._workspace)
 
     def _reach_segment(self, task: Task, i: int, start: Pose, target_w, guided: bool,
-                       frame_start: int):
+                       frame_start: int, chunk: int = 0):
         s, arm, gen = self.settings, self.arm, self.generator
         length = arm.arm_length
         name = task.name(i)
@@ -268,9 +285,9 @@ class Planner:
 
         # A target known to be unreachable still gets a closest approach, on a shorter leash.
         limits = {} if diagnosis is None else {"stall_budget": max(20, s.stall_budget // 4)}
-        result = self.search(start, target, guided=guided, **limits)
+        result = yield from self.search_steps(start, target, guided, chunk, **limits)
         if not result.success and not guided and diagnosis is None and s.guided_fallback:
-            retry = self.search(start, target, guided=True)
+            retry = yield from self.search_steps(start, target, True, chunk)
             retry.nodes_searched += result.nodes_searched
             retry.search_time_s += result.search_time_s
             if retry.success or retry.closest_distance < result.closest_distance:
@@ -290,6 +307,7 @@ class Planner:
         if not result.success:
             reason, message = self._failure(name, result, diagnosis, start)
 
+        gen = gen.for_reach(start, target)
         dense = shortcut(gen, result.path) if s.smoothing else list(result.path)
         motion_length = wrist_path_length(dense) / length
         if len(dense) < 2:
@@ -336,7 +354,7 @@ class Planner:
             c = checker.clearance(self.arm.to_world_points(p.joints), search_radius)
             stats.min_clearance_arm_lengths = min(stats.min_clearance_arm_lengths, c / length)
 
-    def _chase(self, task: Task, start: Pose) -> Plan:
+    def _chase(self, task: Task, start: Pose, chunk: int):
         s, arm, gen = self.settings, self.arm, self.generator
         problem = gen.start_problem(start)
         if problem is not None:
@@ -349,7 +367,10 @@ class Planner:
         path = [start.wrist]
         on_target = 0
         for f in range(1, len(trajectory)):
-            searcher = BestFirstSearch(gen, poses[-1], trajectory[f],
+            if chunk:
+                yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
+            searcher = BestFirstSearch(gen.for_reach(poses[-1], trajectory[f]), poses[-1],
+                                       trajectory[f],
                                        node_budget=s.chase_nodes_per_frame,
                                        stall_budget=s.chase_nodes_per_frame,
                                        depth_limit=steps_per_frame)
@@ -386,6 +407,25 @@ class Planner:
         total.add(stats)
         total.frames = len(poses)
         return Plan(task, arm, s, poses, [seg], total, self._workspace)
+
+
+def _drain(steps):
+    """Run a step generator to the end and return its value."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def _progress(steps, index: int, count: int, name: str):
+    """Re-yield a segment's search progress as (fraction of the whole task, message)."""
+    while True:
+        try:
+            nodes = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield (index + min(0.95, nodes / 2000.0)) / count, f"reaching '{name}': {nodes} positions"
 
 
 def plan(task: Task, arm: ArmModel, obstacles: Obstacles | None, settings: Settings | None = None,

@@ -164,3 +164,42 @@ def rotate_about_spine(points, angle_deg):
     out[..., 1] = y * c - x * s
     out[..., 2] = p[..., 2]
     return out
+
+
+class ChestPath:
+    """The chest rotation along one reach, as a function of the wrist position.
+
+    Table 1 comes from static reaching postures (Delleman 2003): it says how far the chest
+    is turned *when the hand is at the target*. A reach, though, starts from whatever pose
+    the figure is in — an A-posed arm hangs far enough out that Table 1 would already want
+    the chest turned. So along a reach the chest hands over from its actual start rotation
+    to Table 1:
+
+    .. math::
+        θ(w) = T_1(w) + (θ_0 - T_1(w_0))\\,\\min\\left(1, \\frac{|w - t|}{|w_0 - t|}\\right)
+
+    with ``w_0`` and ``θ_0`` the start wrist and chest rotation and ``t`` the target: equal
+    to the start rotation at the start, to Table 1 at the target, continuous in between,
+    and still a function of the wrist position alone (the paper's dimensionality
+    reduction). Capped at ``Settings.chest_rotation_max`` either way.
+    """
+
+    def __init__(self, arm_length, settings, start_wrist, start_rotation, target):
+        self.arm_length = arm_length
+        self.settings = settings
+        self.target = np.asarray(target, dtype=float)
+        start_wrist = np.asarray(start_wrist, dtype=float)
+        self.offset = float(start_rotation) - float(body_rotation_deg(start_wrist, arm_length,
+                                                                        settings))
+        self.span = float(np.linalg.norm(start_wrist - self.target))
+
+    def __call__(self, wrist) -> float:
+        wrist = np.asarray(wrist, dtype=float)
+        table = float(body_rotation_deg(wrist, self.arm_length, self.settings))
+        if self.offset == 0.0:
+            return table
+        if self.span <= 1e-12:
+            return table
+        remaining = min(1.0, float(np.linalg.norm(wrist - self.target)) / self.span)
+        limit = self.settings.chest_rotation_max
+        return float(np.clip(table + self.offset * remaining, -limit, limit))

@@ -258,3 +258,21 @@ def test_the_independent_check_sees_a_penetration(arm):
     scene = {"Post": [(tuple(mid - [0.02, 0.02, 0.3]), tuple(mid + [0.02, 0.02, 0.3]))]}
     assert arm_penetration(arm, joints, triangles_of(scene)) < -0.03
     assert Planner(arm, obstacles(scene)).generator.pose_collides(pose)
+
+
+def test_a_plan_consumed_in_slices_is_the_same_plan(arm):
+    """The generator form (modal operator, live mode) yields progress and returns exactly
+    the plan of one uninterrupted run."""
+    planner = Planner(arm, obstacles(WALL))
+    steps = planner.plan_steps(Task("reach", BEHIND_WALL[None], HANGING), chunk=5)
+    progress = []
+    while True:
+        try:
+            progress.append(next(steps))
+        except StopIteration as done:
+            sliced = done.value
+            break
+    assert len(progress) >= 3
+    assert all(0 <= f <= 1 for f, _msg in progress)
+    whole = Planner(arm, obstacles(WALL)).plan(Task("reach", BEHIND_WALL[None], HANGING))
+    assert np.array_equal(sliced.world_joints(), whole.world_joints())

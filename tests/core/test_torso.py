@@ -72,3 +72,21 @@ def test_chest_turns_toward_the_reaching_side_about_the_spine():
     assert np.linalg.norm(turned[:2]) == pytest.approx(0.19)
     forward = rotate_about_spine(np.array([0.0, 1.0, 0.0]), 30.0)
     np.testing.assert_allclose(forward, [np.sin(np.radians(30)), np.cos(np.radians(30)), 0], atol=1e-12)
+
+
+def test_chest_path_hands_over_from_the_start_rotation_to_table_1():
+    from reach_addon.core.torso import ChestPath
+
+    s = Settings()
+    start = np.array([0.66, 0.0, -0.3])          # an A-posed arm: Table 1 already wants a turn
+    target = np.array([0.70, 0.45, 0.1])
+    path = ChestPath(0.58, s, start, 0.0, target)
+    assert body_rotation_deg(start, 0.58, s) > 5.0
+    assert path(start) == pytest.approx(0.0)                     # consistent with the rig
+    assert path(target) == pytest.approx(body_rotation_deg(target, 0.58, s))
+    line = start + np.linspace(0, 1, 201)[:, None] * (target - start)
+    values = np.array([path(p) for p in line])
+    assert np.abs(np.diff(values)).max() < 1.0                   # no jump along the way
+    # a start that already agrees with Table 1 is plain Table 1
+    agreeing = ChestPath(0.58, s, start, body_rotation_deg(start, 0.58, s), target)
+    assert agreeing(line[100]) == pytest.approx(body_rotation_deg(line[100], 0.58, s))
