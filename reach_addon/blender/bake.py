@@ -1,0 +1,378 @@
+"""Bake a plan as keyframes: one key per frame on the bones that move.
+
+From poses to bone rotations
+----------------------------
+A plan gives, per frame, joint positions, the forearm's bend direction, the hand's
+direction and the chest rotation. Each keyed bone's armature-space matrix at frame *k* is
+its matrix in the start pose turned by the rotation that carries the start frame of its
+segment to the planned one:
+
+* upper arm: (u, b, u × b), with u the upper arm direction and b the bend direction;
+* forearm: (f, h, f × h), with h = u × b the elbow's hinge axis;
+* hand: (d, g, d × g), with d the hand direction and g the hinge made perpendicular to d;
+* chest: the chest rotation about the body's up axis through the chest bone's head;
+* clavicle: carried by the chest.
+
+So bone rolls, rest poses and axis conventions cancel out: whatever the rig, the bones end
+up where the plan puts them. A bone's local (channel) matrix is ``(M_p P⁻¹ B)⁻¹ D`` with
+``B``/``P`` its own and its parent's rest matrices, ``D`` its target and ``M_p`` the
+parent's target (a parent that is not keyed follows its nearest keyed ancestor rigidly).
+Rotations are written in each bone's own rotation mode, quaternions kept continuous
+(``make_compatible``), Eulers compatible with the previous frame.
+
+Writing keys
+------------
+Keys are written in bulk (``keyframe_points.add`` + ``foreach_set``) through whichever API
+the running Blender has — ``Action.fcurves`` (≤ 4.3), or slots + layers + strips +
+channelbags (4.4+) — found by capability, not by version number. Existing keys of the baked
+channels inside the baked frame range are replaced; every other key stays. With
+``new_action`` the armature's action is copied first and the copy receives the keys.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+from mathutils import Euler, Matrix, Quaternion
+
+from ..core import ReachError
+from ..core.torso import spine_rotation_matrix
+
+ROLE_ORDER = ("chest", "clavicle", "upper_arm", "forearm", "hand")
+
+
+@dataclass
+class BakeResult:
+    action: str
+    bones: list            # keyed bone names, hierarchy order
+    frames: tuple          # (first, last) frame written
+
+
+# --- matrices ---------------------------------------------------------------------------
+
+def _unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _frames(a, b):
+    """Orthonormal frames (…, 3, 3) with columns a, b, a × b (b made perpendicular to a)."""
+    a = _unit(a)
+    b = _unit(b - np.einsum("...i,...i->...", b, a)[..., None] * a)
+    return np.stack([a, b, np.cross(a, b)], -1)
+
+
+def target_matrices(info, plan, start_world, chest_head_world):
+    """World-space target matrices (F, 4, 4) per role for every frame of ``plan``.
+
+    ``start_world``: role → the 4×4 world matrix of that role's reference bone in the
+    start pose. ``chest_head_world``: the chest bone's head (the rotation pivot)."""
+    arm = info.arm
+    joints = plan.world_joints()                      # (F, 5, 3)
+    bends = plan.world_bends()                        # (F, 3)
+    m = arm.to_world[:3, :3]
+    upper = joints[:, 2] - joints[:, 1]
+    fore = joints[:, 3] - joints[:, 2]
+    hand = joints[:, 4] - joints[:, 3]
+    hinge = np.cross(_unit(upper), bends)
+    frames = {
+        "upper_arm": _frames(upper, bends),
+        "forearm": _frames(fore, hinge),
+        "hand": _frames(hand, hinge),
+    }
+    joint_of = {"upper_arm": 1, "forearm": 2, "hand": 3}
+    out = {}
+    n = len(plan.poses)
+    for role, f in frames.items():
+        if role not in start_world:
+            continue
+        rot = f @ np.swapaxes(f[0], -1, -2)[None]     # carries frame 0 to frame k
+        s = start_world[role]
+        d = np.repeat(s[None], n, 0)
+        d[:, :3, :3] = rot @ s[:3, :3]
+        d[:, :3, 3] = joints[:, joint_of[role]]
+        out[role] = d
+    body = np.array([p.config.body_rotation for p in plan.poses])
+    body = body - body[0]
+    chest_rot = m @ spine_rotation_matrix(body) @ m.T          # (F, 3, 3), world
+    for role in ("chest", "clavicle"):
+        if role in start_world:
+            s = start_world[role]
+            d = np.repeat(s[None], n, 0)
+            d[:, :3, :3] = chest_rot @ s[:3, :3]
+            d[:, :3, 3] = (chest_rot @ (s[:3, 3] - chest_head_world)) + chest_head_world
+            out[role] = d
+    return out
+
+
+def local_matrices(armature, keyed, targets_arm, start_pose):
+    """Channel (basis) matrices (F, 4, 4) of the keyed bones, hierarchy order.
+
+    ``keyed``: role → bone name; ``targets_arm``: role → armature-space targets (F, 4, 4);
+    ``start_pose``: bone name → armature-space pose matrix at the start (every bone)."""
+    bones = armature.data.bones
+    name_to_role = {name: role for role, name in keyed.items()}
+    out = {}
+    for role in ROLE_ORDER:
+        name = keyed.get(role)
+        if name is None:
+            continue
+        bone = bones[name]
+        rest = np.array(bone.matrix_local)
+        target = targets_arm[role]
+        if bone.parent is None:
+            parent_now = np.repeat(np.eye(4)[None], len(target), 0)
+            parent_rest = np.eye(4)
+        else:
+            parent_now = _parent_target(bone.parent, name_to_role, targets_arm, start_pose,
+                                        len(target))
+            parent_rest = np.array(bone.parent.matrix_local)
+        offset = np.linalg.inv(parent_rest) @ rest
+        out[name] = np.linalg.inv(parent_now @ offset) @ target
+    return out
+
+
+def _parent_target(parent, name_to_role, targets_arm, start_pose, n):
+    """The parent's armature-space matrix per frame: its own target if keyed, else carried
+    rigidly by its nearest keyed ancestor, else its start pose."""
+    if parent.name in name_to_role:
+        return targets_arm[name_to_role[parent.name]]
+    anc = parent.parent
+    while anc is not None and anc.name not in name_to_role:
+        anc = anc.parent
+    s_p = start_pose[parent.name]
+    if anc is None:
+        return np.repeat(s_p[None], n, 0)
+    a_target = targets_arm[name_to_role[anc.name]]
+    return a_target @ (np.linalg.inv(start_pose[anc.name]) @ s_p)[None]
+
+
+def channel_values(pose_bone, locals_):
+    """Rotation channel values (F, k) and the data path for a bone's rotation mode."""
+    mode = pose_bone.rotation_mode
+    out = []
+    if mode == "QUATERNION":
+        prev = pose_bone.rotation_quaternion.copy()
+        for m in locals_:
+            q = Matrix(m.tolist()).to_3x3().normalized().to_quaternion()
+            q.make_compatible(prev)
+            out.append(tuple(q))
+            prev = q
+        return "rotation_quaternion", np.array(out)
+    if mode == "AXIS_ANGLE":
+        prev = Quaternion(pose_bone.rotation_axis_angle[1:], pose_bone.rotation_axis_angle[0])
+        for m in locals_:
+            q = Matrix(m.tolist()).to_3x3().normalized().to_quaternion()
+            q.make_compatible(prev)
+            axis, angle = q.to_axis_angle()
+            out.append((angle, *axis))
+            prev = q
+        return "rotation_axis_angle", np.array(out)
+    prev = pose_bone.rotation_euler.copy()
+    for m in locals_:
+        e = Matrix(m.tolist()).to_3x3().normalized().to_euler(mode, prev)
+        out.append(tuple(e))
+        prev = Euler(e, mode)
+    return "rotation_euler", np.array(out)
+
+
+# --- keyframes --------------------------------------------------------------------------
+
+def _assign(armature, action):
+    ad = armature.animation_data or armature.animation_data_create()
+    if ad.action != action:
+        if armature.pose is None:
+            # Re-assigning an armature's action before its pose exists crashes 4.5 and 5.0.
+            bpy.context.view_layer.update()
+        ad.action = action
+    return ad
+
+
+def _slot_free(slot, armature) -> bool:
+    users = slot.users() if hasattr(slot, "users") else []
+    return all(u == armature for u in users)
+
+
+def ensure_slot(armature, action):
+    """On slotted actions (4.4+), make sure the armature has a slot of ``action`` and return
+    it: the one Blender picked, else one named for the object or last used by it, else an
+    unused one, else a new slot. A slot another ID uses is never taken over."""
+    ad = _assign(armature, action)
+    if not hasattr(action, "slots"):
+        return None
+    if ad.action_slot is not None:
+        return ad.action_slot
+    wanted = {"OB" + armature.name, getattr(ad, "last_slot_identifier", "") or ""} - {""}
+    usable = [s for s in action.slots if s.target_id_type in {"OBJECT", "UNSPECIFIED"}
+              and _slot_free(s, armature)]
+    slot = next((s for s in usable if s.identifier in wanted), None)
+    if slot is None and len(action.slots) == 1 and usable:
+        slot = usable[0]
+    if slot is None:
+        slot = action.slots.new(id_type="OBJECT", name=armature.name)
+    ad.action_slot = slot
+    return slot
+
+
+def ensure_action(armature, new_action: bool):
+    """The action to write into: the armature's own; a new one if it has none; with
+    ``new_action``, a copy of its own (the original keeps a fake user, so saving the file
+    loses nothing)."""
+    ad = armature.animation_data
+    action = ad.action if ad else None
+    if action is None:
+        action = bpy.data.actions.new(f"{armature.name} Reach")
+        if hasattr(action, "slots"):
+            action.slots.new(id_type="OBJECT", name=armature.name)
+    elif new_action:
+        original = action
+        action = original.copy()
+        action.name = f"{original.name} Reach"
+        original.use_fake_user = True
+    ensure_slot(armature, action)
+    return action
+
+
+class Channels:
+    """The F-curves of one action for one armature, whatever the API: ``Action.fcurves``
+    before slotted actions, else the channelbag of the armature's slot (created if
+    needed). Curves are grouped by bone, as Blender groups pose channels."""
+
+    def __init__(self, armature, action):
+        if not hasattr(action, "slots"):
+            self.bag = action
+            return
+        slot = ensure_slot(armature, action)
+        try:
+            from bpy_extras.anim_utils import action_ensure_channelbag_for_slot
+            self.bag = action_ensure_channelbag_for_slot(action, slot)
+        except ImportError:  # 4.4 / 4.5
+            layer = action.layers[0] if action.layers else action.layers.new("Layer")
+            strip = layer.strips[0] if layer.strips else layer.strips.new(type="KEYFRAME")
+            self.bag = strip.channelbag(slot, ensure=True)
+
+    def curve(self, path, index, group):
+        fc = self.bag.fcurves.find(path, index=index)
+        if fc is None:
+            fc = self.bag.fcurves.new(path, index=index)
+        if fc.group is None:
+            fc.group = self.bag.groups.get(group) or self.bag.groups.new(group)
+        return fc
+
+
+# Keyframe attributes (enums as their integer values for foreach_get/set).
+_PAIRS = ("co", "handle_left", "handle_right")
+_FLOATS = {"back": 1.70158, "amplitude": 0.8, "period": 4.1}      # a fresh key's values
+_ENUMS = ("interpolation", "handle_left_type", "handle_right_type", "type", "easing")
+_BOOLS = ("select_control_point", "select_left_handle", "select_right_handle")
+
+
+def _new_key_enums():
+    """Enum values a key inserted by the user would get (their preferences)."""
+    edit = bpy.context.preferences.edit
+    props = bpy.types.Keyframe.bl_rna.properties
+    wanted = {"interpolation": edit.keyframe_new_interpolation_type,
+              "handle_left_type": edit.keyframe_new_handle_type,
+              "handle_right_type": edit.keyframe_new_handle_type,
+              "type": "KEYFRAME", "easing": "AUTO"}
+    return {k: props[k].enum_items[v].value for k, v in wanted.items()}
+
+
+def write_channel(channels, path, values, frames, group):
+    """Replace the keys of ``path`` (each array index) inside [frames[0], frames[-1]] by
+    ``values`` (F, k). The curve is read in bulk, merged in frame order and written back
+    (``clear`` + ``add`` + ``foreach_set``): keys outside the range keep every attribute,
+    new keys get every attribute a user's key would get — ``add`` after a ``remove`` would
+    otherwise hand back stale key settings — and ``update`` has nothing to sort."""
+    lo, hi = frames[0] - 0.5, frames[-1] + 0.5
+    enums = _new_key_enums()
+    nn = len(frames)
+    for index in range(values.shape[1]):
+        fc = channels.curve(path, index, group)
+        pts = fc.keyframe_points
+        n = len(pts)
+        old = {}
+        for a in _PAIRS:
+            old[a] = np.empty(2 * n, np.float32)
+            pts.foreach_get(a, old[a])
+            old[a] = old[a].reshape(n, 2)
+        for a in _FLOATS:
+            old[a] = np.empty(n, np.float32)
+            pts.foreach_get(a, old[a])
+        for a in _ENUMS:
+            old[a] = np.empty(n, np.int32)
+            pts.foreach_get(a, old[a])
+        for a in _BOOLS:
+            old[a] = np.empty(n, bool)
+            pts.foreach_get(a, old[a])
+        x = old["co"][:, 0]
+        before, after = x < lo, x > hi
+        new_co = np.column_stack([frames, values[:, index]]).astype(np.float32)
+
+        def merged(arr, new, before=before, after=after):
+            return np.concatenate([arr[before], new, arr[after]])
+
+        pts.clear()
+        pts.add(int(before.sum()) + nn + int(after.sum()))
+        for a in _PAIRS:       # new keys' handles are recomputed by update()
+            pts.foreach_set(a, merged(old[a], new_co).ravel())
+        for a, v in _FLOATS.items():
+            pts.foreach_set(a, merged(old[a], np.full(nn, v, np.float32)))
+        for a in _ENUMS:
+            pts.foreach_set(a, merged(old[a], np.full(nn, enums[a], np.int32)))
+        for a in _BOOLS:
+            pts.foreach_set(a, merged(old[a], np.zeros(nn, bool)))
+        fc.update()
+
+
+def bake(context, armature, info, plans, new_action=False) -> BakeResult:
+    """Write keys for ``plans`` [(Plan, first frame)] on ``armature`` (see the module doc)."""
+    bmap = info.bones
+    arm_bones = bmap.arms[info.side]
+    pose = armature.pose.bones
+    mw = np.array(armature.matrix_world)
+    mw_inv = np.linalg.inv(mw)
+    start_pose = {pb.name: np.array(pb.matrix) for pb in pose}
+
+    moves_chest = any(abs(p.config.body_rotation - plan.poses[0].config.body_rotation) > 1e-9
+                      for plan, _f in plans for p in plan.poses)
+    keyed = {"upper_arm": arm_bones.keyed("upper_arm"), "forearm": arm_bones.keyed("forearm"),
+             "hand": arm_bones.keyed("hand")}
+    reference = {"upper_arm": arm_bones.upper_arm, "forearm": arm_bones.forearm,
+                 "hand": arm_bones.hand}
+    if arm_bones.clavicle:
+        keyed["clavicle"] = arm_bones.keyed("clavicle")
+        reference["clavicle"] = arm_bones.clavicle
+    if moves_chest:
+        keyed["chest"] = bmap.keyed_chest
+        reference["chest"] = bmap.keyed_chest
+    for name in keyed.values():
+        if name not in pose:
+            raise ReachError(f"bone '{name}' is missing from armature '{armature.name}'")
+
+    start_world = {role: mw @ start_pose[ref] for role, ref in reference.items()}
+    chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
+
+    action = ensure_action(armature, new_action)
+    channels = Channels(armature, action)
+    first = plans[0][1]
+    last = first
+    for plan, frame0 in plans:
+        targets = target_matrices(info, plan, start_world, chest_head)
+        targets_arm = {role: mw_inv[None] @ m for role, m in targets.items()}
+        locals_ = local_matrices(armature, keyed, targets_arm, start_pose)
+        frames = frame0 + np.arange(len(plan.poses), dtype=float)
+        for name, mats in locals_.items():
+            path, values = channel_values(pose[name], mats)
+            write_channel(channels, f'pose.bones["{name}"].{path}', values, frames, name)
+        last = max(last, int(frames[-1]))
+    for side, (bone_name, prop) in bmap.ik_fk.items():
+        if side == info.side:
+            pose[bone_name][prop] = 1.0
+            write_channel(channels, f'pose.bones["{bone_name}"]["{prop}"]',
+                          np.ones((2, 1)), np.array([first, last], float), bone_name)
+            armature.update_tag()
+    context.view_layer.update()
+    order = [keyed[r] for r in ROLE_ORDER if r in keyed]
+    return BakeResult(action.name, order, (first, last))

@@ -1,0 +1,269 @@
+"""The one pipeline: scene + armature → rig model → obstacles → core plan → bake / preview.
+
+The sidebar operators, the command line, batch workers and live mode all call
+:func:`run` (or consume :func:`steps`, the same work as a generator that yields progress, for
+callers that must stay responsive and may cancel). Nothing here plans or bakes on its own:
+planning is :mod:`reach_addon.core`, keys are :mod:`.bake`, drawing is :mod:`.viz`.
+
+Bad input raises :class:`~reach_addon.core.ReachError` *before* anything in the scene is
+changed. The scene's current frame is restored when the work ends, however it ends.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+from ..core import Planner, ReachError, Settings, Task
+from . import bake as bake_mod
+from . import rig as rig_mod
+from . import viz
+from .scene import character_objects, gather_obstacles
+
+TASKS = ("reach", "sequence", "guided", "chase")
+
+
+@dataclass
+class Request:
+    """What to do. Names refer to objects/collections of the scene."""
+
+    armature: str
+    targets: list
+    task: str = "reach"
+    side: str = "auto"                   # right | left | auto
+    obstacles: str | None = None         # a collection name; None = all visible objects
+    frame_start: int | None = None       # None = the scene's current frame
+    duration_s: float | None = None      # per reach; None = automatic
+    settings: Settings = field(default_factory=Settings)
+    overrides: dict = field(default_factory=dict)
+    new_action: bool = False
+    bake_closest: bool = False
+    show_guides: bool = False
+
+
+@dataclass
+class TaskResult:
+    """One target's outcome, as the report and the panel show it."""
+
+    target: str
+    arm: str
+    success: bool
+    reason: str | None
+    message: str
+    frame_start: int
+    frame_end: int
+    bones_keyed: list
+    stats: dict
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass
+class Outcome:
+    request: Request
+    rig: rig_mod.RigInfo
+    plans: list                          # (Plan, first frame) per planned task
+    results: list                        # TaskResult per target, in order
+    baked: bool = False
+    action: str | None = None
+
+    @property
+    def success(self) -> bool:
+        return all(r.success for r in self.results)
+
+    def summary(self) -> dict:
+        return {
+            "armature": self.rig.armature_name, "arm": self.rig.side, "baked": self.baked,
+            "action": self.action, "success": self.success,
+            "tasks": [r.to_dict() for r in self.results],
+        }
+
+
+def _object(name, what):
+    ob = bpy.data.objects.get(name) if name else None
+    if ob is None:
+        raise ReachError(f"{what} '{name}' does not exist in this file; check the name")
+    return ob
+
+
+def validate(context, request: Request, bake: bool):
+    """Check the request against the scene; returns (armature, target objects, obstacle
+    collection). Raises ReachError naming what is wrong and what to do."""
+    if request.task not in TASKS:
+        raise ReachError(f"unknown task '{request.task}'; choose one of {', '.join(TASKS)}")
+    if not request.armature:
+        raise ReachError("no armature chosen; pick the character's armature")
+    armature = _object(request.armature, "armature")
+    rig_mod._check_armature(armature)
+    if armature.name not in context.scene.objects:
+        raise ReachError(f"armature '{armature.name}' is not in scene '{context.scene.name}'")
+    if not request.targets:
+        raise ReachError("no target chosen; pick the object to reach for")
+    targets = [_object(n, "target") for n in request.targets]
+    for t in targets:
+        if t == armature:
+            raise ReachError(f"the target '{t.name}' is the armature itself; pick the object to "
+                             "reach for")
+        m = np.array(t.matrix_world)
+        if not np.isfinite(m).all():
+            raise ReachError(f"target '{t.name}' has a NaN or infinite transform; fix its location")
+    if request.task == "reach" and request.side not in ("right", "left", "auto"):
+        raise ReachError(f"arm must be right, left or auto, not '{request.side}'")
+    collection = None
+    if request.obstacles:
+        collection = bpy.data.collections.get(request.obstacles)
+        if collection is None:
+            raise ReachError(f"obstacle collection '{request.obstacles}' does not exist; check "
+                             "the name or plan against all visible objects")
+    if bake:
+        if armature.library is not None:
+            raise ReachError(
+                f"armature '{armature.name}' is linked from '{armature.library.filepath}' and "
+                "cannot be keyed; make a library override (Object > Library Override) first")
+        action = armature.animation_data.action if armature.animation_data else None
+        if action is not None and action.library is not None and not request.new_action:
+            raise ReachError(
+                f"the action '{action.name}' of armature '{armature.name}' is linked from a "
+                "library and cannot be changed; turn on 'Bake into a new action'")
+    return armature, targets, collection
+
+
+def _chase_range(context, target, frame_start):
+    """Frames of a chase: from the start frame to the end of the target's own animation (its
+    action, or its parents'), else to the scene's end frame."""
+    end = None
+    ob = target
+    while ob is not None:
+        ad = ob.animation_data
+        if ad is not None and ad.action is not None:
+            end = max(end or -math.inf, ad.action.frame_range[1])
+        ob = ob.parent
+    if end is None:
+        end = context.scene.frame_end
+    end = int(math.ceil(end))
+    if end <= frame_start:
+        raise ReachError(f"chase target '{target.name}' has no animation after frame "
+                         f"{frame_start}; animate it or start earlier")
+    return frame_start, end
+
+
+def steps(context, request: Request, bake: bool = True):
+    """The pipeline as a generator: yields (fraction, message), returns an :class:`Outcome`.
+    Closing it early (a cancelled modal operator) leaves the scene as it was."""
+    scene = context.scene
+    armature, targets, collection = validate(context, request, bake)
+    original_frame = scene.frame_current
+    frame_start = scene.frame_current if request.frame_start is None else int(request.frame_start)
+    try:
+        if scene.frame_current != frame_start:
+            scene.frame_set(frame_start)
+        context.view_layer.update()
+        first = np.array(targets[0].matrix_world.translation)
+        info = rig_mod.build(armature, request.side, request.overrides, target=first)
+        yield 0.02, "reading the rig"
+
+        fps = scene.render.fps / scene.render.fps_base
+        names = tuple(t.name for t in targets)
+        exclude = character_objects(armature, scene) | set(names)
+        obstacles = gather_obstacles(context, exclude, collection)
+        yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
+
+        if request.task == "chase":
+            f0, f1 = _chase_range(context, targets[0], frame_start)
+            path = []
+            for f in range(f0, f1 + 1):
+                scene.frame_set(f)
+                path.append(np.array(targets[0].matrix_world.translation))
+            scene.frame_set(frame_start)
+            tasks = [Task("chase", np.array(path), info.start, fps, names=names[:1])]
+        else:
+            positions = np.array([np.array(t.matrix_world.translation) for t in targets])
+            if request.task == "reach":
+                tasks = [Task("reach", positions[i:i + 1], info.start, fps, request.duration_s,
+                              names=names[i:i + 1]) for i in range(len(targets))]
+            else:
+                tasks = [Task(request.task, positions, info.start, fps, request.duration_s,
+                              names=names)]
+
+        planner = Planner(info.arm, obstacles, request.settings)
+        plans = []
+        frame = frame_start
+        for k, task in enumerate(tasks):
+            plan_steps = planner.plan_steps(task)
+            while True:
+                try:
+                    fraction, message = next(plan_steps)
+                except StopIteration as done:
+                    plan = done.value
+                    break
+                yield 0.05 + 0.85 * (k + fraction) / len(tasks), message
+            plans.append((plan, frame))
+            frame += len(plan.poses)
+
+        outcome = Outcome(request, info, plans, [])
+        keyed = []
+        if bake:
+            baked = [(p, f) for p, f in plans if p.success or request.bake_closest]
+            if not baked:
+                failed = next(p for p, _f in plans if not p.success)
+                raise ReachError(f"{failed.message}; nothing was baked (turn on 'Bake closest "
+                                 "approach' to bake the motion that gets closest)")
+            yield 0.92, "baking keys"
+            result = bake_mod.bake(context, armature, info, baked, request.new_action)
+            outcome.baked, outcome.action, keyed = True, result.action, result.bones
+        outcome.results = _results(info, plans, keyed, request)
+        _draw(scene, info, plans, planner, request)
+        yield 1.0, "done"
+        return outcome
+    finally:
+        if scene.frame_current != original_frame:
+            scene.frame_set(original_frame)
+
+
+def run(context, request: Request, bake: bool = True) -> Outcome:
+    """Run the pipeline to the end (see :func:`steps`)."""
+    gen = steps(context, request, bake)
+    while True:
+        try:
+            next(gen)
+        except StopIteration as done:
+            return done.value
+
+
+def _results(info, plans, keyed, request):
+    out = []
+    for plan, first in plans:
+        baked = plan.success or request.bake_closest
+        for seg in plan.segments:
+            stats = seg.stats.to_dict()
+            out.append(TaskResult(
+                seg.name, info.side, seg.success, seg.reason, seg.message,
+                first + seg.frame_start, first + seg.frame_end,
+                list(keyed) if baked else [], stats))
+    return out
+
+
+def _draw(scene, info, plans, planner, request):
+    viz.clear(scene)
+    wrists = [p.wrist_trajectory() for p, _f in plans]
+    if wrists:
+        viz.trajectory(scene, np.concatenate(wrists))
+    targets = np.concatenate([p.task.targets[-1:] if p.task.kind == "chase" else p.task.targets
+                              for p, _f in plans])
+    viz.markers(scene, targets, radius=0.04 * info.arm.arm_length)
+    guides = np.concatenate([p.guiding_nodes() for p, _f in plans] + [np.zeros((0, 3))])
+    if len(guides):
+        viz.markers(scene, guides, name="Reach Guiding Nodes", radius=0.03 * info.arm.arm_length)
+    if request.show_guides:
+        ws = planner.workspace
+        if ws.valid.any():
+            centres = info.arm.to_world_points(ws.valid_centers())
+            viz.wire_cubes(scene, centres, _cell_size_world(info, ws), name="Reach Workspace")
+
+
+def _cell_size_world(info, ws):
+    return np.abs(info.arm.to_world[:3, :3]) @ ws.cell

@@ -1,0 +1,635 @@
+"""Rig adapter: find a humanoid's arms, chest and body frame in an armature, and turn them
+into the core's :class:`~reach_addon.core.ArmModel`.
+
+Finding the bones
+-----------------
+Bone names are split into lowercase tokens (``mixamorig:RightForeArm`` → mixamorig, right,
+fore, arm; ``J_Bip_R_UpperArm`` → j, bip, r, upper, arm; ``upperarm01.R`` → upperarm, 01,
+r). The side comes from a token r/l/right/left; the role from a small vocabulary (upper
+arm, forearm/lower arm/elbow, hand/wrist/palm, clavicle/shoulder/collar). Helper bones (ik,
+fk, pole, target, twist, tweak, mch, org, end, …) score lower.
+
+For each side the best upper-arm candidate starts a chain that follows the skeleton
+downward: the forearm and hand are the nearest descendants with matching names, or, for
+rigs with numbered names (``Skeleton_arm_joint_R__2_``), the joints that fall at the usual
+proportions of the arm (the elbow about 56% along the shoulder-to-wrist path; the forearm
+about 0.78 of the upper arm). A clavicle is the upper arm's parent when it is not shared
+with the other arm. The chest is the lowest bone both arms hang from.
+
+Decoys: among candidates lying on the same joints, the chain that moves the skin (has
+weighted vertices in a mesh the armature deforms) wins; a skin bone that copies its
+transform from another bone of the same rig hands the keys to that bone (the control that
+drives it). Rigify's generated rigs are recognised by their ``rig_id`` and the ``IK_FK``
+switch: Reach reads joint positions from the ``ORG-`` chain (where the arm is) and keys the
+FK controls with the switch set to FK. Every bone can be overridden by name.
+
+The body frame
+--------------
+Nothing about orientation or size is assumed. From the bones, in world space at the
+current frame: **right** = right shoulder − left shoulder, **up** = from the base of the
+spine (the chest's lowest ancestor within 2.5 shoulder widths) to the neck, made
+perpendicular to right, **forward** = up × right. The canonical arm frame of the
+core has its origin on the spine axis (the line through the chest bone's head along up) at
+shoulder height, x toward the reaching arm's side. Body capsules (chest, pelvis, head) are
+sized in proportion to the shoulder half-width; arm capsule radii come from the skin when
+there is one (75th percentile of vertex distances to each segment), else from proportions.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+from ..core import ArmConfig, ArmModel, Capsule, ReachError, config_from_joints
+
+ROLES = ("clavicle", "upper_arm", "forearm", "hand")
+SIDES = ("right", "left")
+
+_SIDE_TOKENS = {"r": "right", "right": "right", "rt": "right", "l": "left", "left": "left",
+                "lt": "left"}
+_VOCAB = {
+    "upper_arm": ({"upperarm"}, {"uparm"}, {"upper", "arm"}, {"up", "arm"}, {"humerus"}),
+    "forearm": ({"forearm"}, {"fore", "arm"}, {"lowerarm"}, {"lower", "arm"}, {"loarm"},
+                {"elbow"}, {"ulna"}),
+    "hand": ({"hand"}, {"wrist"}, {"palm"}),
+    "clavicle": ({"clavicle"}, {"collar"}, {"collarbone"}, {"shoulder"}),
+}
+# Tokens that mark helper, mechanism or non-arm bones: a candidate carrying one scores lower.
+_HELPER = {"ik", "fk", "pole", "target", "twist", "roll", "tweak", "mch", "org", "ctrl", "ctl",
+           "helper", "end", "nub", "parent", "socket", "vis", "wgt", "widget", "offset", "null",
+           "snap", "track", "lock", "rot", "pivot", "jnt_ik"}
+_NOT_ARM = {"finger", "fingers", "thumb", "index", "middle", "ring", "pinky", "little", "leg",
+            "thigh", "calf", "shin", "foot", "toe", "knee", "breast", "eye", "metacarpal",
+            "carpal", "weapon", "prop"}
+
+
+def tokens(name: str) -> list:
+    """Lowercase word tokens of a bone name (camelCase, separators and digits split)."""
+    s = re.sub(r"([a-z])([A-Z])", r"\1 \2", name)
+    s = re.sub(r"([A-Za-z])(\d)", r"\1 \2", s)
+    s = re.sub(r"(\d)([A-Za-z])", r"\1 \2", s)
+    return [t for t in re.split(r"[^A-Za-z0-9]+", s.lower()) if t]
+
+
+def side_of(name: str):
+    """'right', 'left' or None from the name's tokens."""
+    found = {_SIDE_TOKENS[t] for t in tokens(name) if t in _SIDE_TOKENS}
+    return found.pop() if len(found) == 1 else None
+
+
+def role_score(name: str, role: str) -> int:
+    """How well a name fits a role: 0 if not at all, more for a clean match."""
+    toks = set(tokens(name)) - set(_SIDE_TOKENS)
+    if toks & _NOT_ARM:
+        return 0
+    if role == "upper_arm" and "arm" in toks and not toks & {"fore", "lower", "lo", "forearm"}:
+        base = 6 if toks & {"upper", "up"} else 4
+    elif any(words <= toks for words in _VOCAB[role]):
+        base = 6
+    else:
+        return 0
+    if role == "hand" and "palm" in toks and not toks & {"hand", "wrist"}:
+        base -= 1  # "palm" names a hand in some rigs but a metacarpal in others
+    return max(1, base - 3 * len(toks & _HELPER))
+
+
+@dataclass
+class ArmBones:
+    """The bones of one arm. ``key_*`` are the bones that get keys; the plain names are the
+    bones whose joints say where the arm is (the same bones except on Rigify rigs)."""
+
+    upper_arm: str
+    forearm: str
+    hand: str
+    clavicle: str | None = None
+    key: dict = field(default_factory=dict)
+
+    def keyed(self, role: str):
+        return self.key.get(role, getattr(self, role))
+
+
+@dataclass
+class BoneMap:
+    chest: str
+    arms: dict                 # side -> ArmBones
+    neck: str | None = None    # the spine above the chest: gives the body's up
+    key_chest: str | None = None
+    ik_fk: dict = field(default_factory=dict)   # side -> (pose bone, property) to set to FK
+
+    @property
+    def keyed_chest(self) -> str:
+        return self.key_chest or self.chest
+
+    def to_dict(self) -> dict:
+        out = {"chest": self.keyed_chest}
+        for side, a in self.arms.items():
+            for role in ROLES:
+                out[f"{role}_{side}"] = a.keyed(role)
+        return out
+
+
+# --- detection ---------------------------------------------------------------------------
+
+def skin_bones(armature) -> set:
+    """Names of bones that move skin: vertex groups with weighted vertices in meshes whose
+    Armature modifier uses this armature."""
+    out = set()
+    for ob in _scene_objects(armature):
+        if ob.type != "MESH" or not any(m.type == "ARMATURE" and m.object == armature
+                                         for m in ob.modifiers):
+            continue
+        names = {vg.index: vg.name for vg in ob.vertex_groups}
+        weighted = set()
+        for v in ob.data.vertices:
+            for g in v.groups:
+                if g.weight > 0.0:
+                    weighted.add(g.group)
+        out |= {names[i] for i in weighted if i in names}
+    return out
+
+
+def _scene_objects(armature):
+    scenes = armature.users_scene
+    return scenes[0].objects if scenes else [armature]
+
+
+def _descendants(bone, depth):
+    """(bone, distance in steps) of descendants up to ``depth`` steps, nearest first."""
+    out, frontier = [], [bone]
+    for d in range(1, depth + 1):
+        frontier = [c for b in frontier for c in b.children]
+        out += [(c, d) for c in frontier]
+    return out
+
+
+def _ancestors(bone):
+    out = []
+    while bone.parent is not None:
+        bone = bone.parent
+        out.append(bone)
+    return out
+
+
+def _lca(a, b):
+    chain = [a] + _ancestors(a)
+    names = {x.name for x in [b] + _ancestors(b)}
+    return next((x for x in chain if x.name in names), None)
+
+
+def _main_chain(start, max_len=12):
+    """The bones below ``start`` along the arm: at each step the child that looks like an
+    arm bone, else the child with most descendants; stops at a fork into fingers."""
+    chain = [start]
+    bone = start
+    while bone.children and len(chain) < max_len:
+        kids = list(bone.children)
+        named = [c for c in kids if any(role_score(c.name, r) for r in ("forearm", "hand"))
+                 and not set(tokens(c.name)) & _NOT_ARM]
+        if named:
+            bone = max(named, key=lambda c: (max(role_score(c.name, r) for r in ("forearm", "hand")),
+                                             -len(c.children_recursive)))
+        elif len(kids) == 1:
+            bone = kids[0]
+        else:
+            break  # a fork into fingers (or something else): the hand ends here
+        chain.append(bone)
+    return chain
+
+
+def _arm_from(upper, side, skin):
+    """Complete an arm chain from its upper arm: forearm and hand by name, else by the
+    usual proportions along the chain."""
+    chain = _main_chain(upper)
+    heads = [np.array(b.head_local) for b in chain]
+    fore = next((b for b in chain[1:] if role_score(b.name, "forearm")), None)
+    if fore is None:
+        if len(chain) < 3:
+            return None
+        path = np.concatenate([[0.0], np.cumsum([np.linalg.norm(h2 - h1)
+                                                 for h1, h2 in zip(heads, heads[1:])])])
+        target = 0.56 * path[-1]
+        fore = chain[1 + int(np.argmin(np.abs(path[1:-1] - target)))]
+    i_fore = chain.index(fore)
+    after = chain[i_fore + 1:]
+    hand = next((b for b in after if role_score(b.name, "hand")), None)
+    if hand is None:
+        if not after:
+            return None
+        upper_len = np.linalg.norm(np.array(fore.head_local) - heads[0])
+        dist = [np.linalg.norm(np.array(b.head_local) - np.array(fore.head_local)) for b in after]
+        hand = after[int(np.argmin(np.abs(np.array(dist) - 0.78 * upper_len)))]
+    return upper, fore, hand
+
+
+def _candidates(bones, role, side, skin):
+    out = []
+    for b in bones:
+        score = role_score(b.name, role)
+        if not score or side_of(b.name) != side:
+            continue
+        if b.name in skin:
+            score += 3
+        out.append((score, -len(_ancestors(b)), b.name, b))
+    return [b for *_k, b in sorted(out, key=lambda t: (-t[0], -t[1], t[2]))]
+
+
+def _driver(armature, name):
+    """The bone that drives ``name`` through a Copy Transforms/Rotation constraint at full
+    influence, if it sits on the same joint; else ``name`` itself."""
+    pb = armature.pose.bones.get(name)
+    bone = armature.data.bones[name]
+    for c in getattr(pb, "constraints", ()):
+        if c.type in {"COPY_TRANSFORMS", "COPY_ROTATION"} and not c.mute and c.influence > 0.99 \
+                and getattr(c, "target", None) == armature and c.subtarget in armature.data.bones:
+            other = armature.data.bones[c.subtarget]
+            gap = np.linalg.norm(np.array(other.head_local) - np.array(bone.head_local))
+            if gap <= 1e-3 * max(bone.length, 1e-6):
+                return c.subtarget
+    return name
+
+
+def _rigify_map(armature):
+    """Bone map of a Rigify generated rig, or None if it is not one."""
+    data = armature.data
+    if "rig_id" not in data.keys():
+        return None
+    arms, ik_fk = {}, {}
+    for side, suffix in (("right", ".R"), ("left", ".L")):
+        needed = [f"ORG-{n}{suffix}" for n in ("upper_arm", "forearm", "hand")] + \
+                 [f"{n}_fk{suffix}" for n in ("upper_arm", "forearm", "hand")]
+        if not all(n in data.bones for n in needed):
+            return None
+        clav = f"ORG-shoulder{suffix}" if f"ORG-shoulder{suffix}" in data.bones else None
+        key = {"upper_arm": f"upper_arm_fk{suffix}", "forearm": f"forearm_fk{suffix}",
+               "hand": f"hand_fk{suffix}"}
+        if clav and f"shoulder{suffix}" in data.bones:
+            key["clavicle"] = f"shoulder{suffix}"
+        arms[side] = ArmBones(f"ORG-upper_arm{suffix}", f"ORG-forearm{suffix}",
+                              f"ORG-hand{suffix}", clav, key)
+        parent = armature.pose.bones.get(f"upper_arm_parent{suffix}")
+        if parent is not None and "IK_FK" in parent.keys():
+            ik_fk[side] = (parent.name, "IK_FK")
+    chest_pos = _lca(data.bones[arms["right"].upper_arm], data.bones[arms["left"].upper_arm])
+    key_chest = "chest" if "chest" in data.bones else None
+    neck = "ORG-spine.004" if "ORG-spine.004" in data.bones else None
+    return BoneMap(chest_pos.name if chest_pos else arms["right"].upper_arm, arms, neck,
+                   key_chest, ik_fk)
+
+
+def detect_bones(armature, overrides=None) -> BoneMap:
+    """Find the chest and both arms of ``armature`` (see the module docstring). ``overrides``
+    maps ``chest`` / ``<role>_<side>`` to bone names; they win over detection. Raises
+    :class:`ReachError` naming the armature when no arm can be found."""
+    overrides = {k: v for k, v in (overrides or {}).items() if v}
+    data = armature.data
+    for role_side, name in overrides.items():
+        if name not in data.bones:
+            raise ReachError(f"bone '{name}' (set for {role_side.replace('_', ' ')}) is not in "
+                             f"armature '{armature.name}'; pick one of its bones or clear the field")
+    bmap = _rigify_map(armature)
+    if bmap is None:
+        bmap = _detect_generic(armature)
+    for side in SIDES:
+        arm = bmap.arms.get(side)
+        for role in ROLES:
+            name = overrides.get(f"{role}_{side}")
+            if name and arm is not None:
+                setattr(arm, role, name)
+                arm.key.pop(role, None)
+    if overrides.get("chest"):
+        bmap.chest, bmap.key_chest = overrides["chest"], None
+    _check_chain(armature, bmap)
+    return bmap
+
+
+def _detect_generic(armature) -> BoneMap:
+    data = armature.data
+    bones = list(data.bones)
+    skin = skin_bones(armature)
+    arms = {}
+    for side in SIDES:
+        for upper in _candidates(bones, "upper_arm", side, skin):
+            found = _arm_from(upper, side, skin)
+            if found is None:
+                continue
+            u, f, h = found
+            arms[side] = ArmBones(u.name, f.name, h.name)
+            break
+    if not arms:
+        arms = _arms_by_topology(armature, skin)
+    missing = [s for s in SIDES if s not in arms]
+    if missing:
+        raise ReachError(
+            f"armature '{armature.name}' has no recognisable {' or '.join(missing)} arm "
+            "(looked for upper arm / forearm / hand bones with a left/right marker); set the "
+            "arm bones by hand in the Reach panel (Bones) or load a rig map preset")
+    upper_r, upper_l = data.bones[arms["right"].upper_arm], data.bones[arms["left"].upper_arm]
+    chest = _lca(upper_r, upper_l)
+    if chest is None:
+        raise ReachError(f"the arms of armature '{armature.name}' are not joined by a chest "
+                         "bone; set the chest bone by hand in the Reach panel")
+    for side, upper in (("right", upper_r), ("left", upper_l)):
+        parent = upper.parent
+        if parent is not None and parent != chest and _lca(parent, chest) == chest:
+            arms[side].clavicle = parent.name
+        # decoys: let the control that drives a skin bone take the keys
+        a = arms[side]
+        for role in ROLES:
+            name = getattr(a, role)
+            if name:
+                drv = _driver(armature, name)
+                if drv != name:
+                    a.key[role] = drv
+    clavicles = {arms[s].clavicle for s in SIDES if arms[s].clavicle}
+    neck = _find_neck(chest, {upper_r.name, upper_l.name} | clavicles)
+    return BoneMap(chest.name, arms, neck.name if neck else None)
+
+
+def _chain_end(bone):
+    """The last bone of the main chain below ``bone`` (following the biggest subtree)."""
+    while bone.children:
+        bone = max(bone.children, key=lambda c: (len(c.children_recursive), c.length))
+    return bone
+
+
+def _arms_by_topology(armature, skin):
+    """Arms of a rig whose bone names say nothing (no left/right marker): the two child
+    chains of one bone whose ends lie farthest apart are the arms; the feet (the leg chains'
+    last bones point forward) tell right from left. {} if that cannot be decided."""
+    bones = list(armature.data.bones)
+    best = None
+    for b in bones:
+        kids = [c for c in b.children if len(c.children_recursive) >= 2]
+        for i, c1 in enumerate(kids):
+            for c2 in kids[i + 1:]:
+                e1, e2 = _chain_end(c1), _chain_end(c2)
+                gap = np.linalg.norm(np.array(e1.head_local) - np.array(e2.head_local))
+                if best is None or gap > best[0]:
+                    best = (gap, b, c1, c2)
+    if best is None:
+        return {}
+    _gap, chest, c1, c2 = best
+    legs = [c for a in _ancestors(chest) for c in a.children
+            if c not in _ancestors(chest) + [chest] and len(c.children_recursive) >= 2]
+    if len(legs) < 2:
+        return {}
+    neck = _find_neck(chest, {c1.name, c2.name})
+    chest_head = np.array(chest.head_local)
+    up = (np.array(neck.head_local) if neck else np.array(chest.tail_local)) - chest_head
+    up /= np.linalg.norm(up)
+    forward = np.zeros(3)
+    for leg in legs:
+        foot = _chain_end(leg)
+        d = np.array(foot.tail_local) - np.array(foot.head_local)
+        forward += d - (d @ up) * up
+    if np.linalg.norm(forward) < 1e-9:
+        return {}
+    right = np.cross(forward / np.linalg.norm(forward), up)
+    arms = {}
+    for root in (c1, c2):
+        chain = _main_chain(root)
+        # A short first bone followed by a long one is a clavicle.
+        upper = chain[1] if len(chain) >= 4 and root.length < 0.6 * chain[1].length else root
+        found = _arm_from(upper, None, skin)
+        if found is None:
+            return {}
+        side = "right" if (np.array(upper.head_local) - chest_head) @ right > 0 else "left"
+        arms[side] = ArmBones(*(b.name for b in found))
+    return arms if len(arms) == 2 else {}
+
+
+def _find_neck(chest, arm_roots):
+    """Where the spine continues above the chest: the chest's child, outside both arms,
+    with the most bones below it (neck, head and face hang there)."""
+    others = [c for c in chest.children
+              if c.name not in arm_roots and not any(a in {x.name for x in c.children_recursive}
+                                                     for a in arm_roots)]
+    return max(others, key=lambda c: (len(c.children_recursive), c.length), default=None)
+
+
+def _check_chain(armature, bmap):
+    data = armature.data
+    for side, arm in bmap.arms.items():
+        u, f, h = (data.bones[n] for n in (arm.upper_arm, arm.forearm, arm.hand))
+        if f not in u.children_recursive or h not in f.children_recursive:
+            raise ReachError(
+                f"in armature '{armature.name}' the {side} arm bones do not form a chain "
+                f"({arm.upper_arm} → {arm.forearm} → {arm.hand}); check the bone fields")
+
+
+# --- pose and body frame -------------------------------------------------------------------
+
+def pose_heads(armature, names) -> dict:
+    """World-space heads of pose bones (the evaluated pose at the current frame)."""
+    mw = np.array(armature.matrix_world)
+    out = {}
+    for n in names:
+        if n is None:
+            continue
+        h = np.array(armature.pose.bones[n].head)
+        out[n] = mw[:3, :3] @ h + mw[:3, 3]
+    return out
+
+
+@dataclass
+class BodyFrame:
+    """World-space body axes and lengths measured from the bones."""
+
+    origin: np.ndarray       # on the spine axis at shoulder height
+    right: np.ndarray
+    forward: np.ndarray
+    up: np.ndarray
+    shoulder_half_width: float
+
+    def to_world(self, side: str) -> np.ndarray:
+        """Canonical (x toward ``side``) → world, 4×4."""
+        m = np.eye(4)
+        x = self.right if side == "right" else -self.right
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, self.forward, self.up, self.origin
+        return m
+
+
+def _spine_base(armature, chest_name, shoulder_width):
+    """The lowest spine bone below the chest: its farthest ancestor within 2.5 shoulder
+    widths (so a root bone at the floor does not count), or the chest itself."""
+    bones = armature.data.bones
+    chest = np.array(bones[chest_name].head_local)
+    scale = float(np.linalg.norm(np.array(armature.matrix_world)[:3, 0]))
+    best, best_d = chest_name, 0.0
+    for b in _ancestors(bones[chest_name]):
+        d = np.linalg.norm(np.array(b.head_local) - chest) * scale
+        if best_d < d <= 2.5 * shoulder_width:
+            best, best_d = b.name, d
+    return best
+
+
+def body_frame(armature, bmap: BoneMap) -> BodyFrame:
+    names = [bmap.chest, bmap.neck, bmap.arms["right"].upper_arm, bmap.arms["left"].upper_arm]
+    heads = pose_heads(armature, names)
+    shoulder_r = heads[bmap.arms["right"].upper_arm]
+    shoulder_l = heads[bmap.arms["left"].upper_arm]
+    right = shoulder_r - shoulder_l
+    width = float(np.linalg.norm(right))
+    if not np.isfinite(width) or width < 1e-9:
+        raise ReachError(f"the shoulders of armature '{armature.name}' coincide (zero scale?); "
+                         "check the armature's scale and the arm bones")
+    right /= width
+    chest = heads[bmap.chest]
+    base = pose_heads(armature, [_spine_base(armature, bmap.chest, width)])
+    base = next(iter(base.values()))
+    top = heads[bmap.neck] if bmap.neck else 0.5 * (shoulder_r + shoulder_l)
+    up = top - base
+    up = up - (up @ right) * right
+    if np.linalg.norm(up) < 1e-6 * width:
+        raise ReachError(f"cannot tell which way is up on armature '{armature.name}': the "
+                         "neck is level with the chest; set the chest bone by hand")
+    up /= np.linalg.norm(up)
+    forward = np.cross(up, right)
+    mid = 0.5 * (shoulder_r + shoulder_l)
+    origin = chest + up * ((mid - chest) @ up)
+    half = float(np.linalg.norm((shoulder_r - origin) - ((shoulder_r - origin) @ up) * up))
+    return BodyFrame(origin, right, forward, up, half)
+
+
+def _skin_radius(armature, group_names, a, b, fallback):
+    """75th percentile distance from segment a-b (world) of the evaluated skin vertices
+    weighted ≥ 0.5 to ``group_names``; ``fallback`` if there is no such skin."""
+    dists = []
+    for ob in _scene_objects(armature):
+        if ob.type != "MESH" or not any(m.type == "ARMATURE" and m.object == armature
+                                         for m in ob.modifiers):
+            continue
+        idx = {vg.index for vg in ob.vertex_groups if vg.name in group_names}
+        if not idx:
+            continue
+        chosen = [v.index for v in ob.data.vertices
+                  if any(g.group in idx and g.weight >= 0.5 for g in v.groups)]
+        if not chosen:
+            continue
+        ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        mesh = ev.data
+        if len(mesh.vertices) != len(ob.data.vertices):
+            continue
+        co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", co)
+        mw = np.array(ev.matrix_world)
+        pts = co.reshape(-1, 3)[chosen] @ mw[:3, :3].T + mw[:3, 3]
+        ab = b - a
+        t = np.clip((pts - a) @ ab / max(ab @ ab, 1e-12), 0, 1)
+        dists.append(np.linalg.norm(pts - (a + t[:, None] * ab), axis=1))
+    if not dists:
+        return fallback
+    return float(np.percentile(np.concatenate(dists), 75))
+
+
+@dataclass
+class RigInfo:
+    """Everything Reach knows about one armature at one frame."""
+
+    armature_name: str
+    bones: BoneMap
+    frame: BodyFrame
+    arm: ArmModel
+    side: str
+    start: ArmConfig
+    joints_world: dict       # role -> world position at the start (shoulder, elbow, wrist)
+
+
+def hand_length(armature, hand_name, forearm_len):
+    """Wrist to the farthest fingertip (bone heads and tails below the hand, without helper
+    bones such as FBX "_end" leaves or Rigify tweaks), between 0.4 and 1.0 forearm; 0.74
+    forearm (Drillis & Contini) when the hand has no fingers."""
+    bone = armature.data.bones[hand_name]
+    kids = [b for b in bone.children_recursive if not set(tokens(b.name)) & _HELPER]
+    wrist = np.array(bone.head_local)
+    if not kids:
+        return 0.74 * forearm_len
+    scale = float(np.linalg.norm(np.array(armature.matrix_world)[:3, 0]))
+    reach = max(max(np.linalg.norm(np.array(b.head_local) - wrist),
+                    np.linalg.norm(np.array(b.tail_local) - wrist)) for b in kids) * scale
+    return float(np.clip(reach, 0.4 * forearm_len, 1.0 * forearm_len))
+
+
+def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
+    """Read ``armature`` at the current frame into the core's model of one arm.
+
+    ``side``: 'right', 'left' or 'auto' (the shoulder nearer ``target``, a world point).
+    The model is built from the pose at the current frame, so planning starts exactly
+    where the arm is; the chest rotation of the model is counted from the current pose.
+    """
+    _check_armature(armature)
+    bmap = detect_bones(armature, overrides)
+    frame = body_frame(armature, bmap)
+    if side == "auto":
+        if target is None:
+            side = "right"
+        else:
+            heads = pose_heads(armature, [bmap.arms[s].upper_arm for s in SIDES])
+            d = {s: np.linalg.norm(heads[bmap.arms[s].upper_arm] - np.asarray(target))
+                 for s in SIDES}
+            side = min(SIDES, key=lambda s: (d[s], s != "right"))
+    arm_bones = bmap.arms[side]
+    pos = pose_heads(armature, [arm_bones.clavicle, arm_bones.upper_arm, arm_bones.forearm,
+                                arm_bones.hand])
+    shoulder, elbow, wrist = pos[arm_bones.upper_arm], pos[arm_bones.forearm], pos[arm_bones.hand]
+    l1 = float(np.linalg.norm(elbow - shoulder))
+    l2 = float(np.linalg.norm(wrist - elbow))
+    if l1 < 1e-9 or l2 < 1e-9:
+        raise ReachError(f"the {side} arm of armature '{armature.name}' has a zero-length "
+                         "segment (shoulder, elbow and wrist must be different joints)")
+    to_world = frame.to_world(side)
+    inv = np.linalg.inv(to_world)
+
+    def canon(p):
+        return inv[:3, :3] @ p + inv[:3, 3]
+
+    half = frame.shoulder_half_width
+    lh = hand_length(armature, arm_bones.hand, l2)
+    sternum = canon(pos[arm_bones.clavicle]) if arm_bones.clavicle else \
+        np.array([0.0, 0.35 * half, canon(shoulder)[2]])
+    if np.linalg.norm(sternum - canon(shoulder)) < 0.05 * half:
+        sternum = np.array([0.0, 0.35 * half, canon(shoulder)[2]])
+    hand_dir = (wrist - elbow) / l2
+    radii = (
+        _skin_radius(armature, {arm_bones.upper_arm}, shoulder, elbow, 0.15 * l1),
+        _skin_radius(armature, {arm_bones.forearm}, elbow, wrist, 0.14 * l2),
+        _skin_radius(armature, {arm_bones.hand}, wrist, wrist + hand_dir * lh, 0.18 * lh),
+    )
+    radii = (float(np.clip(radii[0], 0.08 * l1, 0.3 * l1)), float(np.clip(radii[1], 0.08 * l2, 0.3 * l2)),
+             float(np.clip(radii[2], 0.1 * lh, 0.35 * lh)))
+    h = half
+    capsules = (
+        Capsule("chest", (0, 0, -1.6 * h), (0, 0, 0), 0.68 * h, True),
+        Capsule("pelvis", (0, 0, -3.4 * h), (0, 0, -1.6 * h), 0.74 * h, False),
+        Capsule("head", (0, 0.1 * h, 0.8 * h), (0, 0.1 * h, 1.6 * h), 0.53 * h, True),
+    )
+    arm = ArmModel(
+        sternum=sternum, shoulder=canon(shoulder), waist=np.array([0.0, 0.0, -2.4 * h]),
+        upper_arm_length=l1, forearm_length=l2, hand_length=lh,
+        upper_arm_radius=radii[0], forearm_radius=radii[1], hand_radius=radii[2],
+        to_world=to_world, body_capsules=capsules, side=side,
+        name=f"{armature.name} {side} arm")
+    start = config_from_joints(arm, canon(elbow), canon(wrist), 0.0)
+    return RigInfo(armature.name, bmap, frame, arm, side, start,
+                   {"shoulder": shoulder, "elbow": elbow, "wrist": wrist})
+
+
+def _check_armature(armature):
+    if armature is None:
+        raise ReachError("no armature chosen; pick the character's armature in the Reach panel")
+    if armature.type != "ARMATURE":
+        raise ReachError(f"'{armature.name}' is a {armature.type.lower()}, not an armature; "
+                         "pick the character's armature")
+    if armature.mode == "EDIT":
+        raise ReachError(f"armature '{armature.name}' is in Edit Mode; switch to Object or Pose "
+                         "Mode first")
+    m = np.array(armature.matrix_world)
+    if not np.isfinite(m).all():
+        raise ReachError(f"armature '{armature.name}' has a NaN or infinite transform; fix its "
+                         "location, rotation and scale")
+    if abs(np.linalg.det(m[:3, :3])) < 1e-12:
+        raise ReachError(f"armature '{armature.name}' has zero scale on some axis; give it a "
+                         "non-zero scale")

@@ -1,0 +1,162 @@
+"""Visual feedback in a "Reach" collection: the wrist trajectory as a red curve (as in the
+paper's figures), green target markers, and optionally the workspace's valid guiding nodes
+as orange wire cubes with the guiding nodes of the path as green spheres.
+
+Everything here is tagged with :data:`~reach_addon.blender.scene.VIZ_TAG` so it is never
+taken for an obstacle, and :func:`clear` removes it all (objects, their data, materials).
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from .scene import VIZ_TAG
+
+COLLECTION = "Reach"
+RED = (0.9, 0.02, 0.02, 1.0)
+GREEN = (0.1, 0.8, 0.1, 1.0)
+ORANGE = (1.0, 0.45, 0.0, 1.0)
+
+
+def collection(scene, create=True):
+    """The scene's "Reach" collection (created and linked under the scene if missing)."""
+    coll = next((c for c in scene.collection.children if c.get(VIZ_TAG) and c.name.startswith(COLLECTION)),
+                None)
+    if coll is None and create:
+        coll = bpy.data.collections.new(COLLECTION)
+        coll[VIZ_TAG] = True
+        scene.collection.children.link(coll)
+    return coll
+
+
+def _material(name, color):
+    mat = bpy.data.materials.get(name)
+    if mat is None:
+        mat = bpy.data.materials.new(name)
+        mat[VIZ_TAG] = True
+    mat.diffuse_color = color            # solid viewport and Workbench colour
+    if mat.node_tree is None:            # before 5.0 new materials have no node tree
+        mat.use_nodes = True
+    if mat.node_tree is not None:
+        bsdf = mat.node_tree.nodes.get("Principled BSDF")
+        if bsdf is not None:
+            bsdf.inputs["Base Color"].default_value = color
+    return mat
+
+
+def _link(scene, ob, color):
+    ob[VIZ_TAG] = True
+    ob.color = color                     # viewport colour in "Object" colour mode
+    ob.hide_select = True
+    collection(scene).objects.link(ob)
+    return ob
+
+
+def _replace(name):
+    old = bpy.data.objects.get(name)
+    if old is not None and old.get(VIZ_TAG):
+        data = old.data
+        bpy.data.objects.remove(old, do_unlink=True)
+        if data is not None and data.users == 0:
+            _remove_data(data)
+
+
+def _remove_data(data):
+    for coll in (bpy.data.curves, bpy.data.meshes):
+        if data.name in coll and coll[data.name] == data:
+            coll.remove(data)
+            return
+
+
+def trajectory(scene, points, name="Reach Trajectory", radius=0.006):
+    """A red poly curve through ``points`` (world, (n, 3)) with a thin bevel so it shows in
+    solid shading and in renders."""
+    _replace(name)
+    points = np.asarray(points, dtype=float)
+    curve = bpy.data.curves.new(name, "CURVE")
+    curve[VIZ_TAG] = True
+    curve.dimensions = "3D"
+    curve.bevel_depth = radius
+    curve.bevel_resolution = 2
+    spline = curve.splines.new("POLY")
+    spline.points.add(len(points) - 1)
+    co = np.hstack([points, np.ones((len(points), 1))])
+    spline.points.foreach_set("co", co.ravel())
+    curve.materials.append(_material("Reach Red", RED))
+    return _link(scene, bpy.data.objects.new(name, curve), RED)
+
+
+def _spheres_mesh(name, centres, radius, segments=12, rings=6):
+    """One mesh of small UV spheres (enough for markers; no bmesh needed)."""
+    theta = np.linspace(0, np.pi, rings + 1)[1:-1]
+    phi = np.linspace(0, 2 * np.pi, segments, endpoint=False)
+    ring = np.stack([np.outer(np.sin(theta), np.cos(phi)), np.outer(np.sin(theta), np.sin(phi)),
+                     np.outer(np.cos(theta), np.ones_like(phi))], -1).reshape(-1, 3)
+    unit = np.vstack([[0, 0, 1], ring, [0, 0, -1]])
+    faces = []
+    for j in range(segments):
+        k = (j + 1) % segments
+        faces.append((0, 1 + j, 1 + k))
+        for r in range(rings - 2):
+            a, b = 1 + r * segments, 1 + (r + 1) * segments
+            faces.append((a + j, b + j, b + k, a + k))
+        last = 1 + (rings - 2) * segments
+        faces.append((last + j, len(unit) - 1, last + k))
+    verts, all_faces = [], []
+    for c in np.atleast_2d(centres):
+        base = len(verts)
+        verts += (unit * radius + c).tolist()
+        all_faces += [tuple(base + i for i in f) for f in faces]
+    mesh = bpy.data.meshes.new(name)
+    mesh[VIZ_TAG] = True
+    mesh.from_pydata(verts, [], all_faces)
+    return mesh
+
+
+def markers(scene, points, name="Reach Targets", radius=0.025, color=GREEN):
+    """Green spheres at ``points`` (the paper's target markers)."""
+    _replace(name)
+    mesh = _spheres_mesh(name, points, radius)
+    mesh.materials.append(_material("Reach Green", color))
+    return _link(scene, bpy.data.objects.new(name, mesh), color)
+
+
+def wire_cubes(scene, centres, size, name="Reach Workspace"):
+    """Orange wire cubes (edges only) centred at ``centres`` with edge lengths ``size``
+    (3,), e.g. the workspace's valid guiding nodes."""
+    _replace(name)
+    corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+    edges = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7),
+             (0, 4), (1, 5), (2, 6), (3, 7)]
+    verts, all_edges = [], []
+    for c in np.atleast_2d(centres):
+        base = len(verts)
+        verts += (corners * size + c).tolist()
+        all_edges += [(base + a, base + b) for a, b in edges]
+    mesh = bpy.data.meshes.new(name)
+    mesh[VIZ_TAG] = True
+    mesh.from_pydata(verts, all_edges, [])
+    ob = bpy.data.objects.new(name, mesh)
+    ob.display_type = "WIRE"
+    mesh.materials.append(_material("Reach Orange", ORANGE))
+    return _link(scene, ob, ORANGE)
+
+
+def clear(scene) -> int:
+    """Remove the Reach collection and everything in it; returns the number of objects
+    removed. Materials Reach made are removed once nothing uses them."""
+    coll = collection(scene, create=False)
+    removed = 0
+    if coll is not None:
+        for ob in list(coll.all_objects):
+            data = ob.data
+            bpy.data.objects.remove(ob, do_unlink=True)
+            removed += 1
+            if data is not None and data.users == 0:
+                _remove_data(data)
+        bpy.data.collections.remove(coll)
+    for mat in list(bpy.data.materials):
+        if mat.get(VIZ_TAG) and mat.users == 0:
+            bpy.data.materials.remove(mat)
+    return removed
