@@ -8,7 +8,12 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: setup test demo lint clean
+VERSION := $(shell sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml)
+STAGE := build/reach_addon
+# Blender's own extension tool, shipped inside the bpy wheel.
+BLENDER_EXT = $(shell $(PY) -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core", "bl_pkg", "cli", "blender_ext.py"))' 2>/dev/null)
+
+.PHONY: setup test demo lint dist clean
 
 setup: $(STAMP)
 
@@ -24,6 +29,18 @@ test: setup
 
 demo: setup
 	$(PY) -m reach_addon demo
+
+# The extension zip: manifest + package + bundled presets staged into one folder, then
+# validated and built by Blender's own tool.
+dist: setup
+	rm -rf $(STAGE) && mkdir -p $(STAGE) dist
+	cp -r reach_addon/. $(STAGE)/
+	cp -r presets $(STAGE)/presets
+	cp blender_manifest.toml LICENSE $(STAGE)/
+	find $(STAGE) -name __pycache__ -prune -exec rm -rf {} +
+	$(PY) $(BLENDER_EXT) validate $(STAGE)
+	$(PY) $(BLENDER_EXT) build --source-dir $(STAGE) --output-filepath dist/reach_addon-$(VERSION).zip
+	@echo "built dist/reach_addon-$(VERSION).zip"
 
 lint: setup
 	$(VENV)/bin/ruff check reach_addon tests

@@ -17,3 +17,16 @@ bl_info = {
 }
 
 __version__ = ".".join(map(str, bl_info["version"]))
+
+
+def register():
+    """Called by Blender when the add-on is enabled."""
+    from . import ui
+
+    ui.register()
+
+
+def unregister():
+    from . import ui
+
+    ui.unregister()

@@ -1,0 +1,21 @@
+import bpy
+reach = bpy.context.scene.reach.settings
+
+# Normal adult ranges of motion (AAOS) and Table 1 body rotation: the defaults.
+
+reach.alpha_min = -60.0
+reach.alpha_max = 180.0
+reach.beta_min = -60.0
+reach.beta_max = 180.0
+reach.gamma_min = -90.0
+reach.gamma_max = 90.0
+reach.elbow_min = 0.0
+reach.elbow_max = 150.0
+reach.wrist_bend_max = 70.0
+reach.wrist_side_max = 25.0
+reach.elevation_max = 170.0
+reach.chest_rotation = True
+reach.chest_rotation_max = 45.0
+reach.table1_arm_length_m = 0.58
+reach.table1_fade_start_m = 0.5
+reach.chest_phase_delay = 0.25

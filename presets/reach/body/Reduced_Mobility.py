@@ -1,0 +1,22 @@
+import bpy
+reach = bpy.context.scene.reach.settings
+
+# An example of restricted shoulders and trunk (stiffness, older age):
+# about three quarters of the normal ranges; adjust to the person studied.
+
+reach.alpha_min = -60.0
+reach.alpha_max = 140.0
+reach.beta_min = -45.0
+reach.beta_max = 140.0
+reach.gamma_min = -60.0
+reach.gamma_max = 60.0
+reach.elbow_min = 0.0
+reach.elbow_max = 135.0
+reach.wrist_bend_max = 70.0
+reach.wrist_side_max = 25.0
+reach.elevation_max = 140.0
+reach.chest_rotation = True
+reach.chest_rotation_max = 30.0
+reach.table1_arm_length_m = 0.58
+reach.table1_fade_start_m = 0.5
+reach.chest_phase_delay = 0.25

@@ -1,0 +1,239 @@
+"""Operators: Plan (preview), Bake, Clear, Detect bones.
+
+Plan and Bake run the pipeline. In the UI they are modal: the plan advances on a timer in
+slices of about 30 ms, the panel shows progress, and Esc cancels with nothing baked. In
+background mode (``INVOKE_DEFAULT`` runs ``execute`` there) they run synchronously. Every
+:class:`~reach_addon.core.ReachError` becomes ``self.report({'ERROR'}, ...)``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+
+import bpy
+
+from ..blender import pipeline, rig, viz
+from ..core import ReachError
+from .properties import last_result, overrides_of, settings_from
+
+SLICE_S = 0.03
+
+
+def request_from(props) -> pipeline.Request:
+    """The pipeline request described by the scene's Reach properties."""
+    if props.task in {"SEQUENCE", "GUIDED"} and props.targets is not None:
+        targets = sorted(ob.name for ob in props.targets.all_objects)
+    elif props.target is not None:
+        targets = [props.target.name]
+    elif props.targets is not None:
+        targets = sorted(ob.name for ob in props.targets.all_objects)[:1]
+    else:
+        targets = []
+    over = {k[len("bone_"):]: v for k, v in overrides_of(props).items()}
+    return pipeline.Request(
+        armature=props.armature.name if props.armature else "",
+        targets=targets,
+        task=props.task.lower(),
+        side=props.arm.lower(),
+        obstacles=(props.obstacle_collection.name
+                   if props.obstacles == "COLLECTION" and props.obstacle_collection else None),
+        frame_start=None if props.use_current_frame else props.frame_start,
+        duration_s=None if props.auto_duration else props.duration,
+        settings=settings_from(props.settings),
+        overrides=over,
+        new_action=props.new_action,
+        bake_closest=props.bake_closest,
+        show_guides=props.show_guides,
+    )
+
+
+def _poll(cls, context):
+    props = getattr(context.scene, "reach", None)
+    if props is None:
+        return False
+    if props.running:
+        cls.poll_message_set("Reach is already running; press Esc to stop it")
+        return False
+    if props.armature is None:
+        cls.poll_message_set("Choose the character's armature in the Reach panel")
+        return False
+    if props.target is None and props.targets is None:
+        cls.poll_message_set("Choose a target object (or a collection of targets)")
+        return False
+    if context.mode == "EDIT_ARMATURE":
+        cls.poll_message_set("Leave Edit Mode first")
+        return False
+    return True
+
+
+class _Run:
+    """Shared body of Plan and Bake."""
+
+    bake = False
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return _poll(cls, context)
+
+    def execute(self, context):
+        props = context.scene.reach
+        try:
+            outcome = pipeline.run(context, request_from(props), bake=self.bake)
+        except ReachError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        return self._finish(context, outcome)
+
+    def invoke(self, context, event):
+        if bpy.app.background:
+            return self.execute(context)
+        props = context.scene.reach
+        try:
+            self._steps = pipeline.steps(context, request_from(props), bake=self.bake)
+            self._advance(context)          # validation errors surface here, synchronously
+        except ReachError as exc:
+            self._steps = None
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        except StopIteration as done:
+            return self._finish(context, done.value)
+        props.running = True
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _advance(self, context):
+        props = context.scene.reach
+        end = time.perf_counter() + SLICE_S
+        while time.perf_counter() < end:
+            fraction, message = next(self._steps)
+            props.progress, props.status = fraction, message
+
+    def modal(self, context, event):
+        props = context.scene.reach
+        if event.type == "ESC":
+            self._stop(context)
+            self._steps.close()
+            props.status = "cancelled"
+            self.report({"WARNING"}, "Reach cancelled: nothing was baked")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            self._advance(context)
+        except StopIteration as done:
+            self._stop(context)
+            return self._finish(context, done.value)
+        except ReachError as exc:
+            self._stop(context)
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        for area in context.screen.areas if context.screen else ():
+            if area.type == "VIEW_3D":
+                area.tag_redraw()
+        return {"RUNNING_MODAL"}
+
+    def _stop(self, context):
+        context.window_manager.event_timer_remove(self._timer)
+        context.scene.reach.running = False
+        context.scene.reach.progress = 0.0
+
+    def _finish(self, context, outcome):
+        props = context.scene.reach
+        props.last_result = json.dumps(outcome.summary())
+        props.status = ""
+        first = next((r for r in outcome.results if not r.success), None)
+        if first is None:
+            verb = "Baked" if outcome.baked else "Planned"
+            self.report({"INFO"}, f"{verb} {len(outcome.results)} reach(es) for "
+                                  f"{outcome.rig.armature_name} ({outcome.rig.side} arm)")
+        elif outcome.baked:
+            self.report({"WARNING"}, f"{first.message} (closest approach baked)"
+                        if self.bake and props.bake_closest else first.message)
+        else:
+            self.report({"WARNING"}, first.message)
+        return {"FINISHED"}
+
+
+class REACH_OT_plan(_Run, bpy.types.Operator):
+    """Plan the reach and draw its trajectory, without keys"""
+
+    bl_idname = "reach.plan"
+    bl_label = "Plan Reach"
+    bake = False
+
+
+class REACH_OT_bake(_Run, bpy.types.Operator):
+    """Plan the reach and bake it as keyframes from the start frame"""
+
+    bl_idname = "reach.bake"
+    bl_label = "Bake Reach"
+    bake = True
+
+
+class REACH_OT_clear(bpy.types.Operator):
+    """Remove Reach's trajectory, markers and guiding nodes (the "Reach" collection)"""
+
+    bl_idname = "reach.clear"
+    bl_label = "Clear Reach Display"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        removed = viz.clear(context.scene)
+        context.scene.reach.last_result = ""
+        self.report({"INFO"}, f"Removed {removed} Reach object(s)")
+        return {"FINISHED"}
+
+
+class REACH_OT_detect_bones(bpy.types.Operator):
+    """Fill the bone fields with the bones Reach finds in the armature"""
+
+    bl_idname = "reach.detect_bones"
+    bl_label = "Detect Bones"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        props = getattr(context.scene, "reach", None)
+        if props is None or props.armature is None:
+            cls.poll_message_set("Choose the character's armature in the Reach panel")
+            return False
+        return True
+
+    def execute(self, context):
+        props = context.scene.reach
+        try:
+            bmap = rig.detect_bones(props.armature)
+        except ReachError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        for key, name in bmap.to_dict().items():
+            setattr(props, f"bone_{key}", name or "")
+        props.use_overrides = True
+        self.report({"INFO"}, f"Bones of {props.armature.name}: " +
+                    ", ".join(f"{k}={v}" for k, v in bmap.to_dict().items() if v))
+        return {"FINISHED"}
+
+
+def result_lines(props) -> list:
+    """Lines the panel shows for the last result."""
+    res = last_result(props)
+    lines = []
+    for t in res.get("tasks", []):
+        st = t["stats"]
+        head = f"{t['target']}: " + ("reached" if t["success"] else t["reason"].replace("_", " "))
+        lines.append(head)
+        lines.append(f"  frames {t['frame_start']}–{t['frame_end']}, "
+                     f"search {st['search_time_s'] * 1000:.0f} ms")
+        lines.append(f"  nodes {st['nodes_searched']} searched, {st['nodes_in_solution']} in path")
+        lines.append(f"  path {st['path_length_arm_lengths']:.2f} arm lengths, "
+                     f"mean f_R {st['mean_f_r']:.2f}")
+        if not t["success"]:
+            lines.append("  " + t["message"])
+    return lines
+
+
+classes = (REACH_OT_plan, REACH_OT_bake, REACH_OT_clear, REACH_OT_detect_bones)

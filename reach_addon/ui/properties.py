@@ -1,0 +1,149 @@
+"""Blender properties: the planner settings (generated from
+:class:`~reach_addon.core.Settings`, so defaults, ranges and descriptions have one source)
+and the per-scene Reach inputs (armature, arm, targets, obstacles, task, bake options,
+bone overrides, last result)."""
+
+from __future__ import annotations
+
+import json
+
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
+                       StringProperty)
+
+from ..core import Settings
+from ..core.settings import fields
+
+ROLE_LABELS = {
+    "chest": "Chest",
+    "clavicle": "Clavicle",
+    "upper_arm": "Upper arm",
+    "forearm": "Forearm",
+    "hand": "Hand",
+}
+SIDES = ("right", "left")
+#: Names of the bone override properties: chest, then each arm role per side.
+OVERRIDES = ["bone_chest"] + [f"bone_{role}_{side}" for side in SIDES
+                              for role in ("clavicle", "upper_arm", "forearm", "hand")]
+
+
+def _settings_annotations():
+    out = {}
+    for f in fields():
+        meta = f.metadata
+        label = meta["label"] + (f" ({meta['unit']})" if meta["unit"] and meta["unit"] != "deg" else "")
+        kw = {"name": label, "description": meta["doc"], "default": f.default}
+        if "choices" in meta:
+            out[f.name] = EnumProperty(
+                items=[(c, c.capitalize(), meta["doc"]) for c in meta["choices"]], **kw)
+        elif isinstance(f.default, bool):
+            out[f.name] = BoolProperty(**kw)
+        elif isinstance(f.default, int):
+            out[f.name] = IntProperty(min=meta["min"], max=meta["max"], **kw)
+        else:
+            out[f.name] = FloatProperty(min=meta["min"], max=meta["max"],
+                                        precision=4 if f.default < 0.1 else 2, **kw)
+    return out
+
+
+REACH_PG_settings = type("REACH_PG_settings", (bpy.types.PropertyGroup,), {
+    "__annotations__": _settings_annotations(),
+    "__doc__": "Planner settings (see reach_addon.core.Settings)",
+})
+
+
+def settings_from(group) -> Settings:
+    """The core Settings of a REACH_PG_settings group."""
+    return Settings(**{f.name: getattr(group, f.name) for f in fields()})
+
+
+def settings_to(group, settings: Settings) -> None:
+    for f in fields():
+        setattr(group, f.name, getattr(settings, f.name))
+
+
+def _is_armature(_self, ob):
+    return ob.type == "ARMATURE"
+
+
+def _scene_annotations():
+    ann = {
+        "armature": PointerProperty(name="Armature", type=bpy.types.Object, poll=_is_armature,
+                                    description="The character to pose"),
+        "arm": EnumProperty(name="Arm", default="AUTO", items=[
+            ("AUTO", "Auto", "The arm nearer the (first) target"),
+            ("RIGHT", "Right", "The character's right arm"),
+            ("LEFT", "Left", "The character's left arm")]),
+        "task": EnumProperty(name="Task", default="REACH", items=[
+            ("REACH", "Reach", "Collision-free reach to the target (each target on its own)"),
+            ("SEQUENCE", "Sequence", "Several targets in order, each from where the last ended"),
+            ("GUIDED", "Guided", "Reach through the guiding nodes of the workspace grid"),
+            ("CHASE", "Chase", "Follow an animated target over its frame range")]),
+        "target": PointerProperty(name="Target", type=bpy.types.Object,
+                                  description="The object the wrist reaches for"),
+        "targets": PointerProperty(name="Targets", type=bpy.types.Collection,
+                                   description="Several targets, reached in order of their names"),
+        "obstacles": EnumProperty(name="Obstacles", default="VISIBLE", items=[
+            ("VISIBLE", "All visible", "Every visible object with geometry except the character"),
+            ("COLLECTION", "Collection", "Only the objects of one collection")]),
+        "obstacle_collection": PointerProperty(name="Obstacle collection", type=bpy.types.Collection),
+        "use_current_frame": BoolProperty(name="From current frame", default=True),
+        "frame_start": IntProperty(name="Start frame", default=1),
+        "auto_duration": BoolProperty(name="Automatic duration", default=True,
+                                      description="Duration from the path length"),
+        "duration": FloatProperty(name="Duration (s)", default=1.0, min=0.05, max=60.0,
+                                  description="Seconds per reach"),
+        "new_action": BoolProperty(name="Bake into a new action", default=False,
+                                   description="Copy the armature's action and bake into the copy"),
+        "bake_closest": BoolProperty(name="Bake closest approach", default=False,
+                                     description="When a target cannot be reached, bake the "
+                                                 "motion that gets closest to it"),
+        "show_guides": BoolProperty(name="Show guiding nodes", default=False,
+                                    description="Draw the workspace's valid guiding nodes as "
+                                                "orange wire cubes"),
+        "use_overrides": BoolProperty(name="Set bones by hand", default=False,
+                                      description="Use the bones named below instead of detecting them"),
+        "settings": PointerProperty(type=REACH_PG_settings),
+        "last_result": StringProperty(name="Last result", default="",
+                                      description="JSON summary of the last plan or bake"),
+        "progress": FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR"),
+        "running": BoolProperty(name="Running", default=False),
+        "status": StringProperty(name="Status", default=""),
+    }
+    for name in OVERRIDES:
+        parts = name.split("_")
+        label = "Chest" if name == "bone_chest" else \
+            f"{ROLE_LABELS['_'.join(parts[1:-1])]} ({parts[-1]})"
+        ann[name] = StringProperty(name=label, default="", description="Bone name (blank: detect)")
+    return ann
+
+
+REACH_PG_scene = type("REACH_PG_scene", (bpy.types.PropertyGroup,), {
+    "__annotations__": _scene_annotations(),
+    "__doc__": "Reach inputs and last result of a scene",
+})
+
+
+def overrides_of(props) -> dict:
+    """{property name: bone name} of the filled-in overrides (when enabled)."""
+    if not props.use_overrides:
+        return {}
+    return {name: getattr(props, name) for name in OVERRIDES if getattr(props, name)}
+
+
+def last_result(props) -> dict:
+    try:
+        return json.loads(props.last_result) if props.last_result else {}
+    except ValueError:
+        return {}
+
+
+classes = (REACH_PG_settings, REACH_PG_scene)
+
+
+def register_properties():
+    bpy.types.Scene.reach = PointerProperty(type=REACH_PG_scene)
+
+
+def unregister_properties():
+    del bpy.types.Scene.reach
