@@ -68,3 +68,20 @@ def arm_penetration(arm, world_joints, tris, include_hand=True):
             continue
         worst = min(worst, segment_clearance(world_joints[k], world_joints[k + 1], tris) - r)
     return worst
+
+
+def segment_crosses(p, q, tris) -> bool:
+    """Does the segment p-q pass through any of the triangles (T, 3, 3)? Möller–Trumbore."""
+    p, q, tris = np.asarray(p, float), np.asarray(q, float), np.asarray(tris, float)
+    d = q - p
+    e1, e2 = tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+    h = np.cross(d, e2)
+    a = np.einsum("ij,ij->i", e1, h)
+    ok = np.abs(a) > 1e-12
+    f = np.where(ok, 1.0 / np.where(ok, a, 1.0), 0.0)
+    s = p - tris[:, 0]
+    u = f * np.einsum("ij,ij->i", s, h)
+    qv = np.cross(s, e1)
+    v = f * (qv @ d)
+    t = f * np.einsum("ij,ij->i", e2, qv)
+    return bool((ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)).any())

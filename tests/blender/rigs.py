@@ -1,0 +1,146 @@
+"""Real rigs for the Blender tests, and scenes built around them.
+
+The three files in ``tests/data/rigs`` (see their licences) plus Rigify's human metarig and
+the rig Rigify generates from it. Every loader starts from an empty file and returns the
+armature object.
+"""
+
+from __future__ import annotations
+
+import functools
+import tempfile
+from pathlib import Path
+
+import addon_utils
+import bpy
+import numpy as np
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "rigs"
+RIGS = ("cesium", "quaternius", "gomakehuman", "metarig", "rigify")
+
+
+def empty_file():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    return bpy.context.scene
+
+
+def _only_armature():
+    arms = [o for o in bpy.context.scene.objects if o.type == "ARMATURE"]
+    assert len(arms) == 1, [o.name for o in arms]
+    return arms[0]
+
+
+def load(kind: str):
+    """Load one test rig into an empty file; returns its armature."""
+    empty_file()
+    if kind == "cesium":
+        bpy.ops.import_scene.gltf(filepath=str(DATA / "CesiumMan.glb"), disable_bone_shape=True)
+        return _only_armature()
+    if kind == "quaternius":
+        bpy.ops.import_scene.fbx(filepath=str(DATA / "Quaternius_Female_Casual.fbx"))
+        return _only_armature()
+    if kind == "gomakehuman":
+        _append(DATA / "GoMakeHuman_simple_IK_rig.blend")
+        return _only_armature()
+    if kind == "metarig":
+        addon_utils.enable("rigify", default_set=True)
+        bpy.ops.object.armature_human_metarig_add()
+        bpy.ops.object.mode_set(mode="OBJECT")
+        return bpy.context.object
+    if kind == "rigify":
+        _append(_generated_rig_file())
+        return bpy.data.objects["rig"]
+    raise ValueError(kind)
+
+
+def _append(path):
+    with bpy.data.libraries.load(str(path), link=False) as (src, dst):
+        dst.objects = list(src.objects)
+    for ob in dst.objects:
+        if ob is not None:
+            bpy.context.scene.collection.objects.link(ob)
+
+
+@functools.lru_cache(maxsize=1)
+def _generated_rig_file() -> Path:
+    """Generate Rigify's rig from the human metarig once per session; saved to a .blend
+    that each test appends (generation takes about 10 s)."""
+    empty_file()
+    addon_utils.enable("rigify", default_set=True)
+    bpy.ops.object.armature_human_metarig_add()
+    metarig = bpy.context.object
+    bpy.context.view_layer.objects.active = metarig
+    bpy.ops.pose.rigify_generate()
+    path = Path(tempfile.mkdtemp(prefix="reach-rigify-")) / "rigify.blend"
+    for ob in list(bpy.context.scene.objects):
+        if ob.name != "rig":
+            bpy.data.objects.remove(ob, do_unlink=True)
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    return path
+
+
+def rest_still(armature):
+    """Stop the clip an importer left playing (CesiumMan walks, Quaternius claps) so the
+    body holds still while the arm is baked: unassign the action and return every pose
+    bone to rest."""
+    from mathutils import Matrix
+
+    ad = armature.animation_data
+    if ad is not None and ad.action is not None:
+        ad.action = None
+    for pb in armature.pose.bones:
+        pb.matrix_basis = Matrix.Identity(4)
+    bpy.context.scene.frame_set(1)
+    bpy.context.view_layer.update()
+
+
+# --- scenes ---------------------------------------------------------------------------------
+
+def add_box(name, center, size, rotation=None):
+    """A closed box mesh object (world space): edge lengths ``size`` along the columns of
+    ``rotation`` (identity if None), centred at ``center``."""
+    from mathutils import Matrix
+
+    bpy.ops.mesh.primitive_cube_add(size=1.0)
+    ob = bpy.context.object
+    ob.name = name
+    m = np.eye(4)
+    m[:3, :3] = (np.eye(3) if rotation is None else np.asarray(rotation)) * np.asarray(size)[None, :]
+    m[:3, 3] = center
+    ob.matrix_world = Matrix(m.tolist())
+    bpy.context.view_layer.update()
+    return ob
+
+
+def add_target(name, location):
+    ob = bpy.data.objects.new(name, None)
+    ob.empty_display_type = "SPHERE"
+    ob.empty_display_size = 0.02
+    ob.location = tuple(location)
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def plate_scene(info, armature):
+    """A target in front of the reaching shoulder and a plate square across the straight
+    line from the start wrist to it, half way: the straight path is blocked whatever the
+    rig's rest pose, and the hand can go round the plate on any side. Sized in the rig's own
+    arm lengths and body axes."""
+    f = info.frame
+    length = info.arm.arm_length
+    side = f.right if info.side == "right" else -f.right
+    shoulder = info.joints_world["shoulder"]
+    wrist = info.joints_world["wrist"]
+    target = shoulder + f.forward * 0.7 * length + side * 0.15 * length + f.up * 0.05 * length
+    path = target - wrist
+    span = float(np.linalg.norm(path))
+    normal = path / span
+    across = np.cross(normal, f.up)
+    if np.linalg.norm(across) < 1e-6:
+        across = np.cross(normal, f.forward)
+    across /= np.linalg.norm(across)
+    third = np.cross(normal, across)
+    rot = np.column_stack([across, third, normal])
+    size = (0.36 * span, 0.36 * span, 0.05 * length)
+    plate = add_box("Plate", wrist + 0.5 * path, size, rot)
+    return add_target("Cup", target), plate

@@ -1,0 +1,182 @@
+"""Bad input: each case gets a clear message naming the object and the fix, and nothing in
+the file changes."""
+
+import addon_utils
+import bpy
+import numpy as np
+import pytest
+import rigs
+from test_bake import snapshot_keys
+
+
+def fingerprint():
+    """Everything a bake could touch: objects, transforms, poses, every action's keys,
+    collections, materials, the current frame. (Transforms are read after a depsgraph
+    update and compared as text, so NaN equals NaN.)"""
+    bpy.context.view_layer.update()
+    out = {"frame": bpy.context.scene.frame_current,
+           "collections": sorted((c.name, tuple(sorted(o.name for o in c.objects)))
+                                 for c in bpy.data.collections),
+           "materials": sorted(m.name for m in bpy.data.materials),
+           "actions": {}}
+    for ob in bpy.data.objects:
+        out[ob.name] = (ob.type, str(np.round(np.array(ob.matrix_world), 6).tolist()),
+                        ob.data.name if ob.data else None)
+        if ob.type == "ARMATURE" and ob.pose is not None:
+            out[ob.name + " pose"] = [np.round(np.array(pb.matrix_basis), 6).tolist()
+                                      for pb in ob.pose.bones]
+        if ob.animation_data and ob.animation_data.action:
+            out["actions"][ob.name] = (ob.animation_data.action.name, snapshot_keys(ob))
+    return out
+
+
+def expect_error(*needles, **props):
+    """Run Bake with ``props`` set and expect an error mentioning ``needles``; the file must
+    not change."""
+    scene = bpy.context.scene
+    for k, v in props.items():
+        setattr(scene.reach, k, v)
+    before = fingerprint()
+    with pytest.raises(RuntimeError) as err:
+        bpy.ops.reach.bake()
+    for needle in needles:
+        assert needle in str(err.value), str(err.value)
+    assert fingerprint() == before
+    return str(err.value)
+
+
+@pytest.fixture
+def metarig(fresh):
+    arm = rigs.load("metarig")
+    arm.pose.bones["spine.006"].keyframe_insert("rotation_quaternion", frame=3)
+    return arm
+
+
+def target_at(addon, arm, offset_arm_lengths=(0.0, 0.7, 0.0), name="Cup"):
+    """A target placed in the rig's own body axes, in arm lengths from the right shoulder."""
+    info = addon.blender.rig.build(arm, "right")
+    f, length = info.frame, info.arm.arm_length
+    x, y, z = offset_arm_lengths
+    p = info.joints_world["shoulder"] + length * (x * f.right + y * f.forward + z * f.up)
+    return rigs.add_target(name, p), info
+
+
+def test_no_armature(fresh):
+    target = rigs.add_target("Cup", (0, -0.5, 1.2))
+    expect_error("Choose the character's armature", target=target)
+
+
+def test_no_target(metarig):
+    expect_error("Choose a target", armature=metarig)
+
+
+def test_armature_without_arms(fresh):
+    data = bpy.data.armatures.new("Tail")
+    ob = bpy.data.objects.new("Tail", data)
+    bpy.context.scene.collection.objects.link(ob)
+    bpy.context.view_layer.objects.active = ob
+    bpy.ops.object.mode_set(mode="EDIT")
+    parent = None
+    for i in range(3):
+        b = data.edit_bones.new(f"Bone{i}")
+        b.head, b.tail = (0, 0, i * 0.3), (0, 0, (i + 1) * 0.3)
+        b.parent = parent
+        parent = b
+    bpy.ops.object.mode_set(mode="OBJECT")
+    target = rigs.add_target("Cup", (0, -0.5, 1.2))
+    expect_error("armature 'Tail'", "no recognisable", "set the", armature=ob, target=target)
+
+
+def test_target_is_the_armature(metarig):
+    expect_error("is the armature itself", armature=metarig, target=metarig)
+
+
+def test_target_inside_an_obstacle(addon, metarig):
+    target, info = target_at(addon, metarig, (0.1, 0.6, 0.0))
+    rigs.add_box("Cabinet", np.array(target.location), (0.3, 0.3, 0.3))
+    expect_error("inside or against obstacle 'Cabinet'", "Cup", "nothing was baked",
+                 armature=metarig, target=target)
+
+
+def test_target_out_of_reach_and_baking_the_closest_approach(addon, metarig):
+    target, info = target_at(addon, metarig, (0.0, 1.6, 0.0), name="Lamp")
+    expect_error("'Lamp' is out of reach", "Bake closest approach", armature=metarig,
+                 target=target)
+    bpy.context.scene.reach.bake_closest = True
+    assert bpy.ops.reach.bake() == {"FINISHED"}          # asked for: baked, and said so
+    keys = snapshot_keys(metarig)
+    assert ('pose.bones["upper_arm.R"].rotation_quaternion', 0) in keys
+
+
+def test_zero_scale_armature(addon, metarig):
+    target, _info = target_at(addon, metarig)
+    metarig.scale = (1.0, 0.0, 1.0)
+    bpy.context.view_layer.update()
+    expect_error("armature 'metarig'", "zero scale", armature=metarig, target=target)
+
+
+def test_nan_target(addon, metarig):
+    target, _info = target_at(addon, metarig)
+    target.location = (float("nan"), 0.0, 1.0)
+    bpy.context.view_layer.update()
+    expect_error("target 'Cup'", "NaN", armature=metarig, target=target)
+
+
+def test_obstacle_collection_without_faces(addon, metarig):
+    target, _info = target_at(addon, metarig)
+    coll = bpy.data.collections.new("Props")
+    bpy.context.scene.collection.children.link(coll)
+    mesh = bpy.data.meshes.new("Wire")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)], [])
+    coll.objects.link(bpy.data.objects.new("Wire", mesh))
+    expect_error("collection 'Props'", "no visible objects with faces", armature=metarig,
+                 target=target, obstacles="COLLECTION", obstacle_collection=coll)
+
+
+def test_armature_in_edit_mode(addon, metarig):
+    target, _info = target_at(addon, metarig)
+    bpy.context.view_layer.objects.active = metarig
+    bpy.ops.object.mode_set(mode="EDIT")
+    scene = bpy.context.scene
+    scene.reach.armature, scene.reach.target = metarig, target
+    with pytest.raises(RuntimeError, match="Edit Mode"):
+        bpy.ops.reach.bake()
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def _library(tmp_path):
+    """A library file holding the metarig with an action."""
+    rigs.load("metarig")
+    arm = bpy.data.objects["metarig"]
+    arm.pose.bones["upper_arm.R"].keyframe_insert("rotation_quaternion", frame=1)
+    path = tmp_path / "library.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    return path
+
+
+def test_linked_armature(fresh, tmp_path):
+    path = _library(tmp_path)
+    with bpy.data.libraries.load(str(path), link=True) as (src, dst):
+        dst.objects = ["metarig"]
+    arm = dst.objects[0]
+    bpy.context.scene.collection.objects.link(arm)
+    target = rigs.add_target("Cup", np.array(arm.matrix_world.translation) + [-0.3, -0.45, 1.3])
+    expect_error("armature 'metarig' is linked", "library override", armature=arm, target=target)
+
+
+def test_linked_action(addon, fresh, tmp_path):
+    path = _library(tmp_path)
+    with bpy.data.libraries.load(str(path), link=True) as (src, dst):
+        dst.actions = list(src.actions)
+    addon_utils.enable("rigify", default_set=True)
+    bpy.ops.object.armature_human_metarig_add()
+    arm = bpy.context.object
+    bpy.ops.object.mode_set(mode="OBJECT")
+    arm.animation_data_create().action = dst.actions[0]
+    bpy.context.view_layer.update()
+    target, _info = target_at(addon, arm)
+    expect_error("is linked from a library", "Bake into a new action", armature=arm, target=target)
+    bpy.context.scene.reach.new_action = True
+    assert bpy.ops.reach.bake() == {"FINISHED"}
+    assert arm.animation_data.action.library is None

@@ -1,0 +1,226 @@
+"""Plan and bake through the installed extension's operators, on real rigs, and check the
+result by evaluating the baked armature in Blender, independently of the planner."""
+
+import json
+
+import bpy
+import numpy as np
+import pytest
+import rigs
+from geometry import segment_clearance, segment_crosses
+
+# Where each rig's arm really is, named from the survey of the files (not from Reach's own
+# detection): the bones that move the skin, shoulder → elbow → wrist → hand.
+SKIN_CHAIN = {
+    "cesium": ("Skeleton_arm_joint_R", "Skeleton_arm_joint_R__2_", "Skeleton_arm_joint_R__3_"),
+    "quaternius": ("UpperArm.R", "LowerArm.R", "Palm.R"),
+    "gomakehuman": ("upper_arm.R", "forearm.R", "hand.R"),
+    "metarig": ("upper_arm.R", "forearm.R", "hand.R"),
+    "rigify": ("DEF-upper_arm.R", "DEF-forearm.R", "DEF-hand.R"),
+}
+
+
+def world_heads(armature, names):
+    mw = armature.matrix_world
+    return [np.array(mw @ armature.pose.bones[n].head) for n in names]
+
+
+def triangles(ob):
+    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = ev.data
+    mesh.calc_loop_triangles()
+    mw = np.array(ev.matrix_world)
+    co = np.array([v.co for v in mesh.vertices]) @ mw[:3, :3].T + mw[:3, 3]
+    return co[np.array([t.vertices for t in mesh.loop_triangles])]
+
+
+def snapshot_keys(armature):
+    """{(data path, index): [(frame, value, interpolation, handle type)]} of the armature's
+    action."""
+    ad = armature.animation_data
+    if ad is None or ad.action is None:
+        return {}
+    action = ad.action
+    if hasattr(action, "layers"):
+        curves = [fc for layer in action.layers for strip in layer.strips
+                  for bag in strip.channelbags for fc in bag.fcurves]
+    else:
+        curves = list(action.fcurves)
+    return {(fc.data_path, fc.array_index): [(k.co[0], round(k.co[1], 6), k.interpolation,
+                                              k.handle_left_type, k.type)
+                                             for k in fc.keyframe_points] for fc in curves}
+
+
+def set_up(kind, addon):
+    arm = rigs.load(kind)
+    rigs.rest_still(arm)
+    info = addon.blender.rig.build(arm, "right")
+    target, plate = rigs.plate_scene(info, arm)
+    props = bpy.context.scene.reach
+    props.armature, props.target, props.arm = arm, target, "RIGHT"
+    return arm, info, target, plate
+
+
+def result():
+    return json.loads(bpy.context.scene.reach.last_result)["tasks"]
+
+
+@pytest.mark.parametrize("kind", rigs.RIGS)
+def test_bake_reaches_round_an_obstacle_on_real_rigs(fresh, addon, kind):
+    arm, info, target, plate = set_up(kind, addon)
+    chain = SKIN_CHAIN[kind]
+    length = info.arm.arm_length
+    tris = triangles(plate)
+    start_wrist = world_heads(arm, chain)[2]
+    assert segment_crosses(start_wrist, np.array(target.location), tris), \
+        "the plate must block the straight path"
+
+    # the user's own animation: another bone, and the same bone far outside the bake
+    left = next(n for n in ("forearm.L", "LowerArm.L", "Skeleton_arm_joint_L__3_", "forearm_fk.L")
+                if n in arm.pose.bones)
+    arm.pose.bones[left].rotation_mode = "XYZ"
+    for f, angle in ((1, 0.1), (30, 0.4)):
+        arm.pose.bones[left].rotation_euler = (angle, 0, 0)
+        arm.pose.bones[left].keyframe_insert("rotation_euler", frame=f)
+    keyed_bone = info.bones.arms["right"].keyed("upper_arm")
+    arm.pose.bones[keyed_bone].keyframe_insert(
+        "rotation_quaternion" if arm.pose.bones[keyed_bone].rotation_mode == "QUATERNION"
+        else "rotation_euler", frame=400)
+    arm.pose.bones[left].rotation_euler = (0.1, 0, 0)
+    before = snapshot_keys(arm)
+
+    assert bpy.ops.reach.bake() == {"FINISHED"}
+    task = result()[0]
+    assert task["success"], task["message"]
+    f0, f1 = task["frame_start"], task["frame_end"]
+    assert f0 == 1 and f1 > f0 + 5
+
+    worst = np.inf
+    for f in range(f0, f1 + 1):
+        bpy.context.scene.frame_set(f)
+        shoulder, elbow, wrist = world_heads(arm, chain)
+        worst = min(worst, segment_clearance(shoulder, elbow, tris),
+                    segment_clearance(elbow, wrist, tris))
+    assert np.linalg.norm(wrist - np.array(target.location)) <= 0.005 * length
+    assert worst > 0.3 * info.arm.forearm_radius, "an arm bone passes through the plate"
+
+    after = snapshot_keys(arm)
+    for key, keys in before.items():
+        if key[0].startswith(f'pose.bones["{keyed_bone}"]'):
+            kept = [k for k in after[key] if k[0] > f1 + 0.5 or k[0] < f0 - 0.5]
+            assert kept == [k for k in keys if k[0] > f1 + 0.5 or k[0] < f0 - 0.5]
+        else:
+            assert after[key] == keys, f"{key} changed"
+    baked = [k for k in after if k[0].startswith(f'pose.bones["{keyed_bone}"]')]
+    assert baked and all(len([p for p in after[k] if f0 <= p[0] <= f1]) == f1 - f0 + 1 for k in baked)
+    if kind == "rigify":
+        assert arm.pose.bones["upper_arm_parent.R"]["IK_FK"] == pytest.approx(1.0)
+
+
+def test_quaternions_do_not_flip_and_other_rotation_modes_are_respected(fresh, addon):
+    arm = rigs.load("metarig")
+    arm.pose.bones["forearm.R"].rotation_mode = "XZY"
+    arm.pose.bones["hand.R"].rotation_mode = "AXIS_ANGLE"
+    info = addon.blender.rig.build(arm, "right")
+    target, _plate = rigs.plate_scene(info, arm)
+    props = bpy.context.scene.reach
+    props.armature, props.target = arm, target
+    assert bpy.ops.reach.bake() == {"FINISHED"}
+    keys = snapshot_keys(arm)
+    assert ('pose.bones["forearm.R"].rotation_euler', 2) in keys
+    assert ('pose.bones["hand.R"].rotation_axis_angle', 0) in keys
+    quat = np.array([[k[1] for k in keys[('pose.bones["upper_arm.R"].rotation_quaternion', i)]]
+                     for i in range(4)]).T
+    assert (np.einsum("ij,ij->i", quat[1:], quat[:-1]) > 0.9).all()
+    task = result()[0]
+    bpy.context.scene.frame_set(task["frame_end"])
+    wrist = world_heads(arm, SKIN_CHAIN["metarig"])[2]
+    assert np.linalg.norm(wrist - np.array(target.location)) <= 0.005 * info.arm.arm_length
+
+
+def test_one_undo_step_undoes_the_whole_bake(fresh, addon):
+    arm, info, target, _plate = set_up("metarig", addon)
+    arm.pose.bones["upper_arm.R"].keyframe_insert("rotation_quaternion", frame=1)
+    before = snapshot_keys(arm)
+    name = arm.name
+    bpy.ops.ed.undo_push(message="before bake")
+    # EXEC_DEFAULT with undo=True is how Blender's UI calls an operator: it pushes its step.
+    # Python references do not survive undo steps: look objects up by name afterwards.
+    assert bpy.ops.reach.bake("EXEC_DEFAULT", True) == {"FINISHED"}
+    assert snapshot_keys(bpy.data.objects[name]) != before
+    bpy.ops.ed.undo()
+    restored = bpy.data.objects[name]
+    assert snapshot_keys(restored) == before
+    assert bpy.data.collections.get("Reach") is None
+
+
+def test_bake_into_a_new_action_keeps_the_original(fresh, addon):
+    arm, info, target, _plate = set_up("gomakehuman", addon)
+    arm.pose.bones["head"].keyframe_insert("rotation_quaternion", frame=5)
+    original = arm.animation_data.action
+    before = snapshot_keys(arm)
+    bpy.context.scene.reach.new_action = True
+    assert bpy.ops.reach.bake() == {"FINISHED"}
+    new = arm.animation_data.action
+    assert new != original and original.use_fake_user
+    arm.animation_data.action = original
+    assert snapshot_keys(arm) == before
+    arm.animation_data.action = new
+    assert ('pose.bones["head"].rotation_quaternion', 0) in snapshot_keys(arm)
+    assert ('pose.bones["forearm.R"].rotation_quaternion', 0) in snapshot_keys(arm)
+
+
+def test_plan_previews_without_keys_and_clear_removes_the_display(fresh, addon):
+    arm, info, target, _plate = set_up("quaternius", addon)
+    bpy.context.scene.reach.show_guides = True
+    assert bpy.ops.reach.plan() == {"FINISHED"}
+    assert snapshot_keys(arm) == {}
+    coll = bpy.data.collections["Reach"]
+    names = {ob.name for ob in coll.objects}
+    assert {"Reach Trajectory", "Reach Targets", "Reach Workspace"} <= names
+    curve = bpy.data.objects["Reach Trajectory"]
+    task = result()[0]
+    assert len(curve.data.splines[0].points) == task["frame_end"] - task["frame_start"] + 1
+    end = np.array(curve.data.splines[0].points[-1].co)[:3]
+    assert np.linalg.norm(end - np.array(target.location)) <= 0.005 * info.arm.arm_length
+    assert tuple(curve.data.materials[0].diffuse_color)[:3] == pytest.approx((0.9, 0.02, 0.02))
+    assert bpy.ops.reach.clear() == {"FINISHED"}
+    assert bpy.data.collections.get("Reach") is None
+    assert not any(ob.name.startswith("Reach ") for ob in bpy.data.objects)
+
+
+def test_sequence_from_a_collection_of_targets(fresh, addon):
+    arm = rigs.load("metarig")
+    info = addon.blender.rig.build(arm, "right")
+    f, length = info.frame, info.arm.arm_length
+    shoulder = info.joints_world["shoulder"]
+    coll = bpy.data.collections.new("Targets")
+    bpy.context.scene.collection.children.link(coll)
+    points = [shoulder + f.forward * 0.7 * length,
+              shoulder + f.right * 0.75 * length + f.forward * 0.2 * length]
+    for name, p in zip(("A first", "B second"), points):
+        ob = rigs.add_target(name, p)
+        bpy.context.scene.collection.objects.unlink(ob)
+        coll.objects.link(ob)
+    props = bpy.context.scene.reach
+    props.armature, props.task, props.targets = arm, "SEQUENCE", coll
+    assert bpy.ops.reach.bake() == {"FINISHED"}
+    tasks = result()
+    assert [t["target"] for t in tasks] == ["A first", "B second"]
+    assert tasks[0]["frame_end"] == tasks[1]["frame_start"]
+    for t, p in zip(tasks, points):
+        bpy.context.scene.frame_set(t["frame_end"])
+        wrist = world_heads(arm, SKIN_CHAIN["metarig"])[2]
+        assert np.linalg.norm(wrist - p) <= 0.005 * length
+
+
+def test_auto_arm_takes_the_nearer_arm(fresh, addon):
+    arm = rigs.load("gomakehuman")
+    info = addon.blender.rig.build(arm, "left")
+    f, length = info.frame, info.arm.arm_length
+    target = rigs.add_target("Bell", info.joints_world["shoulder"] + 0.7 * length * f.forward
+                             - 0.2 * length * f.right)
+    props = bpy.context.scene.reach
+    props.armature, props.target, props.arm = arm, target, "AUTO"
+    assert bpy.ops.reach.plan() == {"FINISHED"}
+    assert result()[0]["arm"] == "left" and result()[0]["success"]
