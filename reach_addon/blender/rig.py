@@ -179,22 +179,40 @@ def _lca(a, b):
     return next((x for x in chain if x.name in names), None)
 
 
+def _reach(bone) -> float:
+    """Total bone length of a subtree (its size, in the rig's units)."""
+    return bone.length + sum(b.length for b in bone.children_recursive)
+
+
+def _dominant_child(bone):
+    """The child that carries the limb on, or None at a fork into comparable branches
+    (fingers, or the arms and neck at a chest): the biggest subtree if it is at least twice
+    the size of the next. Helper bones (twist, roll, ik, …) step aside first."""
+    kids = [c for c in bone.children if not set(tokens(c.name)) & _HELPER] or list(bone.children)
+    kids = sorted(kids, key=_reach, reverse=True)
+    if not kids:
+        return None
+    if len(kids) == 1 or _reach(kids[0]) >= 2.0 * _reach(kids[1]):
+        return kids[0]
+    return None
+
+
 def _main_chain(start, max_len=12):
     """The bones below ``start`` along the arm: at each step the child that looks like an
-    arm bone, else the child with most descendants; stops at a fork into fingers."""
+    arm bone, else the child that dominates the rest (a twist leaf beside the limb does
+    not); stops at a fork into comparable branches (the fingers)."""
     chain = [start]
     bone = start
     while bone.children and len(chain) < max_len:
-        kids = list(bone.children)
-        named = [c for c in kids if any(role_score(c.name, r) for r in ("forearm", "hand"))
+        named = [c for c in bone.children if any(role_score(c.name, r) for r in ("forearm", "hand"))
                  and not set(tokens(c.name)) & _NOT_ARM]
         if named:
             bone = max(named, key=lambda c: (max(role_score(c.name, r) for r in ("forearm", "hand")),
                                              -len(c.children_recursive)))
-        elif len(kids) == 1:
-            bone = kids[0]
         else:
-            break  # a fork into fingers (or something else): the hand ends here
+            bone = _dominant_child(bone)
+            if bone is None:
+                break
         chain.append(bone)
     return chain
 
@@ -349,10 +367,16 @@ def _detect_generic(armature) -> BoneMap:
 
 
 def _chain_end(bone):
-    """The last bone of the main chain below ``bone`` (following the biggest subtree)."""
-    while bone.children:
-        bone = max(bone.children, key=lambda c: (len(c.children_recursive), c.length))
-    return bone
+    """The last bone of the limb that starts at ``bone``, or None if the subtree forks into
+    comparable branches before its end-fork (then it is not a limb: a spine carries arms
+    and a neck)."""
+    chain = _main_chain(bone, max_len=64)
+    end = chain[-1]
+    total = _reach(bone)
+    # Past the limb's own end only small branches (fingers, toes) may remain.
+    if end.children and max(_reach(c) for c in end.children) > 0.2 * total:
+        return None
+    return end
 
 
 def _arms_by_topology(armature, skin):
@@ -366,6 +390,8 @@ def _arms_by_topology(armature, skin):
         for i, c1 in enumerate(kids):
             for c2 in kids[i + 1:]:
                 e1, e2 = _chain_end(c1), _chain_end(c2)
+                if e1 is None or e2 is None:
+                    continue
                 gap = np.linalg.norm(np.array(e1.head_local) - np.array(e2.head_local))
                 if best is None or gap > best[0]:
                     best = (gap, b, c1, c2)
@@ -383,6 +409,8 @@ def _arms_by_topology(armature, skin):
     forward = np.zeros(3)
     for leg in legs:
         foot = _chain_end(leg)
+        if foot is None:
+            continue
         d = np.array(foot.tail_local) - np.array(foot.head_local)
         forward += d - (d @ up) * up
     if np.linalg.norm(forward) < 1e-9:

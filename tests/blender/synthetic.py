@@ -1,0 +1,375 @@
+"""Synthetic humanoid armatures for the rig-adapter tests.
+
+:func:`humanoid` builds, in the current scene, the skeleton of a standard 1.75 m adult in an
+A-pose, under any bone names. The construction, in metres, before ``scale``/``facing``/``lying``:
+
+- the character faces −Y, its right is −X, up is +Z (Blender's usual front view);
+- hips at z 0.95, chest 1.25–1.45, neck 1.45, head 1.58–1.75, spine straight up the z axis;
+- clavicle from the sternum (±0.02, −0.03, 1.40) to the shoulder (±0.18, 0, 1.42) or, when
+  the map has a ``shoulder`` bone (MakeHuman), a short clavicle to the side of the neck
+  (±0.05, −0.02, 1.42) and the ``shoulder`` bone from there to the shoulder joint;
+- upper arm 0.29 long hanging 40° below horizontal in the frontal plane, forearm 0.25 long
+  bent 30° forward (toward −Y) at the elbow, hand 0.09 long straight on from the forearm;
+- legs from (±0.09, 0, 0.93) to the knee at z 0.50 and the ankle at z 0.08; the foot and toe
+  point forward (−Y) along the floor.
+
+``names`` maps roles to bone names. Roles: ``root`` (optional bone at the floor above the
+hips), ``hips``, ``spine`` (a name or a tuple of names, bottom up), ``chest``, ``neck``,
+``head`` and, per side (suffix ``_R``/``_L``), ``clavicle``, ``shoulder`` (optional extra
+bone between clavicle and upper arm, MakeHuman's ``shoulder01``), ``upper_arm``,
+``upper_arm_2`` (optional: the upper arm split in two segments in a row), ``forearm``,
+``forearm_2`` (same for the forearm), ``hand``, ``upper_arm_twist``/``forearm_twist``
+(twist bones, children of the upper arm/forearm beside the next arm bone; built only with
+``twist=True``), ``thigh``, ``shin``, ``foot``, ``toe``. :data:`MAPS` holds ready maps.
+
+Options:
+
+- ``scale``: the armature object's scale; bones are built 1/scale longer, so the world size
+  does not change.
+- ``facing="+Y"``: the armature object is turned 180° about Z (the character faces +Y and
+  its right is +X).
+- ``lying=True``: the rest pose itself lies on its back: every bone is built rotated −90°
+  about X, (x, y, z) → (x, z, −y), with the object unrotated. In world space (facing −Y) the
+  body's up is +Y, its front (forward) +Z and its right −X.
+- ``skin``: a mesh of one small box around each skeleton bone, parented to the armature with
+  an Armature modifier and one vertex group per bone (weight 1).
+- ``decoy``: a second arm chain lying exactly on each deform arm (upper arm to hand, both
+  sides), parented where the upper arm is, no deform, no vertex groups:
+
+  ``"ik"``       named like an IK chain: ``upper_arm_ik.R``, ``forearm_ik.R``, ``hand_ik.R``;
+  ``"twin"``     named as well as the real chain: the real names prefixed with ``A_`` (so the
+                 decoy also sorts first by name; only the skin tells the chains apart);
+  ``"driver"``   a control chain ``c_upper_arm.R``, ``c_forearm.R``, ``c_hand.R`` that drives
+                 the deform bones through Copy Transforms constraints (influence 1).
+- ``clavicle=False``: no clavicle (nor ``shoulder``) bones; the upper arms hang off the chest.
+- ``twist=True``: add the twist bones (names from the map, else ``<upper arm>_twist`` and
+  ``<forearm>_twist``); they deform like the arm bones.
+"""
+
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+from mathutils import Matrix, Vector
+
+SIDES = {"R": -1.0, "L": 1.0}   # the character's right is −X
+ARM_LENGTHS = (0.29, 0.25)      # upper arm, forearm
+HAND_LENGTH = 0.09
+ARM_DROP_DEG = 40.0
+ELBOW_BEND_DEG = 30.0
+SHOULDER_Z = 1.42
+SHOULDER_HALF_WIDTH = 0.18
+
+_TORSO = {"hips": (0.95, 1.05), "chest": (1.25, 1.45), "neck": (1.45, 1.58), "head": (1.58, 1.75)}
+
+
+# --- name maps --------------------------------------------------------------------------------
+
+def _sided(per_side) -> dict:
+    """{role_R: name, role_L: name} from ``per_side(tag)`` for tag in R, L."""
+    out = {}
+    for tag in SIDES:
+        out.update({f"{role}_{tag}": name for role, name in per_side(tag).items()})
+    return out
+
+
+def _mixamo(t):
+    s = {"R": "Right", "L": "Left"}[t]
+    return {"clavicle": f"mixamorig:{s}Shoulder", "upper_arm": f"mixamorig:{s}Arm",
+            "forearm": f"mixamorig:{s}ForeArm", "hand": f"mixamorig:{s}Hand",
+            "thigh": f"mixamorig:{s}UpLeg", "shin": f"mixamorig:{s}Leg", "foot": f"mixamorig:{s}Foot",
+            "toe": f"mixamorig:{s}ToeBase"}
+
+
+def _vrm(t):
+    return {"clavicle": f"J_Bip_{t}_Shoulder", "upper_arm": f"J_Bip_{t}_UpperArm",
+            "forearm": f"J_Bip_{t}_LowerArm", "hand": f"J_Bip_{t}_Hand", "thigh": f"J_Bip_{t}_UpperLeg",
+            "shin": f"J_Bip_{t}_LowerLeg", "foot": f"J_Bip_{t}_Foot", "toe": f"J_Bip_{t}_ToeBase"}
+
+
+def _unity(t):
+    s = {"R": "Right", "L": "Left"}[t]
+    return {"clavicle": f"{s}Shoulder", "upper_arm": f"{s}UpperArm", "forearm": f"{s}LowerArm",
+            "hand": f"{s}Hand", "thigh": f"{s}UpperLeg", "shin": f"{s}LowerLeg", "foot": f"{s}Foot",
+            "toe": f"{s}Toes"}
+
+
+def _spaced(t):
+    s = {"R": "Right", "L": "Left"}[t]
+    return {"clavicle": f"{s} shoulder", "upper_arm": f"{s} arm", "forearm": f"{s} elbow",
+            "hand": f"{s} wrist", "thigh": f"{s} leg", "shin": f"{s} knee", "foot": f"{s} ankle",
+            "toe": f"{s} toe"}
+
+
+def _makehuman(t):
+    return {"clavicle": f"clavicle.{t}", "shoulder": f"shoulder01.{t}", "upper_arm": f"upperarm01.{t}",
+            "upper_arm_2": f"upperarm02.{t}", "forearm": f"lowerarm01.{t}",
+            "forearm_2": f"lowerarm02.{t}", "hand": f"wrist.{t}", "thigh": f"upperleg01.{t}",
+            "shin": f"lowerleg01.{t}", "foot": f"foot.{t}", "toe": f"toe1-1.{t}"}
+
+
+def _unreal(t):
+    t = t.lower()
+    return {"clavicle": f"clavicle_{t}", "upper_arm": f"upperarm_{t}", "forearm": f"lowerarm_{t}",
+            "hand": f"hand_{t}", "upper_arm_twist": f"upperarm_twist_01_{t}",
+            "forearm_twist": f"lowerarm_twist_01_{t}", "thigh": f"thigh_{t}", "shin": f"calf_{t}",
+            "foot": f"foot_{t}", "toe": f"ball_{t}"}
+
+
+MIXAMO = {"hips": "mixamorig:Hips", "spine": ("mixamorig:Spine", "mixamorig:Spine1"),
+          "chest": "mixamorig:Spine2", "neck": "mixamorig:Neck", "head": "mixamorig:Head",
+          **_sided(_mixamo)}
+VRM = {"hips": "J_Bip_C_Hips", "spine": ("J_Bip_C_Spine", "J_Bip_C_Chest"), "chest": "J_Bip_C_UpperChest",
+       "neck": "J_Bip_C_Neck", "head": "J_Bip_C_Head", **_sided(_vrm)}
+UNITY = {"hips": "Hips", "spine": ("Spine", "Chest"), "chest": "UpperChest", "neck": "Neck",
+         "head": "Head", **_sided(_unity)}
+SPACED = {"hips": "Hips", "spine": "Spine", "chest": "Chest", "neck": "Neck", "head": "Head",
+          **_sided(_spaced)}
+MAKEHUMAN = {"root": "root", "hips": "spine05", "spine": ("spine04", "spine03", "spine02"),
+             "chest": "spine01", "neck": "neck01", "head": "head", **_sided(_makehuman)}
+UNREAL = {"root": "root", "hips": "pelvis", "spine": ("spine_01", "spine_02"), "chest": "spine_03",
+          "neck": "neck_01", "head": "head", **_sided(_unreal)}
+# Mixed conventions: "_R" suffixes on the right, ".l" and "Left_" on the left.
+PLAIN = {"hips": "Pelvis", "spine": "Spine", "chest": "Chest", "neck": "Neck", "head": "Head",
+         "clavicle_R": "Clavicle_R", "upper_arm_R": "UpperArm_R", "forearm_R": "ForeArm_R",
+         "hand_R": "Hand_R", "thigh_R": "Thigh_R", "shin_R": "Shin_R", "foot_R": "Foot_R",
+         "toe_R": "Toe_R",
+         "clavicle_L": "clavicle.l", "upper_arm_L": "upperarm.l", "forearm_L": "Left_Forearm",
+         "hand_L": "Left_Hand", "thigh_L": "thigh.l", "shin_L": "Left_Shin", "foot_L": "foot.l",
+         "toe_L": "Left_Toe"}
+
+# Blender's default names, numbered in the order bones are usually extruded (spine up, then
+# the left limbs before the right ones): nothing says which bone is what or which side.
+_NUMBERED_ORDER = ("hips", "spine", "chest", "neck", "head",
+                   "clavicle_L", "upper_arm_L", "forearm_L", "hand_L",
+                   "clavicle_R", "upper_arm_R", "forearm_R", "hand_R",
+                   "thigh_L", "shin_L", "foot_L", "toe_L", "thigh_R", "shin_R", "foot_R", "toe_R")
+NUMBERED = {role: "Bone" if i == 0 else f"Bone.{i:03d}" for i, role in enumerate(_NUMBERED_ORDER)}
+
+MAPS = {"mixamo": MIXAMO, "vrm": VRM, "unity": UNITY, "spaced": SPACED, "makehuman": MAKEHUMAN,
+        "unreal": UNREAL, "plain": PLAIN, "numbered": NUMBERED}
+
+DECOY_NAMES = {
+    "ik": {"upper_arm": "upper_arm_ik.{t}", "forearm": "forearm_ik.{t}", "hand": "hand_ik.{t}"},
+    "driver": {"upper_arm": "c_upper_arm.{t}", "forearm": "c_forearm.{t}", "hand": "c_hand.{t}"},
+}
+
+
+def decoy_name(names: dict, decoy: str, role: str, tag: str) -> str:
+    """Name of the decoy bone lying on arm bone ``role`` of side ``tag`` (R/L)."""
+    if decoy == "twin":
+        return "A_" + names[f"{role}_{tag}"]
+    return DECOY_NAMES[decoy][role].format(t=tag)
+
+
+# --- geometry ---------------------------------------------------------------------------------
+
+def _unit(v):
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def arm_joints(tag: str) -> dict:
+    """Sternum, shoulder, elbow, wrist and hand tip of side ``tag`` (R/L), standing, metres."""
+    s = SIDES[tag]
+    shoulder = np.array([s * SHOULDER_HALF_WIDTH, 0.0, SHOULDER_Z])
+    drop = math.radians(ARM_DROP_DEG)
+    d1 = np.array([s * math.cos(drop), 0.0, -math.sin(drop)])
+    bend = math.radians(ELBOW_BEND_DEG)
+    d2 = _unit(math.cos(bend) * d1 + math.sin(bend) * np.array([0.0, -1.0, 0.0]))
+    elbow = shoulder + ARM_LENGTHS[0] * d1
+    wrist = elbow + ARM_LENGTHS[1] * d2
+    return {"sternum": np.array([s * 0.02, -0.03, 1.40]), "clavicle_end": np.array([s * 0.05, -0.02, 1.42]),
+            "shoulder": shoulder, "elbow": elbow, "wrist": wrist,
+            "hand_tip": wrist + HAND_LENGTH * d2}
+
+
+def _segments(names: dict, *, clavicle: bool, twist: bool) -> list:
+    """(role key, head, tail, parent role key) for every skeleton bone, parents first."""
+    segs = []
+    if "root" in names:
+        segs.append(("root", (0, 0, 0), (0, 0.2, 0), None))
+    h0, h1 = _TORSO["hips"]
+    segs.append(("hips", (0, 0, h0), (0, 0, h1), "root" if "root" in names else None))
+    spine = names.get("spine", ())
+    spine = (spine,) if isinstance(spine, str) else tuple(spine)
+    c0 = _TORSO["chest"][0]
+    parent, z = "hips", h1
+    for i in range(len(spine)):
+        z1 = h1 + (c0 - h1) * (i + 1) / len(spine)
+        key = "spine" if len(spine) == 1 else f"spine#{i}"
+        segs.append((key, (0, 0, z), (0, 0, z1), parent))
+        parent, z = key, z1
+    segs.append(("chest", (0, 0, _TORSO["chest"][0]), (0, 0, _TORSO["chest"][1]), parent))
+    segs.append(("neck", (0, 0, _TORSO["neck"][0]), (0, 0, _TORSO["neck"][1]), "chest"))
+    segs.append(("head", (0, 0, _TORSO["head"][0]), (0, 0, _TORSO["head"][1]), "neck"))
+    for tag, s in SIDES.items():
+        j = arm_joints(tag)
+        parent = "chest"
+        if clavicle and f"clavicle_{tag}" in names:
+            if f"shoulder_{tag}" in names:
+                segs.append((f"clavicle_{tag}", j["sternum"], j["clavicle_end"], parent))
+                segs.append((f"shoulder_{tag}", j["clavicle_end"], j["shoulder"], f"clavicle_{tag}"))
+                parent = f"shoulder_{tag}"
+            else:
+                segs.append((f"clavicle_{tag}", j["sternum"], j["shoulder"], parent))
+                parent = f"clavicle_{tag}"
+        for role, a, b in (("upper_arm", "shoulder", "elbow"), ("forearm", "elbow", "wrist")):
+            head, tail = j[a], j[b]
+            mid = 0.5 * (head + tail)
+            if f"{role}_2_{tag}" in names:
+                segs.append((f"{role}_{tag}", head, mid, parent))
+                segs.append((f"{role}_2_{tag}", mid, tail, f"{role}_{tag}"))
+                parent = f"{role}_2_{tag}"
+            else:
+                segs.append((f"{role}_{tag}", head, tail, parent))
+                parent = f"{role}_{tag}"
+            if twist:
+                segs.append((f"{role}_twist_{tag}", mid, head + 0.75 * (tail - head), f"{role}_{tag}"))
+        segs.append((f"hand_{tag}", j["wrist"], j["hand_tip"], parent))
+        x = s * 0.09
+        segs.append((f"thigh_{tag}", (x, 0, 0.93), (x, -0.01, 0.50), "hips"))
+        segs.append((f"shin_{tag}", (x, -0.01, 0.50), (x, 0.02, 0.08), f"thigh_{tag}"))
+        segs.append((f"foot_{tag}", (x, 0.02, 0.08), (x, -0.12, 0.02), f"shin_{tag}"))
+        segs.append((f"toe_{tag}", (x, -0.12, 0.02), (x, -0.18, 0.02), f"foot_{tag}"))
+    return segs
+
+
+def _bone_name(names: dict, key: str) -> str:
+    if key.startswith("spine#"):
+        return names["spine"][int(key[6:])]
+    if key in names:
+        return names[key]
+    role, _, tag = key.rpartition("_")          # twist bones missing from the map
+    base = role[: -len("_twist")]
+    return f"{names[f'{base}_{tag}']}_twist"
+
+
+def lie(p) -> np.ndarray:
+    """The ``lying`` rest-pose rotation, −90° about X: (x, y, z) → (x, z, −y)."""
+    x, y, z = np.asarray(p, dtype=float)
+    return np.array([x, z, -y])
+
+
+def object_rotation(facing: str) -> np.ndarray:
+    if facing == "-Y":
+        return np.eye(3)
+    if facing == "+Y":
+        return np.diag([-1.0, -1.0, 1.0])
+    raise ValueError(f"facing must be '-Y' or '+Y', not {facing!r}")
+
+
+def to_world(p, *, facing="-Y", lying=False) -> np.ndarray:
+    """Where construction point ``p`` (standing, facing −Y, metres) ends up in world space."""
+    q = lie(p) if lying else np.asarray(p, dtype=float)
+    return object_rotation(facing) @ q
+
+
+# --- building ---------------------------------------------------------------------------------
+
+def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, decoy=None,
+             clavicle=True, twist=False, name="Humanoid"):
+    """Build the humanoid (see the module docstring) in the current scene; returns the
+    armature object, active and in Object Mode."""
+    if decoy not in (None, "ik", "twin", "driver"):
+        raise ValueError(f"unknown decoy {decoy!r}")
+    rot = object_rotation(facing)
+    segs = _segments(names, clavicle=clavicle, twist=twist)
+    bone_of = {key: _bone_name(names, key) for key, *_ in segs}
+
+    def local(p):   # construction metres → armature space
+        return Vector(((lie(p) if lying else np.asarray(p, dtype=float)) / scale).tolist())
+
+    data = bpy.data.armatures.new(name)
+    arm = bpy.data.objects.new(name, data)
+    bpy.context.scene.collection.objects.link(arm)
+    m = np.eye(4)
+    m[:3, :3] = rot * scale
+    arm.matrix_world = Matrix(m.tolist())
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(False)
+    arm.select_set(True)
+    bpy.context.view_layer.objects.active = arm
+
+    bpy.ops.object.mode_set(mode="EDIT")
+    ebones = data.edit_bones
+    for key, head, tail, parent in segs:
+        eb = ebones.new(bone_of[key])
+        eb.head, eb.tail = local(head), local(tail)
+        eb.use_deform = True
+        if parent is not None:
+            eb.parent = ebones[bone_of[parent]]
+    decoys = {}
+    if decoy is not None:
+        for tag in SIDES:
+            parent = ebones[bone_of[f"upper_arm_{tag}"]].parent
+            for role in ("upper_arm", "forearm", "hand"):
+                src = ebones[bone_of[f"{role}_{tag}"]]
+                tail = src.tail
+                if f"{role}_2_{tag}" in bone_of:
+                    tail = ebones[bone_of[f"{role}_2_{tag}"]].tail
+                eb = ebones.new(decoy_name(names, decoy, role, tag))
+                eb.head, eb.tail, eb.roll = src.head, tail, src.roll
+                eb.use_deform = False
+                eb.parent = parent
+                parent = eb
+                decoys[src.name] = eb.name
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+    if decoy == "driver":
+        for deform, control in decoys.items():
+            c = arm.pose.bones[deform].constraints.new("COPY_TRANSFORMS")
+            c.target, c.subtarget, c.influence = arm, control, 1.0
+    if skin:
+        _add_skin(arm, [(bone_of[key], local(h), local(t)) for key, h, t, _p in segs], 0.04 / scale)
+    bpy.context.view_layer.objects.active = arm
+    bpy.context.view_layer.update()
+    return arm
+
+
+def _add_skin(arm, bones, radius):
+    """One box per bone (armature space), an Armature modifier and a vertex group per bone."""
+    verts, faces, groups = [], [], []
+    quads = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
+    for name, head, tail in bones:
+        axis = (tail - head).normalized()
+        side = axis.orthogonal().normalized()
+        third = axis.cross(side)
+        start = len(verts)
+        for end in (head, tail):
+            for a in (-radius, radius):
+                for b in (-radius, radius):
+                    verts.append(tuple(end + side * a + third * b))
+        faces += [tuple(start + i for i in q) for q in quads]
+        groups.append((name, list(range(start, start + 8))))
+    mesh = bpy.data.meshes.new(f"{arm.name}_skin")
+    mesh.from_pydata(verts, [], faces)
+    ob = bpy.data.objects.new(f"{arm.name}_skin", mesh)
+    bpy.context.scene.collection.objects.link(ob)
+    ob.parent = arm
+    ob.matrix_parent_inverse = Matrix.Identity(4)
+    for name, idx in groups:
+        ob.vertex_groups.new(name=name).add(idx, 1.0, "REPLACE")
+    mod = ob.modifiers.new("Armature", "ARMATURE")
+    mod.object = arm
+    return ob
+
+
+def bone_chain(names, *, name="Chain"):
+    """An armature of one vertical chain of bones (0.3 long each, parent to child) named
+    ``names``, in the current scene; returns it, active and in Object Mode."""
+    data = bpy.data.armatures.new(name)
+    arm = bpy.data.objects.new(name, data)
+    bpy.context.scene.collection.objects.link(arm)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    parent = None
+    for i, bone in enumerate(names):
+        eb = data.edit_bones.new(bone)
+        eb.head, eb.tail = (0, 0, 1.0 + 0.3 * i), (0, 0, 1.3 + 0.3 * i)
+        eb.parent = parent
+        parent = eb
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return arm
