@@ -42,6 +42,7 @@ class Request:
     new_action: bool = False
     bake_closest: bool = False
     show_guides: bool = False
+    draw: bool = True                    # trajectory, markers (off for batch studies)
 
 
 @dataclass
@@ -70,6 +71,7 @@ class Outcome:
     results: list                        # TaskResult per target, in order
     baked: bool = False
     action: str | None = None
+    failure: str | None = None           # why nothing was baked, when baking was asked for
 
     @property
     def success(self) -> bool:
@@ -206,17 +208,22 @@ def steps(context, request: Request, bake: bool = True):
 
         outcome = Outcome(request, info, plans, [])
         keyed = []
+        draw = request.draw
         if bake:
             baked = [(p, f) for p, f in plans if p.success or request.bake_closest]
-            if not baked:
+            if baked:
+                yield 0.92, "baking keys"
+                result = bake_mod.bake(context, armature, info, baked, request.new_action)
+                outcome.baked, outcome.action, keyed = True, result.action, result.bones
+            else:
+                # Nothing the user asked for can be baked: leave the scene as it was.
                 failed = next(p for p, _f in plans if not p.success)
-                raise ReachError(f"{failed.message}; nothing was baked (turn on 'Bake closest "
-                                 "approach' to bake the motion that gets closest)")
-            yield 0.92, "baking keys"
-            result = bake_mod.bake(context, armature, info, baked, request.new_action)
-            outcome.baked, outcome.action, keyed = True, result.action, result.bones
+                outcome.failure = (f"{failed.message}; nothing was baked (turn on 'Bake "
+                                   "closest approach' to bake the motion that gets closest)")
+                draw = False
         outcome.results = _results(info, plans, keyed, request)
-        _draw(scene, info, plans, planner, request)
+        if draw:
+            _draw(scene, info, plans, planner, request)
         yield 1.0, "done"
         return outcome
     finally:

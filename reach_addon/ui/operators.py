@@ -143,6 +143,9 @@ class _Run:
 
     def _finish(self, context, outcome):
         props = context.scene.reach
+        if outcome.failure:
+            self.report({"ERROR"}, outcome.failure)
+            return {"CANCELLED"}
         props.last_result = json.dumps(outcome.summary())
         props.status = ""
         first = next((r for r in outcome.results if not r.success), None)
