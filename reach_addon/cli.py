@@ -1,46 +1,284 @@
-"""The ``reach`` command line.
+"""The ``reach`` command line: one parser for every host.
 
-``python -m reach_addon <command>`` (with the bpy wheel). Bad input is one line on stderr
-and exit status 2.
+* ``python -m reach_addon <command> ...`` with the bpy wheel;
+* ``blender --background --command reach <command> ...`` on Blender 4.2+ (registered with
+  ``bpy.utils.register_cli_command`` when the add-on is enabled);
+* on Blender ≤ 4.1, with Reach installed as a legacy add-on::
+
+      blender --background --python-expr \
+        "import sys, reach_addon.cli as c; sys.exit(c.main(sys.argv[sys.argv.index('--') + 1:]))" \
+        -- bake scene.blend --armature rig --target Cup --output out.blend
+
+Commands: ``bake`` (one .blend), ``batch`` (a study of many tasks, local processes or a
+Dask cluster), ``demo`` (the paper's four tasks). Exit status: 0 every task reached its
+target; 1 some did not (their reasons are in the report; the others are still baked and
+saved); 2 bad input, with one line on stderr naming what is wrong and no output written.
+Planner settings are flags too (``--step 0.03``, ``--no-chest-rotation``, ...), applied
+after ``--preset``.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import sys
+import tempfile
+import time
+from pathlib import Path
+
+from .core import ReachError, Settings
+from .core.settings import fields
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
 
-def _require_blender():
-    """mathutils (BVH trees) comes with Blender: import bpy, or say how to get it."""
-    try:
-        import bpy  # noqa: F401
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise SystemExit(
-            "reach: Blender's Python module is missing; install it with "
-            "'pip install bpy==5.0.1' (Python 3.11) or run inside Blender") from exc
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports bad usage as a :class:`ReachError` (exit status 2 with one
+    line), not by exiting the host process — Blender runs the command in-process."""
+
+    def error(self, message):
+        raise ReachError(message)
+
+
+def _add_settings_flags(parser):
+    group = parser.add_argument_group("planner settings (defaults in parentheses)")
+    for f in fields():
+        flag = "--" + f.name.replace("_", "-")
+        meta = dict(f.metadata, doc=f.metadata["doc"].replace("%", "%%"))
+        if isinstance(f.default, bool):
+            group.add_argument(flag, dest=f"set_{f.name}", action=argparse.BooleanOptionalAction,
+                               default=None, help=f"{meta['doc']} ({f.default})")
+        else:
+            kind = type(f.default)
+            group.add_argument(flag, dest=f"set_{f.name}", type=kind, default=None,
+                               choices=meta.get("choices"), metavar=meta["unit"].upper() or None,
+                               help=f"{meta['doc']} ({f.default})")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="reach", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    demo = sub.add_parser("demo", help="plan the paper's four tasks and print Table 2")
-    demo.set_defaults(func=_cmd_demo)
+    parser = _Parser(prog="reach", description=__doc__.splitlines()[0],
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    bake = sub.add_parser("bake", help="plan and bake reaches in one .blend file")
+    bake.add_argument("scene", help="the .blend file to read")
+    bake.add_argument("--armature", required=True, help="the character's armature object")
+    bake.add_argument("--target", required=True, action="append", dest="targets",
+                      help="object to reach for (repeat for several)")
+    bake.add_argument("--task", default="reach", choices=("reach", "sequence", "guided", "chase"),
+                      help="reach: each target on its own, baked one after another; sequence: "
+                           "in order; guided: through guiding nodes; chase: follow the "
+                           "target's animation")
+    bake.add_argument("--arm", default="auto", choices=("left", "right", "auto"))
+    bake.add_argument("--obstacles", metavar="COLLECTION",
+                      help="only this collection's objects are obstacles (default: all visible)")
+    bake.add_argument("--frame-start", type=int, help="first frame (default: the file's current frame)")
+    bake.add_argument("--duration", type=float, metavar="SECONDS",
+                      help="seconds per reach (default: from the path length)")
+    bake.add_argument("--preset", action="append", default=[], metavar="NAME",
+                      help="a strength, body or rig-map preset by name (repeatable)")
+    bake.add_argument("--bone", action="append", default=[], metavar="ROLE=BONE",
+                      help="set a bone by hand, e.g. upper_arm_right=Arm.R or chest=Spine2")
+    bake.add_argument("--new-action", action="store_true", help="bake into a copy of the action")
+    bake.add_argument("--bake-closest", action="store_true",
+                      help="bake the closest approach when a target cannot be reached")
+    bake.add_argument("--output", help="where to save the result (required unless --in-place)")
+    bake.add_argument("--in-place", action="store_true", help="save over the input file")
+    bake.add_argument("--report", help="write a JSON report here")
+    bake.add_argument("--render", metavar="DIR",
+                      help="render a still of the last frame and an MP4 of the motion here")
+    _add_settings_flags(bake)
+    bake.set_defaults(func=cmd_bake)
+
+    batch = sub.add_parser("batch", help="run a study of many tasks (see reach_addon.batch)")
+    batch.add_argument("study", help="the study's TOML file")
+    batch.add_argument("--workers", type=int, default=None,
+                       help="local worker processes (default: the number of cores)")
+    batch.add_argument("--dask", metavar="tcp://HOST:PORT",
+                       help="run the tasks on an existing Dask distributed cluster instead")
+    batch.add_argument("--output", help="results folder (default: the study's, else next to it)")
+    batch.set_defaults(func=cmd_batch)
+
+    demo = sub.add_parser("demo", help="the paper's four tasks, with Table 2 beside the paper's")
+    demo.add_argument("--output", default="out", help="folder for demo.blend, renders, report")
+    demo.add_argument("--core", action="store_true", help="plan with the core alone (no scene)")
+    demo.add_argument("--no-render", action="store_true", help="skip the renders")
+    demo.set_defaults(func=cmd_demo)
     return parser
 
 
-def _cmd_demo(args) -> int:
-    from .demo import core_demo
+def settings_from_args(args, base: Settings) -> Settings:
+    changes = {f.name: getattr(args, f"set_{f.name}") for f in fields()
+               if getattr(args, f"set_{f.name}", None) is not None}
+    return base.replace(**changes) if changes else base
 
-    return core_demo(sys.stdout)
+
+def _bones(pairs):
+    out = {}
+    for pair in pairs:
+        role, sep, name = pair.partition("=")
+        if not sep or not name:
+            raise ReachError(f"--bone takes ROLE=BONE (e.g. upper_arm_right=Arm.R), got '{pair}'")
+        out[role.strip()] = name.strip()
+    return out
+
+
+def _write_atomic(path: Path, text: str):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
+def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
+    """The JSON report (schema in the README)."""
+    import bpy
+
+    from . import __version__
+
+    tasks = []
+    for r in outcome.results:
+        st = r.stats
+        tasks.append({
+            "target": r.target, "arm": r.arm, "success": r.success, "reason": r.reason,
+            "message": r.message, "frame_start": r.frame_start, "frame_end": r.frame_end,
+            "bones_keyed": r.bones_keyed,
+            **{k: st[k] for k in ("search_time_s", "preprocess_time_s", "nodes_searched",
+                                  "nodes_in_solution", "path_length_arm_lengths")},
+            "mean_f_r": st["mean_f_r"], "strength_categories": st["strength_categories"],
+            "min_clearance_arm_lengths": st["min_clearance_arm_lengths"],
+            "frames": st["frames"], "planning_time_s": st["planning_time_s"],
+        })
+    return {
+        "reach_version": __version__, "blender_version": bpy.app.version_string,
+        "scene": str(scene_path), "output": None if output is None else str(output),
+        "armature": outcome.rig.armature_name, "arm": outcome.rig.side,
+        "baked": outcome.baked, "action": outcome.action,
+        "settings": settings.to_dict(), "tasks": tasks,
+    }
+
+
+def ensure_registered() -> bool:
+    """Register Reach's Blender classes unless Blender already has them (an enabled
+    add-on or extension); True when this call registered them (the caller unregisters)."""
+    import bpy
+
+    if hasattr(bpy.types.Scene, "reach"):
+        return False
+    from . import register
+
+    register()
+    return True
+
+
+def cmd_bake(args) -> int:
+    import bpy
+
+    scene_path = Path(args.scene)
+    if not scene_path.is_file():
+        raise ReachError(f"scene file '{scene_path}' not found")
+    if args.in_place and args.output:
+        raise ReachError("give either --output or --in-place, not both")
+    if not args.in_place and not args.output:
+        raise ReachError("--output is required (or --in-place to save over the input)")
+    output = scene_path if args.in_place else Path(args.output)
+    if not args.in_place and output.resolve() == scene_path.resolve():
+        raise ReachError("--output is the input file; use --in-place to save over it")
+    bones = _bones(args.bone)
+
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(scene_path), load_ui=False)
+    except RuntimeError as exc:
+        raise ReachError(f"cannot open '{scene_path}' as a .blend file: "
+                         f"{str(exc).strip().splitlines()[-1]}") from None
+    registered = ensure_registered()
+    try:
+        return _bake_open_file(args, scene_path, output, bones)
+    finally:
+        if registered:
+            from . import unregister
+
+            unregister()
+
+
+def _bake_open_file(args, scene_path, output, bones) -> int:
+    import bpy
+
+    from .blender import pipeline
+    from .ui import presets
+    from .ui.properties import overrides_of, settings_from
+
+    props = bpy.context.scene.reach
+    for name in args.preset:
+        presets.apply_named(name)
+    settings = settings_from_args(args, settings_from(props.settings))
+    overrides = {k[len("bone_"):]: v for k, v in overrides_of(props).items()}
+    overrides.update(bones)
+    request = pipeline.Request(
+        armature=args.armature, targets=list(args.targets), task=args.task, side=args.arm,
+        obstacles=args.obstacles, frame_start=args.frame_start, duration_s=args.duration,
+        settings=settings, overrides=overrides, new_action=args.new_action,
+        bake_closest=args.bake_closest)
+
+    t0 = time.perf_counter()
+    outcome = pipeline.run(bpy.context, request, bake=True)
+    n = len(outcome.results)
+    for i, r in enumerate(outcome.results, 1):
+        st = r.stats
+        state = "reached" if r.success else f"FAILED ({r.reason})"
+        print(f"[{i}/{n}] {r.target}: {state}; frames {r.frame_start}-{r.frame_end}; "
+              f"{st['nodes_searched']} nodes, {st['search_time_s'] * 1000:.0f} ms search"
+              + ("" if r.success else f"; {r.message}"), flush=True)
+
+    bpy.ops.wm.save_as_mainfile(filepath=str(output.resolve()), copy=not args.in_place)
+    report = report_dict(outcome, settings, scene_path, output)
+    report["total_time_s"] = time.perf_counter() - t0
+    if args.render:
+        from .blender.render import render_outcome
+
+        report["renders"] = render_outcome(bpy.context, outcome, Path(args.render))
+    if args.report:
+        _write_atomic(Path(args.report), json.dumps(report, indent=2))
+    print(f"saved {output}" + (f", report {args.report}" if args.report else ""), flush=True)
+    return EXIT_OK if outcome.success else EXIT_FAILED
+
+
+def cmd_batch(args) -> int:
+    from .batch import run_study
+
+    return run_study(Path(args.study), workers=args.workers, dask=args.dask,
+                     output=Path(args.output) if args.output else None)
+
+
+def cmd_demo(args) -> int:
+    from . import demo
+
+    if args.core:
+        return demo.core_demo(sys.stdout)
+    return demo.scene_demo(Path(args.output), render=not args.no_render)
 
 
 def main(argv=None) -> int:
-    _require_blender()
-    from .core import ReachError
-
-    args = build_parser().parse_args(argv)
+    """Run one command; returns the exit status (never raises for bad input)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:
+        import bpy  # noqa: F401  (mathutils and the BVH come with it)
+    except ImportError:
+        print("reach: Blender's Python module is missing; install it with "
+              "'pip install bpy==5.0.1' (Python 3.11) or run inside Blender", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        args = build_parser().parse_args(argv)
         return args.func(args)
+    except SystemExit as exc:  # --help, --version: argparse is done, the host keeps running
+        return exc.code if isinstance(exc.code, int) else EXIT_OK
     except ReachError as exc:
         print(f"reach: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_BAD_INPUT
+
+
+def blender_command(argv) -> int:
+    """``blender -c reach ...``: the callback given to ``bpy.utils.register_cli_command``."""
+    return main(list(argv))

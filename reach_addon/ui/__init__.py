@@ -1,11 +1,13 @@
 """Blender UI: properties, operators, presets and the sidebar panel, registered through
-one explicit ``classes`` tuple (in registration order: property groups first)."""
+one explicit ``classes`` tuple (in registration order: property groups first), plus the
+``blender --command reach`` command line on Blender 4.2+."""
 
 import bpy
 
 from . import operators, panels, presets, properties
 
 classes = properties.classes + operators.classes + presets.classes + panels.classes
+_cli = []
 
 
 def register():
@@ -13,9 +15,15 @@ def register():
         bpy.utils.register_class(cls)
     properties.register_properties()
     presets.register_paths()
+    if hasattr(bpy.utils, "register_cli_command"):
+        from ..cli import blender_command
+
+        _cli.append(bpy.utils.register_cli_command("reach", blender_command))
 
 
 def unregister():
+    while _cli:
+        bpy.utils.unregister_cli_command(_cli.pop())
     presets.unregister_paths()
     properties.unregister_properties()
     for cls in reversed(classes):

@@ -24,6 +24,11 @@ KINDS = {
 }
 
 
+# Blender < 4.2 has no preset-path registry (``bpy.utils.register_preset_path``): there the
+# bundled folder is added to the search here, for the lookup and for the menus.
+_HAS_REGISTRY = hasattr(bpy.utils, "register_preset_path")
+
+
 def subdir(kind: str) -> str:
     return f"reach/{kind}"
 
@@ -41,10 +46,27 @@ def preset_root() -> Path | None:
 def preset_files(kind: str) -> dict:
     """{preset name: path} of every preset of ``kind`` Blender can see (bundled and user)."""
     out = {}
-    for folder in bpy.utils.preset_paths(subdir(kind)):
+    for folder in preset_dirs(subdir(kind)):
         for path in sorted(Path(folder).glob("*.py")):
             out[bpy.path.display_name(path.stem)] = path
     return out
+
+
+def preset_dirs(sub: str) -> list:
+    """Blender's preset folders for ``sub`` (e.g. ``reach/strength``), plus the bundled one
+    on Blender < 4.2."""
+    dirs = bpy.utils.preset_paths(sub)
+    root = preset_root()
+    if not _HAS_REGISTRY and root is not None and (root / "presets" / sub).is_dir():
+        dirs.append(str(root / "presets" / sub))
+    return dirs
+
+
+def _draw_legacy(self, _context):
+    """``Menu.draw_preset`` over :func:`preset_dirs` (Blender < 4.2)."""
+    self.path_menu(preset_dirs(self.preset_subdir), self.preset_operator,
+                   filter_ext=lambda ext: ext.lower() == ".py",
+                   display_name=lambda name: bpy.path.display_name(name, title_case=False))
 
 
 def apply(kind: str, name: str) -> None:
@@ -65,7 +87,7 @@ def _classes():
             "bl_label": f"{kind.capitalize()} Presets",
             "preset_subdir": subdir(kind),
             "preset_operator": "script.execute_preset",
-            "draw": bpy.types.Menu.draw_preset,
+            "draw": bpy.types.Menu.draw_preset if _HAS_REGISTRY else _draw_legacy,
         })
         add = type(f"REACH_OT_{kind}_preset_add", (AddPresetBase, bpy.types.Operator), {
             "bl_idname": f"reach.{kind}_preset_add",
@@ -85,11 +107,24 @@ classes = _classes()
 
 def register_paths():
     root = preset_root()
-    if root is not None:
+    if root is not None and _HAS_REGISTRY:
         bpy.utils.register_preset_path(str(root))
 
 
 def unregister_paths():
     root = preset_root()
-    if root is not None:
+    if root is not None and _HAS_REGISTRY:
         bpy.utils.unregister_preset_path(str(root))
+
+
+def apply_named(name: str) -> str:
+    """Apply the preset called ``name`` of whichever kind has one; returns the kind."""
+    for kind in KINDS:
+        files = preset_files(kind)
+        if name in files or any(p.stem == name for p in files.values()):
+            apply(kind, name)
+            return kind
+    from ..core import ReachError
+
+    known = sorted(n for k in KINDS for n in preset_files(k))
+    raise ReachError(f"no preset called '{name}'; known: {', '.join(known)}")

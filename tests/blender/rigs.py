@@ -144,3 +144,21 @@ def plate_scene(info, armature):
     size = (0.36 * span, 0.36 * span, 0.05 * length)
     plate = add_box("Plate", wrist + 0.5 * path, size, rot)
     return add_target("Cup", target), plate
+
+
+def save_cli_scene(kind: str, rig_module, path: Path) -> dict:
+    """A file for the command line: rig ``kind`` at rest, the plate scene's target "Cup"
+    behind a plate, a free target "Jar" high in front of the chest
+    and one, "Inside", in the middle of the plate, saved at ``path``. Returns
+    the names and the arm length."""
+    arm = load(kind)
+    rest_still(arm)
+    info = rig_module.build(arm, "right")
+    cup, plate = plate_scene(info, arm)
+    f, length = info.frame, info.arm.arm_length
+    jar = add_target("Jar", info.joints_world["shoulder"] + length * (
+        0.5 * f.forward - 0.15 * f.right + 0.35 * f.up))
+    inside = add_target("Inside", np.array(plate.matrix_world.translation))
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    return {"armature": arm.name, "targets": [cup.name, jar.name], "inside": inside.name,
+            "arm_length": info.arm.arm_length}
