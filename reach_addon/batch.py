@@ -1,0 +1,559 @@
+"""Batch studies: many reach tasks over scenes, armatures and targets, on local worker
+processes or on a Dask distributed cluster, with one result file per task.
+
+A study is a TOML file (paths relative to it)::
+
+    name = "shelf-envelope"
+    output = "results"            # folder for the results (default: <study>-results)
+    task = "reach"                # reach | guided
+    arm = "right"                 # right | left | auto
+    presets = ["Weak"]            # strength / body / rig-map presets, by name
+    settings = { step = 0.02 }    # planner settings (reach_addon.core.settings), every task
+
+    [[variants]]                  # optional; each task runs once per variant
+    name = "with-body"
+    [[variants]]
+    name = "no-body"
+    settings = { chest_rotation = false }
+
+    [[scenes]]
+    file = "workplace.blend"
+    armature = "metarig"          # or armatures = ["a", "b"]
+    obstacles = "Furniture"       # optional: one collection (default: all visible objects)
+    targets = ["Cup", "Jar"]      # objects, listed one by one ...
+    [scenes.grid]                 # ... and/or a grid of target points over a region
+    frame = "shoulder"            # "shoulder": arm lengths from the reaching shoulder along
+                                  # (forward, outward, up) of the character; "world": scene units
+    min = [0.2, -0.4, -0.4]
+    max = [1.0, 0.6, 0.6]
+    count = [5, 6, 6]
+
+Tasks are scenes × armatures × (targets + grid points) × variants. Each is planned, not baked
+(``reach bake`` bakes): the pipeline of the add-on runs with drawing and keying off, and the
+result records success and reason, the Table 2 statistics, the final pose's strength
+category f_R and angles, and the body rotation used — a reach-envelope study reads which
+points are reachable, at what strength, with and without body rotation.
+
+Execution. Blender's Python module must run on a process's main thread, so every task runs
+in a *Reach worker process*: a persistent child (``python -c ...`` with the bpy wheel, or
+``blender -b --python-expr ...`` under the Blender binary) that reads one task per line on
+stdin and answers with one JSON line. Locally, ``workers`` such children (default: the
+number of cores) take tasks as they free up. With ``dask="tcp://HOST:PORT"`` the tasks are
+submitted to an existing Dask distributed cluster; each Dask worker process keeps one Reach
+worker child, so the work done per task is exactly the local one and the results are the
+same. Start such a cluster with (every machine needs Python 3.11, the bpy wheel, numpy,
+dask[distributed] and Reach importable — the scheduler too, it unpickles the task graph —
+and the scene files at the same paths)::
+
+    PYTHONPATH=/path/to/reach dask scheduler --host 0.0.0.0 --port 8786
+    PYTHONPATH=/path/to/reach dask worker tcp://HOST:8786 --nworkers 4 --nthreads 1
+
+One thread per Dask worker process is enough: its Reach worker child does the work.
+
+Results are written by the submitting process as they arrive, one JSON file per task named
+by a hash of its specification, atomically (a temporary file renamed into place); a re-run
+skips tasks whose result exists. At the end ``summary.csv`` (one row per task) and
+``summary.json`` (success rate, times, strength categories, per variant) are written.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import itertools
+import json
+import os
+import queue
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from .core import ReachError
+
+MARK = "@@reach-result "
+RESULT_TIMING = ("search_time_s", "preprocess_time_s", "planning_time_s", "wall_time_s")
+PACKAGE_PARENT = Path(__file__).resolve().parent.parent
+PACKAGE = __package__ or "reach_addon"
+
+
+# --- the study ---------------------------------------------------------------------------
+
+def _grid_points(grid: dict, where: str):
+    try:
+        lo, hi, count = (list(grid[k]) for k in ("min", "max", "count"))
+    except KeyError as exc:
+        raise ReachError(f"{where}: a grid needs min, max and count (missing {exc})") from None
+    if not (len(lo) == len(hi) == len(count) == 3) or any(int(c) < 1 for c in count):
+        raise ReachError(f"{where}: grid min, max and count are three numbers each, counts ≥ 1")
+    axes = [[lo[i] + (hi[i] - lo[i]) * (k / (count[i] - 1) if count[i] > 1 else 0.5)
+             for k in range(int(count[i]))] for i in range(3)]
+    return [list(map(float, p)) for p in itertools.product(*axes)]
+
+
+def task_id(spec: dict) -> str:
+    keys = ("scene", "armature", "target", "point", "frame", "arm", "task", "obstacles",
+            "variant", "settings", "bones")
+    text = json.dumps({k: spec.get(k) for k in keys}, sort_keys=True)
+    return hashlib.sha1(text.encode()).hexdigest()[:16]
+
+
+@dataclass
+class Study:
+    name: str
+    path: Path
+    output: Path
+    specs: list
+
+
+def load_study(path: Path, output: Path | None = None) -> Study:
+    """Read a study file into task specifications (plain JSON-able dicts). Presets are
+    resolved into settings and bone names here, once, so workers need no registration."""
+    path = Path(path)
+    if not path.is_file():
+        raise ReachError(f"study file '{path}' not found")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ReachError(f"study file '{path}' is not valid TOML: {exc}") from None
+    base = path.parent
+    name = data.get("name", path.stem)
+    task = data.get("task", "reach")
+    if task not in ("reach", "guided"):
+        raise ReachError(f"study '{path.name}': task must be reach or guided, not '{task}'")
+    arm = data.get("arm", "auto")
+    if arm not in ("right", "left", "auto"):
+        raise ReachError(f"study '{path.name}': arm must be right, left or auto, not '{arm}'")
+    settings, bones = resolve_settings(data.get("presets", []), data.get("settings", {}),
+                                       data.get("bones", {}))
+    variants = data.get("variants") or [{"name": "default"}]
+    scenes = data.get("scenes") or []
+    if not scenes:
+        raise ReachError(f"study '{path.name}' names no [[scenes]]")
+    specs = []
+    for i, sc in enumerate(scenes, 1):
+        where = f"study '{path.name}', scene {i}"
+        if "file" not in sc:
+            raise ReachError(f"{where}: give the .blend as file = \"...\"")
+        blend = (base / sc["file"]).resolve()
+        if not blend.is_file():
+            raise ReachError(f"{where}: scene file '{blend}' not found")
+        armatures = sc.get("armatures") or ([sc["armature"]] if "armature" in sc else [])
+        if not armatures:
+            raise ReachError(f"{where}: name the armature (armature = \"...\")")
+        grid = sc.get("grid")
+        frame = (grid or {}).get("frame", "shoulder")
+        if frame not in ("shoulder", "world"):
+            raise ReachError(f"{where}: grid frame must be shoulder or world, not '{frame}'")
+        if grid and frame == "shoulder" and sc.get("arm", arm) == "auto":
+            raise ReachError(f"{where}: a shoulder-frame grid needs arm = \"right\" or \"left\"")
+        targets = [{"target": t} for t in sc.get("targets", [])]
+        targets += [{"point": p, "frame": frame} for p in (_grid_points(grid, where) if grid else [])]
+        if not targets:
+            raise ReachError(f"{where}: give targets = [...] or a [scenes.grid]")
+        for armature, target, variant in itertools.product(armatures, targets, variants):
+            vs, vb = resolve_settings(variant.get("presets", []), variant.get("settings", {}),
+                                      variant.get("bones", {}), settings, bones)
+            spec = {"scene": str(blend), "armature": armature, "arm": sc.get("arm", arm),
+                    "task": task, "obstacles": sc.get("obstacles"),
+                    "variant": variant.get("name", "default"), "settings": vs, "bones": vb,
+                    "target": None, "point": None, "frame": None, **target}
+            spec["id"] = task_id(spec)
+            specs.append(spec)
+    out = output or (base / data["output"] if "output" in data else base / f"{path.stem}-results")
+    return Study(name, path, Path(out), specs)
+
+
+def resolve_settings(presets, changes: dict, bones: dict, settings: dict | None = None,
+                     base_bones: dict | None = None):
+    """(settings dict, bone overrides) from presets by name, then explicit changes."""
+    from .core import Settings
+
+    current = Settings.from_dict(settings) if settings else Settings()
+    bones_out = dict(base_bones or {})
+    if presets:
+        current, preset_bones = _apply_presets(presets, current)
+        bones_out.update(preset_bones)
+    try:
+        current = current.replace(**changes)
+    except (TypeError, ValueError) as exc:
+        raise ReachError(f"study settings: {exc}") from None
+    bones_out.update(bones)
+    return current.to_dict(), bones_out
+
+
+def _apply_presets(names, settings):
+    """Run Blender presets (Python snippets against ``scene.reach``) on a scratch scene."""
+    import bpy
+
+    from .cli import ensure_registered
+    from .ui import presets as presets_mod
+    from .ui.properties import overrides_of, settings_from, settings_to
+
+    registered = ensure_registered()
+    scene = bpy.data.scenes.new("Reach presets")
+    window_scene = bpy.context.window.scene if bpy.context.window else None
+    try:
+        if bpy.context.window:
+            bpy.context.window.scene = scene
+        with bpy.context.temp_override(scene=scene):
+            settings_to(scene.reach.settings, settings)
+            for name in names:
+                presets_mod.apply_named(name)
+            out = settings_from(scene.reach.settings)
+            bones = {k[len("bone_"):]: v for k, v in overrides_of(scene.reach).items()}
+    finally:
+        if window_scene is not None:
+            bpy.context.window.scene = window_scene
+        bpy.data.scenes.remove(scene)
+        if registered:
+            from . import unregister
+            unregister()
+    return out, bones
+
+
+# --- one task, inside a Reach worker process ---------------------------------------------------
+
+_open_file = None
+
+
+def run_task(spec: dict) -> dict:
+    """Plan one task in this process (Blender's main thread) and return its result."""
+    import bpy
+    import numpy as np
+
+    from . import __version__
+    from .blender import pipeline
+    from .blender import rig as rig_mod
+    from .core import Settings
+
+    global _open_file
+    t0 = time.perf_counter()
+    result = {"id": spec["id"], "scene": spec["scene"], "armature": spec["armature"],
+              "target": spec["target"], "point": spec["point"], "frame": spec["frame"],
+              "variant": spec["variant"], "task": spec["task"], "arm": spec["arm"],
+              "reach_version": __version__, "blender_version": bpy.app.version_string}
+    added = None
+    try:
+        if _open_file != spec["scene"]:
+            bpy.ops.wm.open_mainfile(filepath=spec["scene"], load_ui=False)
+            _open_file = spec["scene"]
+        context = bpy.context
+        settings = Settings.from_dict(spec["settings"])
+        target = spec["target"]
+        if target is None:
+            point = np.array(spec["point"], float)
+            if spec["frame"] == "shoulder":
+                armature = pipeline._object(spec["armature"], "armature")
+                info = rig_mod.build(armature, spec["arm"], spec["bones"])
+                side = info.frame.right if info.side == "right" else -info.frame.right
+                point = (info.joints_world["shoulder"] + info.arm.arm_length *
+                         (point[0] * info.frame.forward + point[1] * side + point[2] * info.frame.up))
+            added = bpy.data.objects.new("Reach Study Target", None)
+            added.location = point.tolist()
+            context.scene.collection.objects.link(added)
+            context.view_layer.update()
+            target = added.name
+        request = pipeline.Request(
+            armature=spec["armature"], targets=[target], task=spec["task"], side=spec["arm"],
+            obstacles=spec["obstacles"], settings=settings, overrides=spec["bones"], draw=False)
+        outcome = pipeline.run(context, request, bake=False)
+        plan, _first = outcome.plans[-1]
+        r = outcome.results[-1]
+        final = plan.poses[-1]
+        wrist = plan.wrist_trajectory()[-1]
+        goal = plan.task.targets[-1]
+        st = r.stats
+        result.update({
+            "target_position": [float(v) for v in goal],
+            "arm": r.arm, "success": r.success, "reason": r.reason, "message": r.message,
+            "arm_length": float(outcome.rig.arm.arm_length),
+            "final_f_r": int(final.f_r),
+            "final_angles_deg": dict(zip(("body_rotation", "alpha", "beta", "gamma", "elbow"),
+                                         map(float, final.config.as_array()))),
+            "wrist_error_arm_lengths": float(np.linalg.norm(wrist - goal)
+                                             / outcome.rig.arm.arm_length),
+            **{k: st[k] for k in ("search_time_s", "preprocess_time_s", "planning_time_s",
+                                  "nodes_searched", "nodes_in_solution",
+                                  "path_length_arm_lengths", "mean_f_r", "frames")},
+        })
+    except ReachError as exc:
+        result.update(success=False, reason="bad_input", message=str(exc))
+    finally:
+        if added is not None:
+            bpy.data.objects.remove(added)
+    result["wall_time_s"] = time.perf_counter() - t0
+    return result
+
+
+def worker_loop(stdin=None, stdout=None):
+    """A Reach worker process: one task spec per line in, one result line out."""
+    stdin = stdin or sys.stdin
+    stdout = stdout or sys.stdout
+    for line in stdin:
+        if not line.strip():
+            continue
+        spec = json.loads(line)
+        try:
+            result = run_task(spec)
+        except Exception as exc:  # reported to the study, which keeps going
+            import traceback
+
+            result = {"id": spec.get("id"), "error": f"{type(exc).__name__}: {exc}",
+                      "traceback": traceback.format_exc()}
+        stdout.write(MARK + json.dumps(result) + "\n")
+        stdout.flush()
+
+
+def worker_command() -> list:
+    """The command line that starts a Reach worker process under the current host."""
+    import bpy
+
+    code = (f"import sys; sys.path.insert(0, {str(PACKAGE_PARENT)!r}); "
+            f"from {PACKAGE.rsplit('.', 1)[-1] if PACKAGE.startswith('bl_ext.') else PACKAGE}"
+            ".batch import worker_loop; worker_loop()")
+    if getattr(bpy.app, "module", False) or not bpy.app.binary_path:
+        return [sys.executable, "-c", code]
+    return [bpy.app.binary_path, "--background", "--factory-startup", "--python-expr", code]
+
+
+class WorkerProcess:
+    """One persistent Reach worker child and the pipe protocol to it."""
+
+    def __init__(self):
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        self.proc = subprocess.Popen(worker_command(), stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                     text=True, env=env, cwd=str(PACKAGE_PARENT))
+
+    def run(self, spec: dict) -> dict:
+        if self.proc.poll() is not None:
+            raise RuntimeError(f"Reach worker exited with status {self.proc.returncode}")
+        self.proc.stdin.write(json.dumps(spec) + "\n")
+        self.proc.stdin.flush()
+        for line in self.proc.stdout:
+            if line.startswith(MARK):
+                return json.loads(line[len(MARK):])
+        raise RuntimeError(f"Reach worker exited with status {self.proc.wait()} "
+                           f"while planning task {spec['id']}")
+
+    def close(self):
+        if self.proc.poll() is None:
+            self.proc.stdin.close()
+            try:
+                self.proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+
+
+_dask_worker = None
+_dask_lock = threading.Lock()
+
+
+def dask_task(spec: dict) -> dict:
+    """Run on a Dask worker: the task goes to this worker's own Reach worker child."""
+    global _dask_worker
+    with _dask_lock:
+        if _dask_worker is None or _dask_worker.proc.poll() is not None:
+            _dask_worker = WorkerProcess()
+        return _dask_worker.run(spec)
+
+
+# --- running a study ------------------------------------------------------------------------
+
+def _write_atomic(path: Path, text: str):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
+def result_path(output: Path, spec: dict) -> Path:
+    return output / "tasks" / f"{spec['id']}.json"
+
+
+def finished(output: Path, spec: dict) -> dict | None:
+    path = result_path(output, spec)
+    try:
+        result = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return result if result.get("id") == spec["id"] and "success" in result else None
+
+
+def _local(specs, workers: int):
+    """Yield results of ``specs`` from ``workers`` Reach worker children, as they finish."""
+    todo = queue.Queue()
+    for s in specs:
+        todo.put(s)
+    done = queue.Queue()
+
+    def serve():
+        proc = None
+        try:
+            while True:
+                try:
+                    spec = todo.get_nowait()
+                except queue.Empty:
+                    return
+                try:
+                    proc = proc if proc is not None and proc.proc.poll() is None else WorkerProcess()
+                    done.put(proc.run(spec))
+                except Exception as exc:
+                    done.put({"id": spec["id"], "error": f"{type(exc).__name__}: {exc}"})
+        finally:
+            if proc is not None:
+                proc.close()
+
+    threads = [threading.Thread(target=serve, daemon=True) for _ in range(max(1, workers))]
+    for t in threads:
+        t.start()
+    for _ in specs:
+        yield done.get()
+    for t in threads:
+        t.join()
+
+
+def _dask(specs, address: str):
+    try:
+        from distributed import Client, as_completed
+    except ImportError:
+        raise ReachError("--dask needs the distributed package: pip install 'dask[distributed]'") from None
+    try:
+        client = Client(address, timeout=20)
+    except OSError as exc:
+        raise ReachError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    try:
+        futures = client.map(dask_task, specs, key=[f"reach-{s['id']}" for s in specs],
+                             pure=False)
+        ids = {f.key: s["id"] for f, s in zip(futures, specs)}
+        for fut in as_completed(futures):
+            try:
+                yield fut.result()
+            except Exception as exc:
+                yield {"id": ids[fut.key], "error": f"{type(exc).__name__}: {exc}"}
+    finally:
+        client.close()
+
+
+def run_study(path: Path, workers: int | None = None, dask: str | None = None,
+              output: Path | None = None, out=None) -> int:
+    """Run a study; returns the exit status (0 all reached, 1 some failed)."""
+    out = out or sys.stdout
+    study = load_study(path, output)
+    study.output.mkdir(parents=True, exist_ok=True)
+    results = {}
+    pending = []
+    for spec in study.specs:
+        r = finished(study.output, spec)
+        if r is None:
+            pending.append(spec)
+        else:
+            results[spec["id"]] = r
+    workers = workers or os.cpu_count() or 1
+    where = f"Dask cluster {dask}" if dask else f"{min(workers, max(1, len(pending)))} local workers"
+    print(f"study '{study.name}': {len(study.specs)} tasks, {len(results)} already done, "
+          f"{len(pending)} to run on {where}", file=out, flush=True)
+    t0 = time.perf_counter()
+    errors = 0
+    source = _dask(pending, dask) if dask else _local(pending, min(workers, max(1, len(pending))))
+    by_id = {s["id"]: s for s in pending}
+    for n, result in enumerate(source, 1):
+        spec = by_id.get(result.get("id"))
+        label = _label(spec) if spec else "?"
+        if "error" in result or spec is None:
+            errors += 1
+            print(f"[{n}/{len(pending)}] {label}: ERROR {result.get('error')}", file=out, flush=True)
+            continue
+        _write_atomic(result_path(study.output, spec), json.dumps(result, indent=1))
+        results[spec["id"]] = result
+        state = (f"reached, f_R {result['final_f_r']}" if result["success"]
+                 else f"not reached ({result['reason']})")
+        print(f"[{n}/{len(pending)}] {label}: {state}", file=out, flush=True)
+    wall = time.perf_counter() - t0
+    ordered = [results[s["id"]] for s in study.specs if s["id"] in results]
+    summary = summarize(study, ordered, wall, dask or f"local:{workers}")
+    _write_atomic(study.output / "summary.json", json.dumps(summary, indent=2))
+    _write_atomic(study.output / "summary.csv", summary_csv(ordered))
+    print(f"{summary['succeeded']}/{summary['tasks']} reached "
+          f"({100 * summary['success_rate']:.0f} %); results in {study.output}", file=out,
+          flush=True)
+    if errors:
+        print(f"{errors} task(s) stopped with an error and will be retried by a re-run",
+              file=out, flush=True)
+    return 0 if (not errors and all(r["success"] for r in ordered)) else 1
+
+
+def _label(spec) -> str:
+    what = spec["target"] if spec["target"] else "point (" + ", ".join(
+        f"{v:.2f}" for v in spec["point"]) + ")"
+    return f"{Path(spec['scene']).name} {spec['armature']} → {what} [{spec['variant']}]"
+
+
+CSV_FIELDS = ("id", "scene", "armature", "target", "point", "variant", "arm", "success",
+              "reason", "final_f_r", "body_rotation_deg", "alpha_deg", "beta_deg", "gamma_deg",
+              "elbow_deg", "wrist_error_arm_lengths", "nodes_searched", "nodes_in_solution",
+              "path_length_arm_lengths", "mean_f_r", "search_time_s", "preprocess_time_s",
+              "planning_time_s", "wall_time_s")
+
+
+def summary_csv(results) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, CSV_FIELDS, extrasaction="ignore", lineterminator="\n")
+    w.writeheader()
+    for r in results:
+        row = dict(r)
+        row["scene"] = Path(r["scene"]).name
+        row["point"] = " ".join(f"{v:.4f}" for v in r["point"]) if r.get("point") else ""
+        for k, v in (r.get("final_angles_deg") or {}).items():
+            row[f"{k}_deg"] = round(v, 3)
+        w.writerow(row)
+    return buf.getvalue()
+
+
+def _stats(values):
+    import numpy as np
+
+    if not values:
+        return None
+    a = np.array(values, float)
+    return {"mean": float(a.mean()), "median": float(np.median(a)), "min": float(a.min()),
+            "max": float(a.max())}
+
+
+def _group(results):
+    ok = [r for r in results if r["success"]]
+    cats = [0, 0, 0]
+    for r in ok:
+        cats[r["final_f_r"]] += 1
+    return {
+        "tasks": len(results), "succeeded": len(ok),
+        "success_rate": len(ok) / len(results) if results else 0.0,
+        "final_strength_categories": cats,
+        "reasons": {k: sum(1 for r in results if r.get("reason") == k)
+                    for k in sorted({r.get("reason") for r in results if r.get("reason")})},
+        "search_time_s": _stats([r["search_time_s"] for r in ok]),
+        "planning_time_s": _stats([r["planning_time_s"] for r in ok]),
+        "nodes_searched": _stats([r["nodes_searched"] for r in ok]),
+        "path_length_arm_lengths": _stats([r["path_length_arm_lengths"] for r in ok]),
+        "body_rotation_deg": _stats([abs(r["final_angles_deg"]["body_rotation"]) for r in ok]),
+    }
+
+
+def summarize(study: Study, results, wall_time_s: float, backend: str) -> dict:
+    from . import __version__
+
+    variants = sorted({r["variant"] for r in results})
+    return {
+        "study": study.name, "file": str(study.path), "reach_version": __version__,
+        "blender_version": results[0]["blender_version"] if results else None,
+        "backend": backend, "wall_time_s": wall_time_s,
+        **_group(results),
+        "variants": {v: _group([r for r in results if r["variant"] == v]) for v in variants},
+    }
