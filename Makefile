@@ -1,7 +1,12 @@
 # Reach — the two commands a newcomer needs:
-#   make demo   set up, then plan the paper's four tasks and print Table 2
-#   make test   set up, then run every test
-# Set-up creates .venv (Python 3.11 + the bpy wheel) once; it needs network access to PyPI.
+#   make demo   set up, then perform the paper's four tasks in Blender: out/demo.blend,
+#               stills, an MP4, out/report.json and Table 2 beside the paper's
+#   make test   set up, then run every test: the whole suite on bpy 5.0.1, the add-on and
+#               bake tests again on bpy 4.2 LTS and 4.5, and a real Blender binary (Debian's
+#               3.4.1) headless and in a GUI under Xvfb
+# Also: make bench (bench/results.md), make dist (the extension zip), make lint.
+# Set-up creates .venv (Python 3.11 + the bpy wheel) once; it needs network access to PyPI,
+# and apt-get (root or sudo) for the system packages of the binary tests.
 
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
@@ -13,7 +18,15 @@ STAGE := build/reach_addon
 # Blender's own extension tool, shipped inside the bpy wheel.
 BLENDER_EXT = $(shell $(PY) -c 'import bpy, os; print(os.path.join(bpy.utils.system_resource("SCRIPTS"), "addons_core", "bl_pkg", "cli", "blender_ext.py"))' 2>/dev/null)
 
-.PHONY: setup test demo lint dist clean
+# The version matrix: one venv per older Blender, created on first use. The core and
+# command-line tests run once, on 5.0.1; these run on every version.
+MATRIX := 4.2 4.5
+BPY_4.2 := 4.2.23
+BPY_4.5 := 4.5.15
+MATRIX_TESTS := tests/blender/test_extension.py tests/blender/test_bake.py \
+	tests/blender/test_bad_input.py tests/blender/test_presets.py
+
+.PHONY: setup test demo bench lint dist clean system-deps matrix
 
 setup: $(STAMP)
 
@@ -24,11 +37,32 @@ $(STAMP): requirements-dev.txt
 	$(PY) -m pip install --quiet -r requirements-dev.txt
 	touch $@
 
-test: setup
+.venv-%/.installed:
+	test -x .venv-$*/bin/python || $(PYTHON) -m venv .venv-$*
+	.venv-$*/bin/python -m pip install --quiet "bpy==$(BPY_$*)" "numpy<2" pytest hypothesis
+	touch $@
+
+system-deps:
+	sh tools/system-deps.sh
+
+test: setup system-deps $(MATRIX:%=.venv-%/.installed)
 	$(PY) -m pytest
+	@for v in $(MATRIX); do \
+		echo "== the add-on and bake tests on bpy $$v"; \
+		.venv-$$v/bin/python -m pytest -p no:cacheprovider $(MATRIX_TESTS) || exit 1; \
+	done
+
+matrix: setup $(MATRIX:%=.venv-%/.installed)
+	@for v in $(MATRIX); do \
+		.venv-$$v/bin/python -m pytest -p no:cacheprovider $(MATRIX_TESTS) || exit 1; \
+	done
 
 demo: setup
-	$(PY) -m reach_addon demo
+	$(PY) -m reach_addon demo --output out
+
+bench: setup
+	$(PY) -m pip install --quiet -r requirements-bench.txt
+	$(PY) bench/run.py
 
 # The extension zip: manifest + package + bundled presets staged into one folder, then
 # validated and built by Blender's own tool.

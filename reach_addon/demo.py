@@ -67,3 +67,264 @@ def core_demo(out) -> int:
         print(f"\nworkspace preprocessing: {planner.workspace.build_time_s:.3f} s "
               f"(paper: about 6 s)", file=out)
     return 0 if all(p.success for _n, p in rows) else 1
+
+
+# --- the demo in Blender -------------------------------------------------------------------
+
+#: The character: Quaternius' "Female Casual" (CC0, see tests/data/rigs/), with a skinned body.
+DEMO_RIG = "Quaternius_Female_Casual.fbx"
+COLOURS = {"Table": (0.55, 0.36, 0.2, 1), "Crate": (0.75, 0.6, 0.3, 1),
+           "Shelf": (0.45, 0.47, 0.5, 1), "Floor": (0.8, 0.8, 0.78, 1)}
+GAP = 12          # frames between tasks, in which the arm returns to its start pose
+
+
+def _rig_file():
+    from pathlib import Path
+
+    from .core import ReachError
+
+    path = Path(__file__).resolve().parents[1] / "tests" / "data" / "rigs" / DEMO_RIG
+    if not path.is_file():
+        raise ReachError(f"the demo character '{path}' is missing; run the demo from a "
+                         "checkout of Reach (make demo)")
+    return path
+
+
+def _material(name, colour):
+    import bpy
+
+    mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
+    mat.diffuse_color = colour
+    return mat
+
+
+def _box_object(name, parts, colour):
+    import bpy
+
+    from .samples import triangle_soup
+
+    verts, tris, _owners, _names = triangle_soup({name: parts})
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts.tolist(), [], tris.tolist())
+    mesh.update()
+    ob = bpy.data.objects.new(name, mesh)
+    ob.data.materials.append(_material(name, colour))
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def _empty(name, location, shape="SPHERE", size=0.025):
+    import bpy
+
+    ob = bpy.data.objects.new(name, None)
+    ob.empty_display_type, ob.empty_display_size = shape, size
+    ob.location = tuple(map(float, location))
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def build_scene():
+    """An empty file with the demo character standing where the core's standard figure
+    stands (facing −Y, chest at 1.40 m, scaled to the same arm length), the workplace
+    furniture, a camera and a light. Returns the armature."""
+    import bpy
+    from mathutils import Matrix, Vector
+
+    from .blender import rig as rig_mod
+    from .samples import standard_arm
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.import_scene.fbx(filepath=str(_rig_file()))
+    armature = next(o for o in scene.objects if o.type == "ARMATURE")
+    # The file's own clip (she claps) would move the body under the reach: stand still.
+    if armature.animation_data is not None:
+        armature.animation_data.action = None
+    for pb in armature.pose.bones:
+        pb.matrix_basis = Matrix.Identity(4)
+    root = armature
+    while root.parent is not None:
+        root = root.parent
+    bpy.context.view_layer.update()
+    info = rig_mod.build(armature, "right")
+    f = info.frame
+    body = np.column_stack([f.right, f.forward, f.up])
+    world = np.array([[-1.0, 0, 0], [0, -1.0, 0], [0, 0, 1.0]]).T
+    rot = world @ body.T
+    k = standard_arm().arm_length / info.arm.arm_length
+    m = np.eye(4)
+    m[:3, :3] = k * rot
+    m[:3, 3] = np.array([0.0, 0.0, 1.40]) - k * rot @ f.origin
+    root.matrix_world = Matrix(m.tolist()) @ root.matrix_world
+    bpy.context.view_layer.update()
+    # then put her right shoulder where the standard figure's is (the targets are its)
+    std = standard_arm()
+    want = std.to_world_points(std.shoulder)
+    have = rig_mod.build(armature, "right").joints_world["shoulder"]
+    root.matrix_world = Matrix.Translation((want - have).tolist()) @ root.matrix_world
+    bpy.context.view_layer.update()
+    _arms_down(armature, rig_mod.build(armature, "right"))
+
+    for name, parts in WORKPLACE.items():
+        _box_object(name, parts, COLOURS[name])
+    floor = _box_object("Floor", [((-2.0, -2.0, -0.02), (2.0, 2.0, 0.0))], COLOURS["Floor"])
+    floor.hide_select = True
+    cam_data = bpy.data.cameras.new("Camera")
+    cam_data.lens = 30
+    cam = bpy.data.objects.new("Camera", cam_data)
+    scene.collection.objects.link(cam)
+    cam.location = (-2.2, 1.1, 2.5)
+    look = Vector((-0.25, -0.3, 1.1)) - cam.location
+    cam.rotation_euler = look.to_track_quat("-Z", "Y").to_euler()
+    scene.camera = cam
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    scene.collection.objects.link(sun)
+    sun.rotation_euler = (0.6, 0.2, -0.5)
+    scene.render.fps = 24
+    return armature
+
+
+def _arms_down(armature, info):
+    """Lower both arms from the file's T-pose to hanging, a little out and forward, as the
+    paper's subject starts (the start pose is the pose, not a key)."""
+    from mathutils import Matrix, Vector
+
+    inv = armature.matrix_world.inverted().to_3x3()
+    f = info.frame
+    for side, arm in info.bones.arms.items():
+        out = f.right if side == "right" else -f.right
+        want = (inv @ Vector((-0.94 * f.up + 0.28 * out + 0.12 * f.forward).tolist())).normalized()
+        pb = armature.pose.bones[arm.upper_arm]
+        head = pb.head.copy()
+        turn = (pb.tail - pb.head).normalized().rotation_difference(want).to_matrix().to_4x4()
+        pb.matrix = Matrix.Translation(head) @ turn @ Matrix.Translation(-head) @ pb.matrix
+        bpy_update()
+
+
+def bpy_update():
+    import bpy
+
+    bpy.context.view_layer.update()
+
+
+def _arm_rest(armature, bones):
+    """The start pose of the bones a bake keys (chest and arm), to return to between
+    tasks: each of the paper's tasks starts from the same standing pose."""
+    return {b: armature.pose.bones[b].matrix_basis.copy() for b in bones}
+
+
+def _key_rest(armature, rest, frame):
+    for name, basis in rest.items():
+        pb = armature.pose.bones[name]
+        pb.matrix_basis = basis
+        mode = pb.rotation_mode
+        path = ("rotation_quaternion" if mode == "QUATERNION" else
+                "rotation_axis_angle" if mode == "AXIS_ANGLE" else "rotation_euler")
+        pb.keyframe_insert(path, frame=frame)
+        pb.keyframe_insert("location", frame=frame)
+
+
+def scene_demo(out_dir, render: bool = True, out=None) -> int:
+    """``make demo``: the paper's four tasks on a real character in Blender, baked, saved
+    to ``out_dir/demo.blend``, rendered (a still per task with the red trajectory, one MP4),
+    reported (``report.json``) and compared with Table 2."""
+    import json
+    import sys
+    import time
+    from pathlib import Path
+
+    import bpy
+
+    from . import __version__
+    from .blender import pipeline
+    from .blender import rig as rig_mod
+    from .blender.render import render_outcome
+
+    out = out or sys.stdout
+    out_dir = Path(out_dir).resolve()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    t_start = time.perf_counter()
+    print(f"Reach {__version__} demo on Blender {bpy.app.version_string}: building the "
+          "workplace around Quaternius' Female Casual (CC0)", file=out, flush=True)
+    armature = build_scene()
+    scene = bpy.context.scene
+    tasks = demo_tasks(fps=24.0)
+    frame = 1
+    rows, reports, renders = [], [], {}
+    bones = rig_mod.build(armature, "right").bones
+    rest = _arm_rest(armature, {bones.keyed_chest, *(bones.arms["right"].keyed(role) for role in
+                                                     ("clavicle", "upper_arm", "forearm", "hand"))}
+                     - {None})
+    for name, task in tasks:
+        if task.kind == "chase":
+            ball = _empty("Ball", task.targets[0], size=0.04)
+            for i, p in enumerate(task.targets):
+                ball.location = tuple(map(float, p))
+                ball.keyframe_insert("location", frame=frame + i)
+            targets = [ball.name]
+        else:
+            targets = []
+            for label, p in zip(task.names, task.targets):
+                targets.append(_empty(f"Target {label}", p).name)
+        request = pipeline.Request(
+            armature=armature.name, targets=targets, task=task.kind, side="right",
+            frame_start=frame, show_guides=(name == "guided"))
+        t0 = time.perf_counter()
+        outcome = pipeline.run(bpy.context, request, bake=True)
+        results = outcome.results
+        end = max(r.frame_end for r in results)
+        ok = all(r.success for r in results)
+        print(f"{name:15s} {'reached' if ok else 'FAILED'}: frames {frame}-{end}, "
+              f"{sum(r.stats['nodes_searched'] for r in results)} nodes, "
+              f"{time.perf_counter() - t0:.1f} s" +
+              ("" if ok else "; " + "; ".join(r.message for r in results if not r.success)),
+              file=out, flush=True)
+        stats = {k: sum(r.stats[k] for r in results) for k in
+                 ("search_time_s", "preprocess_time_s", "nodes_searched", "nodes_in_solution",
+                  "path_length_arm_lengths")}
+        rows.append((name, ok, stats))
+        reports.append({"task": name, "success": ok, "frame_start": frame, "frame_end": end,
+                        "targets": [r.to_dict() for r in results], **stats})
+        if render:
+            renders[name] = render_outcome(bpy.context, outcome, out_dir, still=f"{name}.png",
+                                           video=None)["still"]
+            print(f"{'':15s} rendered {name}.png", file=out, flush=True)
+        _key_rest(armature, rest, end + GAP)
+        frame = end + GAP + 1
+    scene.frame_start, scene.frame_end = 1, frame - 1
+    scene.frame_set(1)
+    blend = out_dir / "demo.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    if render:
+        print(f"{'':15s} rendering demo.mp4 ({frame - 1} frames)", file=out, flush=True)
+        renders["video"] = render_outcome(bpy.context, outcome, out_dir, still=None,
+                                          video="demo.mp4", frames=(1, frame - 1),
+                                          size=(480, 270))["video"]
+    report = {"reach_version": __version__, "blender_version": bpy.app.version_string,
+              "character": "Quaternius Female Casual (CC0)", "blend": str(blend),
+              "tasks": reports, "renders": renders,
+              "paper_table2": {k: dict(zip(("search_time_s", "nodes_searched",
+                                            "nodes_in_solution", "path_length_arm_lengths"), v))
+                               for k, v in PAPER_TABLE2.items()},
+              "total_time_s": time.perf_counter() - t_start}
+    (out_dir / "report.json").write_text(json.dumps(report, indent=2))
+    print(file=out)
+    print(table2_text(rows), file=out)
+    print(f"\nsaved {blend}, report.json" + (", stills and demo.mp4" if render else "") +
+          f" in {out_dir} ({report['total_time_s']:.0f} s)", file=out, flush=True)
+    return 0 if all(ok for _n, ok, _s in rows) else 1
+
+
+def table2_text(rows) -> str:
+    """Table 2, ours beside the paper's: rows of (task, success, stats dict)."""
+    lines = [f"{'task':15s} {'search ms':>9s} {'paper ms':>9s} {'speed-up':>8s} {'nodes':>6s} "
+             f"{'paper':>6s} {'in sol.':>7s} {'paper':>6s} {'length':>7s} {'paper':>6s} "
+             f"{'prep ms':>8s}"]
+    for name, _ok, s in rows:
+        t, n, k, length = PAPER_TABLE2[name]
+        ms = 1000 * s["search_time_s"]
+        lines.append(f"{name:15s} {ms:9.1f} {1000 * t:9.0f} {1000 * t / max(ms, 1e-9):7.0f}× "
+                     f"{s['nodes_searched']:6d} {n:6d} {s['nodes_in_solution']:7d} {k:6d} "
+                     f"{s['path_length_arm_lengths']:7.2f} {length:6.2f} "
+                     f"{1000 * s['preprocess_time_s']:8.1f}")
+    return "\n".join(lines)

@@ -73,14 +73,19 @@ def _camera(scene, outcome):
     return cam
 
 
-def render_outcome(context, outcome, folder: Path) -> dict:
-    """Render the baked frames of ``outcome`` into ``folder``; returns the file paths."""
+def render_outcome(context, outcome, folder: Path, still: str | None = "last_frame.png",
+                   video: str | None = "reach.mp4", frames=None, size=(640, 360)) -> dict:
+    """Render the baked frames of ``outcome`` into ``folder``: a still of the last frame
+    and a video of ``frames`` (first, last; default the outcome's own). A name of None
+    skips that file. Returns {"still": path, "video": path} of what was written."""
     scene = context.scene
     folder = Path(folder).resolve()
     folder.mkdir(parents=True, exist_ok=True)
     armature = bpy.data.objects[outcome.rig.armature_name]
     first = min(r.frame_start for r in outcome.results)
     last = max(r.frame_end for r in outcome.results)
+    if frames is not None:
+        first, last = frames
     r = scene.render
     saved = {"engine": r.engine, "filepath": r.filepath, "x": r.resolution_x,
              "y": r.resolution_y, "pct": r.resolution_percentage, "start": scene.frame_start,
@@ -97,22 +102,23 @@ def render_outcome(context, outcome, folder: Path) -> dict:
             temporaries.append(scene.camera)
         r.engine = "BLENDER_WORKBENCH"
         scene.display.shading.color_type = "MATERIAL"
-        r.resolution_x, r.resolution_y, r.resolution_percentage = 640, 360, 100
-
-        scene.frame_set(last)
-        still = folder / "last_frame.png"
-        _set_format(r, "PNG")
-        r.filepath = str(still)
-        bpy.ops.render.render(write_still=True)
-
-        video = folder / "reach.mp4"
-        _set_format(r, "FFMPEG")
-        r.ffmpeg.format = "MPEG4"
-        r.ffmpeg.codec = "H264"
-        r.filepath = str(video)
-        scene.frame_start, scene.frame_end = first, last
-        bpy.ops.render.render(animation=True)
-        return {"still": str(still), "video": str(video)}
+        r.resolution_x, r.resolution_y, r.resolution_percentage = *size, 100
+        written = {}
+        if still:
+            scene.frame_set(last)
+            written["still"] = str(folder / still)
+            _set_format(r, "PNG")
+            r.filepath = written["still"]
+            bpy.ops.render.render(write_still=True)
+        if video:
+            written["video"] = str(folder / video)
+            _set_format(r, "FFMPEG")
+            r.ffmpeg.format = "MPEG4"
+            r.ffmpeg.codec = "H264"
+            r.filepath = written["video"]
+            scene.frame_start, scene.frame_end = first, last
+            bpy.ops.render.render(animation=True)
+        return written
     finally:
         for ob in temporaries:
             kind, data = ob.type, ob.data.name if ob.data else None

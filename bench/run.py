@@ -1,0 +1,348 @@
+"""``make bench``: where Reach stands — a benchmark, not a test (nothing here asserts).
+
+Every figure is the median of ``--runs`` (default 5) runs with its spread (min–max), written
+to ``bench/results.json`` and a readable ``bench/results.md``:
+
+1. **Table 2**: the paper's four tasks on the demo workplace (:data:`reach_addon.demo.WORKPLACE`,
+   the core's standard figure; ``make demo`` plans the same tasks with a real character in
+   Blender), each timed from a fresh planner: search time, grid preprocessing (the
+   workspace, built once per planner, as the paper's), nodes searched / in solution, path
+   length, time per node and the speed-up over the paper's times.
+2. **OMPL race** (:mod:`bench.ompl_race`): RRTConnect + simplification in the same joint
+   space with the same collision test, start and goal.
+3. **Chase / live re-plan**: time per target update (:mod:`bench.live_bench`).
+4. **Bake**: 1000 frames written in bulk on the metarig's keyed bones; **obstacle
+   scaling**: the collision-free task with the table top tessellated to 5k, 100k and 1M
+   triangles (search time and BVH build time).
+5. **Batch throughput**: a 200-task study on 1 and 2 local worker processes (one run each:
+   it takes minutes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import bpy  # noqa: E402,F401  (mathutils and the BVH come with the wheel)
+
+from reach_addon import __version__  # noqa: E402
+from reach_addon.core import Planner, Settings, Task  # noqa: E402
+from reach_addon.core.collision import Obstacles  # noqa: E402
+from reach_addon.demo import PAPER_TABLE2, WORKPLACE, demo_tasks  # noqa: E402
+from reach_addon.samples import obstacles, standard_arm, triangle_soup  # noqa: E402
+
+TASKS = ("collision_free", "rotation", "guided", "chase")
+
+
+def spread(values):
+    v = [float(x) for x in values]
+    return {"median": statistics.median(v), "min": min(v), "max": max(v), "runs": len(v)}
+
+
+def log(*args):
+    print(*args, flush=True)
+
+
+# --- 1. Table 2 ------------------------------------------------------------------------------
+
+def table2(runs: int):
+    out = []
+    tasks = dict(demo_tasks())
+    for name in TASKS:
+        samples = []
+        for _ in range(runs):
+            planner = Planner(standard_arm(), obstacles(WORKPLACE), Settings())
+            t0 = time.perf_counter()
+            ws = planner.workspace          # the grid: preprocessing, once per planner
+            prep = time.perf_counter() - t0
+            plan = planner.plan(tasks[name])
+            s = plan.stats
+            samples.append((s.search_time_s, prep, s.nodes_searched, s.nodes_in_solution,
+                            s.path_length_arm_lengths, plan.success))
+            del ws
+        search = [x[0] for x in samples]
+        paper_t, paper_n, paper_k, paper_len = PAPER_TABLE2[name]
+        med = statistics.median(search)
+        row = {
+            "task": name, "success": all(x[5] for x in samples),
+            "search_time_s": med, "search_time_spread_s": spread(search),
+            "preprocess_time_s": statistics.median(x[1] for x in samples),
+            "nodes_searched": samples[0][2], "nodes_in_solution": samples[0][3],
+            "path_length_arm_lengths": samples[0][4],
+            "time_per_node_ms": 1000 * med / max(samples[0][2], 1),
+            "paper_search_time_s": paper_t, "paper_nodes_searched": paper_n,
+            "paper_nodes_in_solution": paper_k, "paper_path_length_arm_lengths": paper_len,
+            "speedup_vs_paper": paper_t / med if med else None,
+            "deterministic": len({x[2:5] for x in samples}) == 1,
+        }
+        out.append(row)
+        log(f"  {name:15s} {1000 * med:8.1f} ms (paper {1000 * paper_t:.0f} ms, "
+            f"{row['speedup_vs_paper']:.0f}×), {row['nodes_searched']} nodes (paper {paper_n})")
+    return out
+
+
+# --- 2. OMPL --------------------------------------------------------------------------------
+
+def ompl(runs: int):
+    try:
+        from bench import ompl_race
+    except ImportError as exc:
+        log(f"  OMPL race skipped: {exc} (pip install -r requirements-bench.txt)")
+        return []
+    tasks = dict(demo_tasks())
+    out = []
+    for name in TASKS:
+        results = []
+        for seed in range(runs):
+            planner = Planner(standard_arm(), obstacles(WORKPLACE), Settings())
+            results.append(ompl_race.race(name, planner, tasks[name], seed=seed))
+        keys = ("reach_time_s", "ompl_time_s", "reach_path_length", "ompl_path_length",
+                "reach_mean_f_r", "ompl_mean_f_r", "reach_collisions", "ompl_collisions")
+        row = {"task": name}
+        for k in keys:
+            row[k] = statistics.median(r[k] for r in results)
+            row[k + "_spread"] = spread([r[k] for r in results])
+        row["time_ratio_ompl_over_reach"] = row["ompl_time_s"] / row["reach_time_s"]
+        row["path_ratio_reach_over_ompl"] = row["reach_path_length"] / row["ompl_path_length"]
+        row["note"] = results[0].get("note", "")
+        out.append(row)
+        log(f"  {name:15s} reach {row['reach_time_s'] * 1000:7.1f} ms / OMPL "
+            f"{row['ompl_time_s'] * 1000:7.1f} ms; length {row['reach_path_length']:.2f} / "
+            f"{row['ompl_path_length']:.2f}; f_R {row['reach_mean_f_r']:.2f} / "
+            f"{row['ompl_mean_f_r']:.2f}; collisions {row['reach_collisions']} / "
+            f"{row['ompl_collisions']}")
+    return out
+
+
+# --- 3. chase updates ---------------------------------------------------------------------------
+
+def chase_updates():
+    try:
+        from bench import live_bench
+    except ImportError as exc:
+        log(f"  live re-plan skipped: {exc}")
+        return {}
+    r = live_bench.chase_update_times()
+    log(f"  p50 {r['p50_ms']:.2f} ms, p95 {r['p95_ms']:.2f} ms over {len(r['samples'])} updates")
+    return {"chase_update_ms_p50": r["p50_ms"], "chase_update_ms_p95": r["p95_ms"],
+            "chase_updates": len(r["samples"])}
+
+
+# --- 4. bake and obstacle scaling ------------------------------------------------------------------
+
+def bake_1000(runs: int):
+    """Bulk-write a 1000-frame plan on Rigify's metarig (chest, shoulder, upper arm,
+    forearm, hand: 5 keyed bones, 4 channels each); ``bake_1000x8_ms`` scales the measured
+    time to 8 bones (the writing is per channel, linear in bones)."""
+    import addon_utils
+
+    from reach_addon.blender import bake as bake_mod
+    from reach_addon.blender import rig as rig_mod
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    addon_utils.enable("rigify", default_set=True)
+    bpy.ops.object.armature_human_metarig_add()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    armature = bpy.context.object
+    info = rig_mod.build(armature, "right")
+    f, length = info.frame, info.arm.arm_length
+    target = info.joints_world["shoulder"] + length * (0.7 * f.forward + 0.2 * f.right)
+    planner = Planner(info.arm, None, Settings())
+    plan = planner.plan(Task("reach", target[None], info.start, 24.0))
+    # stretch the plan to 1000 frames (with body rotation so the chest is keyed too)
+    idx = np.linspace(0, len(plan.poses) - 1, 1000).round().astype(int)
+    plan.poses = [plan.poses[i] for i in idx]
+    times = []
+    bones = 0
+    for _ in range(runs):
+        if armature.animation_data:
+            armature.animation_data.action = None
+        t0 = time.perf_counter()
+        result = bake_mod.bake(bpy.context, armature, info, [(plan, 1)])
+        times.append(time.perf_counter() - t0)
+        bones = len(result.bones)
+    ms = 1000 * statistics.median(times)
+    log(f"  1000 frames × {bones} bones: {ms:.1f} ms (→ {ms * 8 / bones:.1f} ms for 8 bones)")
+    return {"bake_1000_frames_ms": ms, "bake_bones": bones, "bake_1000x8_ms": ms * 8 / bones,
+            "bake_spread_ms": spread([1000 * t for t in times])}
+
+
+def tessellated_box(lo, hi, n):
+    """A box whose six faces are n × n grids: 12 n² triangles."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    verts, tris = [], []
+    g = np.linspace(0, 1, n + 1)
+    u, v = np.meshgrid(g, g, indexing="ij")
+    quads = np.array([[i * (n + 1) + j, (i + 1) * (n + 1) + j, (i + 1) * (n + 1) + j + 1,
+                       i * (n + 1) + j + 1] for i in range(n) for j in range(n)])
+    for axis in range(3):
+        a, b = [k for k in range(3) if k != axis]
+        for side in (0, 1):
+            p = np.zeros(((n + 1) ** 2, 3))
+            p[:, axis] = hi[axis] if side else lo[axis]
+            p[:, a] = lo[a] + u.ravel() * (hi[a] - lo[a])
+            p[:, b] = lo[b] + v.ravel() * (hi[b] - lo[b])
+            base = sum(len(x) for x in verts)
+            verts.append(p)
+            tris.append(np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]) + base)
+    return np.concatenate(verts), np.concatenate(tris)
+
+
+def scaling(runs: int):
+    task = dict(demo_tasks())["collision_free"]
+    parts = dict(WORKPLACE)
+    top_lo, top_hi = parts["Table"][0]
+    rest = {"Table": parts["Table"][1:], "Crate": parts["Crate"], "Shelf": parts["Shelf"]}
+    v0, t0_, _o, _n = triangle_soup(rest)
+    out = []
+    for wanted in (5_000, 100_000, 1_000_000):
+        n = max(1, int(round((wanted / 12) ** 0.5)))
+        v, t = tessellated_box(top_lo, top_hi, n)
+        verts = np.concatenate([v0, v])
+        tris = np.concatenate([t0_, t + len(v0)])
+        builds, searches = [], []
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            obs = Obstacles.from_triangles(verts, tris)
+            builds.append(time.perf_counter() - t0)
+            planner = Planner(standard_arm(), obs, Settings())
+            searches.append(planner.plan(task).stats.search_time_s)
+        row = {"triangles": int(len(tris)), "search_time_s": statistics.median(searches),
+               "bvh_build_time_s": statistics.median(builds),
+               "search_spread_s": spread(searches)}
+        out.append(row)
+        log(f"  {row['triangles']:>9,d} triangles: search {1000 * row['search_time_s']:.1f} ms, "
+            f"BVH build {1000 * row['bvh_build_time_s']:.1f} ms")
+    return out
+
+
+# --- 5. batch throughput ---------------------------------------------------------------------------
+
+STUDY = """
+name = "bench-throughput"
+arm = "right"
+[[scenes]]
+file = "workplace.blend"
+armature = "{armature}"
+[scenes.grid]
+frame = "shoulder"
+min = [0.35, -0.3, -0.4]
+max = [0.85, 0.5, 0.4]
+count = [5, 5, 8]
+"""
+
+
+def batch_throughput():
+    from reach_addon.demo import build_scene
+
+    folder = Path(tempfile.mkdtemp(prefix="reach-bench-"))
+    armature = build_scene()
+    bpy.ops.wm.save_as_mainfile(filepath=str(folder / "workplace.blend"))
+    (folder / "study.toml").write_text(STUDY.format(armature=armature.name))
+    walls = {}
+    for workers in (1, 2):
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "reach_addon", "batch", str(folder / "study.toml"),
+                        "--workers", str(workers), "--output", str(folder / f"w{workers}")],
+                       env=dict(os.environ, PYTHONPATH=str(ROOT)), cwd=ROOT, timeout=3600,
+                       stdout=subprocess.DEVNULL, check=False)
+        walls[workers] = time.perf_counter() - t0
+        log(f"  200 tasks on {workers} process(es): {walls[workers]:.1f} s")
+    return {"batch_tasks": 200, "batch_1proc_s": walls[1], "batch_2proc_s": walls[2],
+            "batch_speedup_2proc": walls[1] / walls[2]}
+
+
+# --- report ------------------------------------------------------------------------------------------
+
+def markdown(results) -> str:
+    m = results["machine"]
+    lines = ["# Reach benchmark", "",
+             f"Reach {results['reach_version']} on Blender {results['blender_version']} (bpy), "
+             f"{m['cpu']}, {m['cores']} cores, Python {m['python']}; {results['runs']} runs, "
+             f"medians (min–max); {results['date']}.", "",
+             "## Table 2 (the demo workplace, the core's standard figure)", "",
+             "| task | search ms (spread) | paper ms | speed-up | prep ms | nodes | paper | "
+             "in solution | paper | length (arm lengths) | paper | µs/node |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in results["table2"]:
+        sp = r["search_time_spread_s"]
+        lines.append(
+            f"| {r['task']} | {1000 * r['search_time_s']:.1f} ({1000 * sp['min']:.1f}–"
+            f"{1000 * sp['max']:.1f}) | {1000 * r['paper_search_time_s']:.0f} | "
+            f"{r['speedup_vs_paper']:.0f}× | {1000 * r['preprocess_time_s']:.0f} | "
+            f"{r['nodes_searched']} | {r['paper_nodes_searched']} | {r['nodes_in_solution']} | "
+            f"{r['paper_nodes_in_solution']} | {r['path_length_arm_lengths']:.2f} | "
+            f"{r['paper_path_length_arm_lengths']:.2f} | {1000 * r['time_per_node_ms']:.0f} |")
+    if results["ompl"]:
+        lines += ["", "## Against OMPL RRTConnect (+ simplification)", "",
+                  "| task | Reach ms | OMPL ms | Reach length | OMPL length | Reach f_R | "
+                  "OMPL f_R | Reach collisions | OMPL collisions |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for r in results["ompl"]:
+            lines.append(
+                f"| {r['task']} | {1000 * r['reach_time_s']:.1f} | {1000 * r['ompl_time_s']:.1f}"
+                f" | {r['reach_path_length']:.2f} | {r['ompl_path_length']:.2f} | "
+                f"{r['reach_mean_f_r']:.2f} | {r['ompl_mean_f_r']:.2f} | "
+                f"{r['reach_collisions']:g} | {r['ompl_collisions']:g} |")
+    lines += ["", "## Other figures", ""]
+    for k in ("chase_update_ms_p50", "chase_update_ms_p95", "bake_1000x8_ms",
+              "bake_1000_frames_ms", "bake_bones", "batch_1proc_s", "batch_2proc_s",
+              "batch_speedup_2proc"):
+        if k in results:
+            v = results[k]
+            lines.append(f"- `{k}`: {v:.2f}" if isinstance(v, float) else f"- `{k}`: {v}")
+    if results.get("scaling"):
+        lines += ["", "| triangles | search ms | BVH build ms |", "|---|---|---|"]
+        for r in results["scaling"]:
+            lines.append(f"| {r['triangles']:,} | {1000 * r['search_time_s']:.1f} | "
+                         f"{1000 * r['bvh_build_time_s']:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--skip", action="append", default=[],
+                        choices=("table2", "ompl", "chase", "bake", "scaling", "batch"))
+    parser.add_argument("--output", default=str(ROOT / "bench"))
+    args = parser.parse_args(argv)
+    results = {"reach_version": __version__, "blender_version": bpy.app.version_string,
+               "runs": args.runs, "date": time.strftime("%Y-%m-%d %H:%M"),
+               "machine": {"cpu": platform.processor() or platform.machine(),
+                           "cores": os.cpu_count(), "python": platform.python_version(),
+                           "system": platform.platform()}}
+    steps = [("table2", "Table 2", lambda: {"table2": table2(args.runs)}),
+             ("ompl", "OMPL race", lambda: {"ompl": ompl(args.runs)}),
+             ("chase", "chase / live re-plan", chase_updates),
+             ("bake", "bake", lambda: bake_1000(args.runs)),
+             ("scaling", "obstacle scaling", lambda: {"scaling": scaling(args.runs)}),
+             ("batch", "batch throughput", batch_throughput)]
+    results.setdefault("ompl", [])
+    for key, title, fn in steps:
+        if key in args.skip:
+            continue
+        log(f"{title}:")
+        results.update(fn())
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(results, indent=2))
+    (out / "results.md").write_text(markdown(results))
+    log(f"wrote {out / 'results.json'} and {out / 'results.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
