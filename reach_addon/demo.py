@@ -207,6 +207,21 @@ def bpy_update():
     bpy.context.view_layer.update()
 
 
+def _keep_display(scene, task_name):
+    """Keep this task's trajectory and markers in the file, in a collection of its own that
+    the next plan does not clear and the next renders do not show."""
+    from .blender import viz
+    from .blender.scene import VIZ_TAG
+
+    coll = viz.collection(scene, create=False)
+    if coll is not None:
+        coll.name = f"Reach {task_name}"
+        for ob in coll.objects:          # the next plan makes its own, not reuses these
+            ob.name = f"{ob.name} ({task_name})"
+        del coll[VIZ_TAG]
+        coll.hide_render = True
+
+
 def _arm_rest(armature, bones):
     """The start pose of the bones a bake keys (chest and arm), to return to between
     tasks: each of the paper's tasks starts from the same standing pose."""
@@ -289,6 +304,7 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
             renders[name] = render_outcome(bpy.context, outcome, out_dir, still=f"{name}.png",
                                            video=None)["still"]
             print(f"{'':15s} rendered {name}.png", file=out, flush=True)
+        _keep_display(scene, name)
         _key_rest(armature, rest, end + GAP)
         frame = end + GAP + 1
     scene.frame_start, scene.frame_end = 1, frame - 1
