@@ -129,7 +129,24 @@ def local_matrices(armature, keyed, targets_arm, start_pose):
                                         len(target))
             parent_rest = np.array(bone.parent.matrix_local)
         offset = np.linalg.inv(parent_rest) @ rest
-        out[name] = np.linalg.inv(parent_now @ offset) @ target
+        out[name] = affine_inverse(parent_now @ offset) @ target
+    return out
+
+
+def affine_inverse(m):
+    """Inverses of affine matrices (..., 4, 4) (bottom row 0 0 0 1): the 3×3 part by its
+    adjugate over its determinant, the translation by −M⁻¹t. Much faster than a general
+    inverse on a stack of a thousand frames."""
+    a = m[..., :3, :3]
+    c0 = np.cross(a[..., :, 1], a[..., :, 2])
+    c1 = np.cross(a[..., :, 2], a[..., :, 0])
+    c2 = np.cross(a[..., :, 0], a[..., :, 1])
+    det = np.einsum("...i,...i->...", a[..., :, 0], c0)
+    inv3 = np.stack([c0, c1, c2], axis=-2) / det[..., None, None]
+    out = np.zeros_like(m)
+    out[..., :3, :3] = inv3
+    out[..., :3, 3] = -np.einsum("...ij,...j->...i", inv3, m[..., :3, 3])
+    out[..., 3, 3] = 1.0
     return out
 
 
@@ -148,18 +165,57 @@ def _parent_target(parent, name_to_role, targets_arm, start_pose, n):
     return a_target @ (np.linalg.inv(start_pose[anc.name]) @ s_p)[None]
 
 
+def matrix_quaternions(m):
+    """Unit quaternions (F, 4) (w, x, y, z) of matrices (F, 3, 3) whose columns are scaled
+    rotation axes (the scale is divided out first), by Shepperd's method: each row takes the
+    largest of the four diagonal combinations as its pivot, so no division is near zero."""
+    r = m / np.linalg.norm(m, axis=1, keepdims=True)
+    t = np.stack([r[:, 0, 0] + r[:, 1, 1] + r[:, 2, 2], r[:, 0, 0], r[:, 1, 1], r[:, 2, 2]], 1)
+    pivot = np.argmax(t, 1)
+    q = np.empty((len(r), 4))
+    for k in range(4):
+        rows = pivot == k
+        if not rows.any():
+            continue
+        a = r[rows]
+        if k == 0:
+            w = np.sqrt(1.0 + t[rows, 0]) / 2
+            q[rows] = np.column_stack([w, (a[:, 2, 1] - a[:, 1, 2]) / (4 * w),
+                                       (a[:, 0, 2] - a[:, 2, 0]) / (4 * w),
+                                       (a[:, 1, 0] - a[:, 0, 1]) / (4 * w)])
+            continue
+        i = k - 1
+        j, l = (i + 1) % 3, (i + 2) % 3
+        v = np.sqrt(np.maximum(1.0 + 2 * a[:, i, i] - t[rows, 0], 0.0)) / 2
+        out = np.empty((len(a), 4))
+        out[:, 0] = (a[:, l, j] - a[:, j, l]) / (4 * v)
+        out[:, 1 + i] = v
+        out[:, 1 + j] = (a[:, j, i] + a[:, i, j]) / (4 * v)
+        out[:, 1 + l] = (a[:, l, i] + a[:, i, l]) / (4 * v)
+        q[rows] = out
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def continuous(q, previous):
+    """Flip the signs of quaternions (F, 4) so that each is in the hemisphere of the one
+    before it (the first of ``previous``, the bone's current value): no 360° spins."""
+    ref = np.vstack([previous[None], q])
+    flips = np.einsum("ij,ij->i", ref[1:], ref[:-1]) < 0
+    # a row's sign is flipped once per sign change of the raw rows before it
+    raw_dots = np.einsum("ij,ij->i", q[1:], q[:-1]) < 0
+    sign = np.ones(len(q))
+    sign[0] = -1.0 if flips[0] else 1.0
+    sign[1:] = sign[0] * np.cumprod(np.where(raw_dots, -1.0, 1.0))
+    return q * sign[:, None]
+
+
 def channel_values(pose_bone, locals_):
     """Rotation channel values (F, k) and the data path for a bone's rotation mode."""
     mode = pose_bone.rotation_mode
     out = []
     if mode == "QUATERNION":
-        prev = pose_bone.rotation_quaternion.copy()
-        for m in locals_:
-            q = Matrix(m.tolist()).to_3x3().normalized().to_quaternion()
-            q.make_compatible(prev)
-            out.append(tuple(q))
-            prev = q
-        return "rotation_quaternion", np.array(out)
+        q = matrix_quaternions(np.asarray(locals_)[:, :3, :3])
+        return "rotation_quaternion", continuous(q, np.array(pose_bone.rotation_quaternion))
     if mode == "AXIS_ANGLE":
         prev = Quaternion(pose_bone.rotation_axis_angle[1:], pose_bone.rotation_axis_angle[0])
         for m in locals_:
