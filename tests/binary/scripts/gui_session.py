@@ -1,0 +1,315 @@
+"""A user's session with Reach in Blender's interface, driven from inside Blender.
+
+    xvfb-run -s "-screen 0 1600x1000x24" blender SCENE.blend --python gui_session.py -- \
+        OUT_DIR ARMATURE TARGET [STEP]
+
+Runs as a chain of ``bpy.app.timers`` callbacks once the window is up, so every step happens
+in the live event loop with its redraws:
+
+1. open the 3D viewport's sidebar, frame the reaching arm, and turn to the "Reach" tab the
+   way a user can: the mouse wheel over the sidebar's tab strip (``xdotool``), one tab at a
+   time, until Reach's main panel is drawn in the sidebar (seen by a draw hook appended to
+   the panel, so the tab is found by what Blender draws, not by guessing its position);
+2. Esc: start a long Bake (a fine step) with ``INVOKE_DEFAULT``, check it is running, press
+   Esc with ``xdotool``, and record everything a bake could have touched before and after;
+3. Plan, then Bake, each invoked as the panel's buttons do and waited for; the trajectory's
+   points projected into the view are recorded, to find it in the screenshot;
+4. screenshots (``screen.screenshot``) at each stage, the last at the reach's end frame.
+
+Everything seen goes to ``OUT_DIR/session.json`` (the test reads it and the screenshots);
+then Blender quits. Any error is recorded there too, and ends the session.
+"""
+
+import json
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import bpy
+
+ARGS = sys.argv[sys.argv.index("--") + 1:]
+OUT, ARMATURE, TARGET = Path(ARGS[0]), ARGS[1], ARGS[2]
+STEP = float(ARGS[3]) if len(ARGS) > 3 else None      # the planner step for Plan and Bake
+DEADLINE = time.monotonic() + 240.0           # the session gives up after this long
+seen = {"blender": bpy.app.version_string, "steps": [], "draws": {}}
+t_start = time.monotonic()
+
+
+def note(step, **info):
+    seen["steps"].append({"step": step, "t": round(time.monotonic() - t_start, 2), **info})
+
+
+# --- what the sidebar draws -------------------------------------------------------------------
+
+def _hook(panel_name):
+    def hook(self, context):
+        d = seen["draws"].setdefault(panel_name, {"count": 0})
+        d["count"] += 1
+        d["where"] = [context.area.type, context.region.type]
+        if panel_name == "REACH_PT_result":
+            from reach_addon.ui.operators import result_lines
+
+            d["lines"] = result_lines(context.scene.reach)
+    return hook
+
+
+for _name in ("REACH_PT_main", "REACH_PT_result"):
+    getattr(bpy.types, _name).append(_hook(_name))
+
+
+def draws(name):
+    return seen["draws"].get(name, {}).get("count", 0)
+
+
+# --- the window -------------------------------------------------------------------------------
+
+def ui():
+    win = bpy.context.window_manager.windows[0]
+    area = max((a for a in win.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
+    regions = {r.type: r for r in area.regions}
+    return win, area, regions
+
+
+def geometry():
+    """Window size and the viewport's regions in window pixels, origin bottom left."""
+    win, area, regions = ui()
+    return {"window": [win.width, win.height],
+            "area": [area.x, area.y, area.width, area.height],
+            "regions": {t: [r.x, r.y, r.width, r.height] for t, r in regions.items()}}
+
+
+def override():
+    win, area, regions = ui()
+    return bpy.context.temp_override(window=win, area=area, region=regions["WINDOW"])
+
+
+def screenshot(name, redraws=1):
+    """The whole window as a PNG, after drawing it (panels that just appeared slide into
+    place over more than one redraw) so the picture is what the user now sees."""
+    win, area, regions = ui()
+    with bpy.context.temp_override(window=win, area=area, region=regions["WINDOW"]):
+        bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=redraws)
+        bpy.ops.screen.screenshot(filepath=str(OUT / f"{name}.png"))
+    note("screenshot", name=name, geometry=geometry(),
+         panels=json.loads(json.dumps(seen["draws"])))     # what had been drawn by then
+
+
+def xdotool(*args):
+    subprocess.run(["xdotool", *map(str, args)], check=True, timeout=20)
+
+
+def to_screen(region, fx=0.5, fy=0.5):
+    """X screen coordinates (origin top left) of a point of ``region``."""
+    win, _area, _regions = ui()
+    return (int(region.x + fx * region.width), int(win.height - (region.y + fy * region.height)))
+
+
+# --- the scene --------------------------------------------------------------------------------
+
+def keys_of(ob):
+    ad = ob.animation_data
+    action = ad.action if ad else None
+    if action is None:
+        return None, {}
+    if hasattr(action, "layers"):
+        curves = [fc for ly in action.layers for st in ly.strips for bag in st.channelbags
+                  for fc in bag.fcurves]
+    else:
+        curves = list(action.fcurves)
+    return action.name, {f"{fc.data_path}[{fc.array_index}]": [list(k.co) for k in fc.keyframe_points]
+                         for fc in curves}
+
+
+def state():
+    """Everything a plan or bake could change, as plain data."""
+    arm = bpy.data.objects[ARMATURE]
+    action, keys = keys_of(arm)
+    return {
+        "objects": {ob.name: [round(x, 6) for row in ob.matrix_world for x in row]
+                    for ob in bpy.data.objects},
+        "collections": sorted(c.name for c in bpy.data.collections),
+        "actions": sorted(a.name for a in bpy.data.actions),
+        "curves": sorted(c.name for c in bpy.data.curves),
+        "materials": sorted(m.name for m in bpy.data.materials),
+        "armature_action": action, "keys": keys,
+        "pose": {pb.name: [round(x, 6) for row in pb.matrix_basis for x in row]
+                 for pb in arm.pose.bones},
+        "frame": bpy.context.scene.frame_current,
+        "last_result": bpy.context.scene.reach.last_result,
+    }
+
+
+def trajectory_on_screen():
+    """The trajectory curve's points projected into the viewport (region pixels)."""
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+
+    ob = bpy.data.objects.get("Reach Trajectory")
+    if ob is None:
+        return []
+    _win, area, regions = ui()
+    r3d = area.spaces.active.region_3d
+    out = []
+    for p in ob.data.splines[0].points:
+        xy = location_3d_to_region_2d(regions["WINDOW"], r3d, ob.matrix_world @ p.co.xyz)
+        if xy is not None:
+            out.append([xy.x, xy.y])
+    return out
+
+
+def frame_the_arm():
+    """Look at the reach from the front, close enough that the arm fills the viewport."""
+    from mathutils import Vector
+
+    _win, area, regions = ui()
+    arm = bpy.data.objects[ARMATURE]
+    target = bpy.data.objects[TARGET].matrix_world.translation
+    mod = sys.modules["reach_addon"]
+    info = mod.blender.rig.build(arm, "right")
+    shoulder = Vector(info.joints_world["shoulder"].tolist())
+    r3d = area.spaces.active.region_3d
+    r3d.view_perspective = "PERSP"
+    r3d.view_location = (shoulder + target) / 2
+    forward = Vector(info.frame.forward.tolist())
+    up = Vector(info.frame.up.tolist())
+    # From the front and the reaching side, a little above: the path round the plate shows.
+    eye_dir = (0.8 * forward + 0.5 * up + 1.0 * Vector(info.frame.right.tolist())).normalized()
+    r3d.view_rotation = (-eye_dir).to_track_quat("-Z", "Y")
+    r3d.view_distance = 2.2 * info.arm.arm_length
+    regions["WINDOW"].tag_redraw()
+    note("framed", arm_length=info.arm.arm_length)
+
+
+# --- running an operator as the panel's button does -------------------------------------------
+
+def run_modal(op_name, timeout_s):
+    """Invoke reach.<op_name> like a button press, then wait (yielding to the event loop)
+    until it has finished."""
+    props = bpy.context.scene.reach
+    t0 = time.monotonic()
+    with override():
+        result = getattr(bpy.ops.reach, op_name)("INVOKE_DEFAULT")
+    note(f"{op_name} invoked", result=sorted(result), running=props.running)
+    progress, n0 = [], draws("REACH_PT_main")
+    while props.running:
+        if time.monotonic() - t0 > timeout_s:
+            raise RuntimeError(f"reach.{op_name} still running after {timeout_s} s")
+        progress.append(round(props.progress, 4))
+        yield 0.25
+    note(f"{op_name} done", seconds=round(time.monotonic() - t0, 2),
+         status=props.status, has_result=bool(props.last_result), progress=progress,
+         main_draws_while_running=draws("REACH_PT_main") - n0)
+
+
+def settle(panel, redraws=4, timeout_s=8.0):
+    """Let the sidebar redraw a few times after ``panel`` appeared (as it does while the
+    pointer moves over it): Blender slides a new panel into place over several redraws."""
+    t0, n0 = time.monotonic(), draws(panel)
+    while draws(panel) < n0 + redraws and time.monotonic() - t0 < timeout_s:
+        ui()[2]["UI"].tag_redraw()
+        yield 0.3
+
+
+def session():
+    win, area, regions = ui()
+    props = bpy.context.scene.reach
+    props.armature = bpy.data.objects[ARMATURE]
+    props.target = bpy.data.objects[TARGET]
+    props.arm = "RIGHT"
+    for ob in bpy.context.view_layer.objects:       # nothing selected: no outlines in the view
+        ob.select_set(False)
+    note("start", geometry=geometry(), addon="reach_addon" in bpy.context.preferences.addons,
+         panel_registered=hasattr(bpy.types, "REACH_PT_main"))
+    frame_the_arm()
+    area.spaces.active.show_region_ui = True
+    yield 1.0
+    screenshot("sidebar_first_tab")
+
+    # 1. The Reach tab: wheel over the tab strip at the sidebar's outer edge.
+    _win, _area, regions = ui()
+    sidebar = regions["UI"]
+    x, y = to_screen(sidebar, 1.0, 0.5)
+    x -= 12
+    turns = 0
+    while not draws("REACH_PT_main") and turns < 8:
+        xdotool("mousemove", x, y, "click", 5)
+        turns += 1
+        yield 0.6
+    note("reach tab", wheel_turns=turns, main_draws=draws("REACH_PT_main"),
+         where=seen["draws"].get("REACH_PT_main", {}).get("where"))
+    xdotool("mousemove", *to_screen(regions["WINDOW"], 0.3, 0.3))   # pointer into the view
+    yield 1.0
+    screenshot("before")
+
+    # 2. Esc cancels a long bake, leaving the scene as it was.
+    before = state()
+    settings = props.settings
+    saved = settings.step, settings.node_budget, settings.stall_budget
+    settings.step, settings.node_budget, settings.stall_budget = 0.004, 200000, 200000
+    with override():
+        result = bpy.ops.reach.bake("INVOKE_DEFAULT")
+    note("long bake invoked", result=sorted(result), running=props.running)
+    yield 1.5
+    running = {"running": props.running, "progress": props.progress, "status": props.status}
+    xdotool("mousemove", *to_screen(regions["WINDOW"], 0.3, 0.3), "key", "Escape")
+    t0 = time.monotonic()
+    while props.running and time.monotonic() - t0 < 20:
+        yield 0.2
+    yield 1.0                                    # and nothing lands later
+    after = state()
+    settings.step, settings.node_budget, settings.stall_budget = saved
+    diff = sorted(k for k in before if before[k] != after[k])
+    note("escape", before_escape=running, running_after=props.running,
+         seconds_to_stop=round(time.monotonic() - t0, 2), status=props.status, changed=diff,
+         before_keys=len(before["keys"]), after_keys=len(after["keys"]),
+         before_action=before["armature_action"], after_action=after["armature_action"])
+
+    # 3. Plan, then Bake; with STEP set in the panel's settings if given (in the interface
+    # each slice of planning is followed by a viewport redraw, which software OpenGL makes
+    # slow: planning time here is mostly redraws, and a coarser step shortens it).
+    if STEP is not None:
+        settings.step = STEP
+    yield from run_modal("plan", 120)
+    yield from settle("REACH_PT_result")
+    planned = state()
+    note("planned", trajectory="Reach Trajectory" in bpy.data.objects, keys=len(planned["keys"]),
+         trajectory_px=trajectory_on_screen(),
+         result=json.loads(props.last_result or "{}"))
+    screenshot("planned")
+
+    yield from run_modal("bake", 120)
+    yield from settle("REACH_PT_result")
+    baked = state()
+    note("baked", keys=len(baked["keys"]), action=baked["armature_action"],
+         result=json.loads(props.last_result or "{}"))
+    screenshot("baked")
+    bpy.context.scene.frame_set(json.loads(props.last_result)["tasks"][0]["frame_end"])
+    yield 1.5
+    screenshot("reached")
+
+
+SESSION = session()
+
+
+def tick():
+    try:
+        if time.monotonic() > DEADLINE:
+            raise RuntimeError("the session ran out of time")
+        return next(SESSION)
+    except StopIteration:
+        seen["ok"] = True
+    except Exception:
+        seen["error"] = traceback.format_exc()
+    finish()
+    return None
+
+
+def finish():
+    seen["seconds"] = round(time.monotonic() - t_start, 2)
+    (OUT / "session.json").write_text(json.dumps(seen, indent=1))
+    bpy.ops.wm.quit_blender()
+
+
+OUT.mkdir(parents=True, exist_ok=True)
+bpy.app.timers.register(tick, first_interval=0.5)
