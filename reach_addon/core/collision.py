@@ -72,6 +72,63 @@ def segment_distance_xyz(p1, q1, p2, q2, m=SCALAR):
     return m.sqrt(dx * dx + dy * dy + dz * dz)
 
 
+def point_segment_distance(p, a, b) -> float:
+    """Distance from point ``p`` to the segment a-b (float 3-sequences)."""
+    abx, aby, abz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    apx, apy, apz = p[0] - a[0], p[1] - a[1], p[2] - a[2]
+    den = abx * abx + aby * aby + abz * abz
+    t = (apx * abx + apy * aby + apz * abz) / den if den > 1e-18 else 0.0
+    t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
+    dx, dy, dz = apx - t * abx, apy - t * aby, apz - t * abz
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
+def segment_distance_float(p1, q1, p2, q2) -> float:
+    """:func:`segment_distance_xyz` for one pair of segments given as float 3-sequences,
+    written out step by step (the same steps, so the same number) because the planner's
+    body test calls it for every pose it tries and the generic form pays a Python call for
+    each ``m.where`` and ``m.clip``."""
+    d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
+    d2x, d2y, d2z = q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]
+    rx, ry, rz = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    c = d1x * rx + d1y * ry + d1z * rz
+    f = d2x * rx + d2y * ry + d2z * rz
+    eps = 1e-18
+    a_s = a if a > eps else eps
+    e_s = e if e > eps else eps
+    denom = a * e - b * b
+    if denom > 1e-12 * a * e:
+        s = (b * f - c * e) / (denom if denom > eps else eps)
+        s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
+    else:
+        s = 0.0
+    t = (b * s + f) / e_s
+    if t < 0.0:
+        s = -c / a_s
+        s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
+    elif t > 1.0:
+        s = (b - c) / a_s
+        s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
+    t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
+    if a <= eps:
+        s = 0.0
+    elif e <= eps:
+        s = -c / a_s
+        s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
+    if e <= eps:
+        t = 0.0
+    elif a <= eps:
+        t = f / e_s
+        t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
+    dx = rx + d1x * s - d2x * t
+    dy = ry + d1y * s - d2y * t
+    dz = rz + d1z * s - d2z * t
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+
 class Obstacles:
     """World-space obstacle geometry behind one BVHTree.
 
@@ -167,6 +224,25 @@ class CollisionChecker:
     and wrist→hand end (if ``Settings.check_hand``; tested on its own by
     :meth:`hand_hit`, since the generator turns the hand at the wrist to clear things).
     Sample fractions are fixed per segment (segment lengths do not change).
+
+    A segment is settled by the cheapest test that can settle it:
+
+    1. **Distance bounds at its ends.** The distance to the nearest surface is
+       1-Lipschitz: a point ``t`` along a segment of length ``L`` whose ends are at least
+       ``d_p`` and ``d_q`` from every surface is at least ``max(d_p - t, d_q - (L - t))``
+       from it, so the whole axis is at least ``(d_p + d_q - L) / 2`` away. The capsule
+       (radius ``R`` = its radius + the clearance) is clear when that is ``≥ R``, and
+       touches when an end is closer than ``R``. The generator measures each joint once
+       (one bounded ``find_nearest``) and shares it between the segments meeting there
+       and between all the candidate poses of one wrist position.
+    2. Otherwise **bisection**: the middle is measured and each half settled by test 1
+       or split again; a piece no longer than ``R`` is settled by one sphere around it
+       (radius √(R² + (length/2)²), which may report a contact up to ~12% of R early but
+       never misses one). A segment that runs close along a surface costs a few queries
+       near the contact instead of the whole row of spheres of the module docstring.
+
+    Both tests are exact about clear capsules, so a pose's verdict is the same whichever
+    caller asks (:meth:`first_hit`, :meth:`collides` or the generator's shared path).
     """
 
     SEGMENTS = (("clavicle", 0, 1), ("upper arm", 1, 2), ("forearm", 2, 3), ("hand", 3, 4))
@@ -190,9 +266,8 @@ class CollisionChecker:
         }
         self.check_hand = bool(settings.check_hand and arm.hand_length > 0)
         self.segments = []
+        self.by_name = {}
         for name, a, b in self.SEGMENTS:
-            if name == "hand" and not self.check_hand:
-                continue
             r = radii[name] + margin
             length = lengths[name]
             # Spheres at most one radius apart (never zero apart, for zero radii), each
@@ -200,15 +275,70 @@ class CollisionChecker:
             n = max(2, int(math.ceil(length / max(r, 1e-3 * arm.arm_length))) + 1)
             spacing = length / (n - 1)
             cover = math.sqrt(r * r + 0.25 * spacing * spacing)
-            self.segments.append((name, a, b, r, length, np.linspace(0.0, 1.0, n)[:, None], cover))
+            segment = (name, a, b, r, length, np.linspace(0.0, 1.0, n)[:, None], cover)
+            self.by_name[name] = segment
+            if name == "hand" and not self.check_hand:
+                continue
+            self.segments.append(segment)
         self._arm_segments = [seg for seg in self.segments if seg[0] != "hand"]
         self._hand_segment = next((seg for seg in self.segments if seg[0] == "hand"), None)
         self._max_cover = max(seg[6] for seg in self.segments)
+        # Query bounds of the joint distances: far enough to clear every segment that meets
+        # at the joint from that end alone (see the class docstring).
+        rad = {name: seg[3] for name, seg in self.by_name.items()}
+        self.bound_sternum = lengths["clavicle"] + rad["clavicle"]
+        self.bound_shoulder = max(lengths["clavicle"], lengths["upper arm"]) + rad["upper arm"]
+        self.bound_elbow = max(lengths["upper arm"] + rad["upper arm"],
+                               lengths["forearm"] + rad["forearm"])
+        self.bound_wrist = max(lengths["forearm"] + rad["forearm"],
+                               lengths["hand"] + rad["hand"])
+        self.bound_hand = lengths["hand"] + rad["hand"]
 
-    def _segment_hit(self, tree, p, q, segment):
-        """Triangle index of a contact of one capsule p-q, or None."""
+    def distance(self, point, bound: float) -> float:
+        """Distance from a world point (3 floats) to the nearest obstacle surface, or
+        ``bound`` when nothing is within ``bound`` (a lower bound either way)."""
+        tree = self.obstacles.tree
+        if tree is None:
+            return bound
+        hit = tree.find_nearest(point, bound)
+        return bound if hit[0] is None else hit[3]
+
+    def segment_clear(self, p, q, d_p: float, d_q: float, segment) -> bool:
+        """Is the capsule p-q (world points as 3 floats) clear, given lower bounds ``d_p``,
+        ``d_q`` of the obstacle distance at its ends? Test 1, then test 2 of the class
+        docstring."""
+        r, length = segment[3], segment[4]
+        if d_p < r or d_q < r:
+            return False
+        if d_p + d_q - length >= 2.0 * r:
+            return True
+        tree = self.obstacles.tree
+        return tree is None or self._bisect(tree, list(p), list(q), d_p, d_q, length, r)
+
+    def _bisect(self, tree, p, q, d_p, d_q, length, r) -> bool:
+        """Test 2 of the class docstring on a piece p-q (its ends ``≥ r`` from every
+        surface, not settled by test 1): measure the middle (bounded by half the length +
+        r, enough to settle both halves if nothing is found) and settle each half by
+        test 1 or recursively; a piece no longer than ``r`` is settled by one sphere of
+        radius √(r² + (length/2)²) around it, which contains it (at most ~12% early)."""
+        half = 0.5 * length
+        m = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])]
+        if length <= r:
+            return tree.find_nearest(m, math.sqrt(r * r + half * half))[0] is None
+        hit = tree.find_nearest(m, half + r)
+        if hit[0] is None:
+            return True
+        d_m = hit[3]
+        if d_m < r:
+            return False
+        return ((d_p + d_m - half >= 2.0 * r or self._bisect(tree, p, m, d_p, d_m, half, r))
+                and (d_m + d_q - half >= 2.0 * r or self._bisect(tree, m, q, d_m, d_q, half, r)))
+
+    def _segment_hit(self, tree, p, q, segment, bounded: bool = True):
+        """Triangle index of a contact of one capsule p-q by the row of spheres, or None.
+        ``bounded``: first one query around the whole segment."""
         _name, _a, _b, _r, length, fractions, cover = segment
-        if tree.find_nearest((0.5 * (p + q)).tolist(), 0.5 * length + cover)[0] is None:
+        if bounded and tree.find_nearest((0.5 * (p + q)).tolist(), 0.5 * length + cover)[0] is None:
             return None
         for centre in (p + (q - p) * fractions).tolist():
             hit = tree.find_nearest(centre, cover)
@@ -221,17 +351,25 @@ class CollisionChecker:
         tree = self.obstacles.tree
         if tree is None:
             return None
-        j = np.asarray(world_joints)
+        j = np.asarray(world_joints, dtype=float)
         segments = self.segments if include_hand else self._arm_segments
         last = 5 if include_hand else 4
         lo, hi = j[:last].min(0), j[:last].max(0)
         if tree.find_nearest((0.5 * (lo + hi)).tolist(),
                              float(np.linalg.norm(hi - lo)) * 0.5 + self._max_cover)[0] is None:
             return None
+        points = j.tolist()
+        bounds = (self.bound_sternum, self.bound_shoulder, self.bound_elbow, self.bound_wrist,
+                  self.bound_hand)
+        dist = [self.distance(points[i], bounds[i]) for i in range(last)]
         for segment in segments:
-            index = self._segment_hit(tree, j[segment[1]], j[segment[2]], segment)
-            if index is not None:
-                return segment[0], self.obstacles.owner(index)
+            a, b = segment[1], segment[2]
+            if self.segment_clear(points[a], points[b], dist[a], dist[b], segment):
+                continue
+            index = self._segment_hit(tree, j[a], j[b], segment, bounded=False)
+            if index is None:   # the sphere row missed what the bisection found: the nearest
+                index = tree.find_nearest((0.5 * (j[a] + j[b])).tolist())[2]
+            return segment[0], self.obstacles.owner(index)
         return None
 
     def collides(self, world_joints, include_hand: bool = True) -> bool:
@@ -243,8 +381,10 @@ class CollisionChecker:
         tree = self.obstacles.tree
         if tree is None or self._hand_segment is None:
             return False
-        return self._segment_hit(tree, np.asarray(world_wrist), np.asarray(world_hand_end),
-                                 self._hand_segment) is not None
+        p = np.asarray(world_wrist, dtype=float).tolist()
+        q = np.asarray(world_hand_end, dtype=float).tolist()
+        return not self.segment_clear(p, q, self.distance(p, self.bound_wrist),
+                                      self.distance(q, self.bound_hand), self._hand_segment)
 
     def point_clear(self, world_point, radius) -> bool:
         """Is a sphere of ``radius`` (plus the clearance) at ``world_point`` clear?"""

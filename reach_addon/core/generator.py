@@ -17,11 +17,19 @@ import math
 import numpy as np
 
 from . import ik
-from .arm import ArmConfig, ArmModel, Pose, hand_direction, pose_from_config
-from .collision import CollisionChecker, Obstacles
+from .arm import ArmConfig, ArmModel, Pose, pose_from_config
+from .collision import CollisionChecker, Obstacles, point_segment_distance
 from .errors import OUT_OF_REACH, TARGET_IN_OBSTACLE
 from .strength import f_r
 from .torso import ChestPath
+
+
+def hand_coefficients(bend_deg: float, side_deg: float) -> tuple:
+    """(cos bend · cos side, sin bend · cos side, sin side): the hand direction's
+    components along the forearm f, the in-plane p and the hinge axis h
+    (:func:`reach_addon.core.arm.hand_direction`)."""
+    b, s = math.radians(bend_deg), math.radians(side_deg)
+    return (math.cos(b) * math.cos(s), math.sin(b) * math.cos(s), math.sin(s))
 
 
 class ConfigurationGenerator:
@@ -34,11 +42,27 @@ class ConfigurationGenerator:
         self.checker = CollisionChecker(arm, obstacles, settings)
         self.step_length = settings.step * arm.arm_length
         b, side = settings.wrist_bend_max, settings.wrist_side_max
-        # Hand directions tried at each pose: neutral, bent half and fully either way in the
-        # elbow's plane, then sideways (duplicates dropped when a limit is 0).
-        samples = [(0.0, 0.0), (0.5 * b, 0.0), (-0.5 * b, 0.0), (b, 0.0), (-b, 0.0),
-                   (0.0, side), (0.0, -side)]
+        # Hand directions tried at each pose: the wrist's range as a 5 × 3 grid, bent 0,
+        # half and fully either way in the elbow's plane, each straight or fully sideways
+        # (duplicates dropped when a limit is 0). The paper's "further search for a point
+        # on a sphere": with the bends alone (no corners) a hand pointing at an obstacle
+        # close in front of the wrist often had no way out, and the search wandered beside
+        # the obstacle until the arm's own posture had drifted round.
+        samples = [(k * b, j * side) for k in (0.0, 0.5, -0.5, 1.0, -1.0)
+                   for j in (0.0, 1.0, -1.0)]
         self.hand_samples = list(dict.fromkeys(samples))
+        # (cos bend · cos side, sin bend · cos side, sin side) of each sample: the hand
+        # direction's components along f, p and h (arm.hand_direction).
+        self._hand_coefficients = {h: hand_coefficients(*h) for h in self.hand_samples}
+        self._hand_orders = {}
+        self._capsule_cache = {}
+        self._rotation = arm.to_world[:3, :3].tolist()
+        self._offset = arm.to_world[:3, 3].tolist()
+        c = self.checker
+        self._check_hand = c.check_hand
+        self._seg_clavicle, self._seg_upper = c.by_name["clavicle"], c.by_name["upper arm"]
+        self._seg_fore, self._seg_hand = c.by_name["forearm"], c.by_name["hand"]
+        self._r_fore = self._seg_fore[3]
         self.chest = None
 
     def for_reach(self, start: Pose, target) -> ConfigurationGenerator:
@@ -53,65 +77,173 @@ class ConfigurationGenerator:
     def max_change(self, previous: Pose, wrist) -> float:
         """Smoothness bound for a move of the wrist from ``previous``: the bound per step,
         scaled up in proportion for moves longer than one step."""
-        distance = float(np.linalg.norm(np.asarray(wrist) - previous.wrist))
+        distance = math.dist(np.asarray(wrist, dtype=float).tolist(), previous.wrist.tolist())
         return self.settings.max_joint_step * max(1.0, distance / self.step_length)
 
     def hand_order(self, previous_hand) -> list:
         """The hand samples, nearest the previous wrist angles first (stable)."""
-        pb, ps = previous_hand
-        return sorted(self.hand_samples, key=lambda h: math.hypot(h[0] - pb, h[1] - ps))
+        key = tuple(previous_hand)
+        order = self._hand_orders.get(key)
+        if order is None:
+            pb, ps = key
+            order = sorted(self.hand_samples, key=lambda h: math.hypot(h[0] - pb, h[1] - ps))
+            if len(self._hand_orders) < 64:
+                self._hand_orders[key] = order
+        return order
+
+    def _world(self, p):
+        """A canonical point (3 floats) in world space, as a list of floats."""
+        (r0, r1, r2), (o0, o1, o2) = self._rotation, self._offset
+        x, y, z = p
+        return [r0[0] * x + r0[1] * y + r0[2] * z + o0, r1[0] * x + r1[1] * y + r1[2] * z + o1,
+                r2[0] * x + r2[1] * y + r2[2] * z + o2]
+
+    def _capsules(self, body: float):
+        """The body's capsules at a chest rotation (:func:`ik.body_capsules_at`), cached
+        for the last few rotations (most positions of a reach share one)."""
+        caps = self._capsule_cache.get(body)
+        if caps is None:
+            caps = ik.body_capsules_at(self.arm, body) if self.arm.body_capsules else []
+            if len(self._capsule_cache) >= 32:
+                self._capsule_cache.clear()
+            self._capsule_cache[body] = caps
+        return caps
 
     def solve(self, wrist, previous: Pose | None = None, body_rotation=None) -> Pose | None:
         """The strongest legal, collision-free pose with the wrist at ``wrist`` that is
         within the smoothness bound of ``previous`` (if given); None if there is none.
 
         Candidates are tried in strength order: the arm (clavicle, upper arm, forearm)
-        against the body and the obstacles, then the hand at each wrist angle, the previous
-        one first, until one is clear."""
+        against the obstacles and the body, then the hand at each wrist angle, the previous
+        one first, until one is clear.
+
+        Obstacle distances are measured once per joint and shared (see
+        :class:`~reach_addon.core.collision.CollisionChecker`): the wrist first, before
+        any IK, so a position whose wrist is already within the forearm's radius of an
+        obstacle is given up for one query; the shoulder and sternum once per position
+        (they do not depend on the swivel angle); the elbow and the hand's end only for
+        the candidates tried, and only when the bounds at the other joints do not settle
+        the segment already (in open space nothing but the wrist and the shoulder is ever
+        measured)."""
         wrist = np.asarray(wrist, dtype=float)
+        arm, settings, checker = self.arm, self.settings, self.checker
+        w_c = wrist.tolist()
+        w_w = self._world(w_c)
+        d_w = checker.distance(w_w, checker.bound_wrist)
+        if d_w < self._r_fore:
+            return None                          # the wrist itself is against an obstacle
         if body_rotation is None and self.chest is not None:
             body_rotation = self.chest(wrist)
         max_change = None if previous is None else self.max_change(previous, wrist)
-        sol = ik.solve(self.arm, wrist[None], self.settings,
+        sol = ik.solve(arm, wrist[None], settings,
                        None if previous is None else previous.config, body_rotation, max_change)
-        order = sol.order(0, self.settings.elbow_side)
-        if order.size == 0:
+        order = sol.ranked(0, settings.elbow_side)[: settings.max_pose_tries]
+        if not order:
             return None
-        order = order[: self.settings.max_pose_tries]
-        joints = sol.joints(0, order)
-        world = self.arm.to_world_points(joints)
-        body = float(sol.body[0])
-        caps = ik.body_capsules_at(self.arm, body) if self.arm.body_capsules else []
-        check_hand = self.checker.check_hand
-        hands = self.hand_order(previous.hand if previous is not None else (0.0, 0.0))
-        length_hand = self.arm.hand_length
-        for n, k in enumerate(order):
-            j = joints[n]
-            if caps:
-                sh, el, wr = j[1].tolist(), j[2].tolist(), j[3].tolist()
-                mid = [0.5 * (sh[i] + el[i]) for i in range(3)]
-                if ik.segment_hits_body(mid, el, self.arm.upper_arm_radius, caps) or \
-                        ik.segment_hits_body(el, wr, self.arm.forearm_radius, caps):
+
+        # Per position: the clavicle (the same for every candidate).
+        l1, l2 = arm.upper_arm_length, arm.forearm_length
+        s_c, t_c = sol.shoulder[0].tolist(), sol.sternum[0].tolist()
+        s_w = self._world(s_c)
+        d_s = checker.distance(s_w, checker.bound_shoulder)
+        upper_seg, fore_seg, clavicle = self._seg_upper, self._seg_fore, self._seg_clavicle
+        r_u, r_f = upper_seg[3], fore_seg[3]
+        if d_s < r_u:
+            return None                          # the shoulder itself is against an obstacle
+        d_t = d_s - clavicle[4]                  # Lipschitz bound at the sternum
+        if not (d_t >= clavicle[3] and d_s + d_t - clavicle[4] >= 2.0 * clavicle[3]):
+            t_w = self._world(t_c)
+            d_t = checker.distance(t_w, checker.bound_sternum)
+            if not checker.segment_clear(t_w, s_w, d_t, d_s, clavicle):
+                return None
+        caps = self._capsules(float(sol.body[0]))
+        caps_upper = caps_fore = caps_hand = caps
+        if caps:
+            # Body capsules a segment cannot reach from this wrist (every forearm point is
+            # within L2 of it, every hand point within the hand's length, every point of
+            # the upper arm's elbow half within L2 + L1/2) are left out of its tests.
+            far = [point_segment_distance(w_c, c[0], c[1]) - c[4] for c in caps]
+            reach_u = l2 + 0.5 * l1 + arm.upper_arm_radius
+            reach_f, reach_h = l2 + arm.forearm_radius, arm.hand_length + arm.hand_radius
+            caps_upper = [c for c, d in zip(caps, far) if d < reach_u]
+            caps_fore = [c for c, d in zip(caps, far) if d < reach_f]
+            caps_hand = [c for c, d in zip(caps, far) if d < reach_h]
+        (c0, c1, c2), (e1x, e1y, e1z), (e2x, e2y, e2z) = sol.elbow_coef[0].tolist()
+        cos_phi, sin_phi = ik.swivel_lists(float(settings.swivel_step))
+        d_e0 = max(d_s - l1, d_w - l2)           # Lipschitz bound at every elbow
+        elbows_clear = (d_e0 >= r_u and d_e0 >= r_f and d_s + d_e0 - l1 >= 2.0 * r_u
+                        and d_e0 + d_w - l2 >= 2.0 * r_f)
+        hands = None
+        for k in order:
+            cp, sp = cos_phi[k], sin_phi[k]
+            e_c = [c0 + cp * e1x + sp * e2x, c1 + cp * e1y + sp * e2y, c2 + cp * e1z + sp * e2z]
+            # the arm against the obstacles: the elbow is measured only if needed
+            if not elbows_clear:
+                e_w = self._world(e_c)
+                d_e = max(d_e0, checker.distance(e_w, checker.bound_elbow))
+                if not checker.segment_clear(s_w, e_w, d_s, d_e, upper_seg) or \
+                        not checker.segment_clear(e_w, w_w, d_e, d_w, fore_seg):
                     continue
-            if self.checker.collides(world[n], include_hand=False):
+            # ... and against the body (the elbow half of the upper arm, the forearm)
+            if caps_upper:
+                mid = [0.5 * (s_c[0] + e_c[0]), 0.5 * (s_c[1] + e_c[1]), 0.5 * (s_c[2] + e_c[2])]
+                if ik.segment_hits_body(mid, e_c, arm.upper_arm_radius, caps_upper):
+                    continue
+            if caps_fore and ik.segment_hits_body(e_c, w_c, arm.forearm_radius, caps_fore):
                 continue
-            if not check_hand:
-                return sol.pose(0, int(k), j)
-            upper = (j[2] - j[1]) / self.arm.upper_arm_length
-            fore = (j[3] - j[2]) / self.arm.forearm_length
-            bend = sol.bend[0, :, k]
-            for hand in hands:
-                tip = j[3] + length_hand * (fore if hand == (0.0, 0.0) else
-                                            hand_direction(upper, bend, fore, *hand))
-                if caps and ik.segment_hits_body(j[3].tolist(), tip.tolist(),
-                                                 self.arm.hand_radius, caps):
+            bend = sol.bend_at(0, k).tolist()
+            if not self._check_hand:
+                tip = [w_c[i] + arm.hand_length * (w_c[i] - e_c[i]) / l2 for i in range(3)]
+                hand = (0.0, 0.0)
+            else:
+                if hands is None:
+                    hands = self.hand_order(previous.hand if previous is not None else (0.0, 0.0))
+                tip, hand = self._place_hand(s_c, e_c, w_c, w_w, d_w, bend, caps_hand, hands)
+                if tip is None:
                     continue
-                if self.checker.hand_hit(world[n][3], self.arm.to_world_points(tip)):
-                    continue
-                j = j.copy()
-                j[4] = tip
-                return sol.pose(0, int(k), j, hand)
+            joints = np.array(t_c + s_c + e_c + w_c + tip).reshape(5, 3)
+            return Pose(sol.config(0, k), joints, np.array(bend), sol.category(0, k), hand)
         return None
+
+    def _place_hand(self, s_c, e_c, w_c, w_w, d_w, b, caps, hands):
+        """(hand end, wrist angles) of the first hand direction in ``hands`` that is clear
+        of the body and the obstacles, or (None, None). ``b``: the bend direction.
+
+        The hand's sweep from the previous pose's direction is not checked, nor is the
+        change of its angles bounded: see the note in the README's Limitations."""
+        arm, checker, seg = self.arm, self.checker, self._seg_hand
+        l1, l2, lh = arm.upper_arm_length, arm.forearm_length, arm.hand_length
+        u = [(e_c[i] - s_c[i]) / l1 for i in range(3)]
+        f = [(w_c[i] - e_c[i]) / l2 for i in range(3)]
+        # hinge axis h = u × b (normalised) and p = h × f: the hand turns toward p in the
+        # elbow's plane and toward h across it (arm.hand_direction)
+        hx, hy, hz = u[1] * b[2] - u[2] * b[1], u[2] * b[0] - u[0] * b[2], u[0] * b[1] - u[1] * b[0]
+        hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
+        hx, hy, hz = hx / hn, hy / hn, hz / hn
+        px, py, pz = hy * f[2] - hz * f[1], hz * f[0] - hx * f[2], hx * f[1] - hy * f[0]
+        clear_far = d_w - lh >= seg[3]           # no hand direction can reach an obstacle
+
+        def tip_of(coefficients):
+            cf, cp, ch = coefficients
+            return [w_c[0] + lh * (f[0] * cf + px * cp + hx * ch),
+                    w_c[1] + lh * (f[1] * cf + py * cp + hy * ch),
+                    w_c[2] + lh * (f[2] * cf + pz * cp + hz * ch)]
+
+        def clear(tip):
+            if caps and ik.segment_hits_body(w_c, tip, arm.hand_radius, caps):
+                return False
+            if not clear_far:
+                t_w = self._world(tip)
+                if not checker.segment_clear(w_w, t_w, d_w,
+                                             checker.distance(t_w, checker.bound_hand), seg):
+                    return False
+            return True
+
+        for hand in hands:
+            tip = tip_of(self._hand_coefficients[hand])
+            if clear(tip):
+                return tip, hand
+        return None, None
 
     def smooth_between(self, a: Pose, b: Pose) -> bool:
         """Is ``b`` within the smoothness bound of ``a``?"""

@@ -26,14 +26,13 @@ per-sample quantity is a short numpy expression over all samples of all wrists a
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from . import strength
 from .arm import ArmConfig, ArmModel, Pose
-from .collision import segment_distance_xyz
+from .collision import segment_distance_float
 from .numeric import ARRAY, SCALAR
 from .torso import body_rotation_deg
 
@@ -47,6 +46,13 @@ def swivel_samples(step_deg: float):
     """cos φ and sin φ, shape (1, S), of the swivel samples 0, step, 2·step, ... < 360°."""
     phi = np.radians(np.arange(0.0, 360.0 - 1e-9, step_deg))
     return np.cos(phi)[None], np.sin(phi)[None]
+
+
+@lru_cache(maxsize=16)
+def swivel_lists(step_deg: float):
+    """cos φ and sin φ of the swivel samples as lists of floats (for scalar code)."""
+    cos_phi, sin_phi = swivel_samples(step_deg)
+    return cos_phi[0].tolist(), sin_phi[0].tolist()
 
 
 @lru_cache(maxsize=16)
@@ -97,38 +103,110 @@ def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@dataclass
 class Solutions:
     """All swivel samples for W wrist positions. Per-sample arrays are (W, S); per-wrist
     arrays are (W,) or (W, 3). Elbow positions and forearm directions are kept as affine
-    coefficients in (cos φ, sin φ) and built only for the candidates asked for."""
+    coefficients in (cos φ, sin φ) and built only for the candidates asked for.
 
-    wrists: np.ndarray       # (W, 3)
-    body: np.ndarray         # (W,)
-    sternum: np.ndarray      # (W, 3)
-    shoulder: np.ndarray     # (W, 3)
-    elbow_coef: np.ndarray   # (W, 3, 3): centre, r·b1, r·b2
-    fore_coef: np.ndarray    # (W, 3, 3): unit forearm direction = F0 + F1 cos φ + F2 sin φ
-    cos_phi: np.ndarray      # (S,)
-    sin_phi: np.ndarray      # (S,)
-    bend: np.ndarray         # (W, 3, S), canonical unit bend direction
-    alpha: np.ndarray        # (W, S)
-    beta: np.ndarray         # (W, S)
-    gamma: np.ndarray        # (W, S)
-    flex: np.ndarray         # (W,)
-    reachable: np.ndarray    # (W,)
-    legal: np.ndarray        # (W, S): reachable, in the joint limits, elbow side if required
-    valid: np.ndarray        # (W, S): legal and within the smoothness bound
-    f_r: np.ndarray          # (W, S), filled where valid
-    second: np.ndarray       # (W, S), filled where valid
-    wrong_side: np.ndarray   # (W, S)
-    hand_length: float
+    The angles of a wrist the arm cannot reach (:attr:`reachable` false, or an elbow
+    flexion outside its limits) are NaN: there is no arm pose to measure them on.
+    :attr:`legal` is worked out when first asked for (the planner's inner loop only needs
+    :attr:`valid`)."""
+
+    def __init__(self, wrists, body, sternum, shoulder, elbow_coef, fore_coef, cos_phi,
+                 sin_phi, angles, flex, reachable, valid, f_r, second, wrong_side,
+                 hand_length, upper, fore, turn, eps, gamma_prev, limits, require_side,
+                 legal=None, ranked=None):
+        self.wrists = wrists            # (W, 3)
+        self.body = body                # (W,)
+        self.sternum = sternum          # (W, 3)
+        self.shoulder = shoulder        # (W, 3)
+        self.elbow_coef = elbow_coef    # (W, 3, 3): centre, r·b1, r·b2
+        self.fore_coef = fore_coef      # (W, 3, 3): unit forearm direction, F0 + F1 cos φ + F2 sin φ
+        self.cos_phi = cos_phi          # (S,)
+        self.sin_phi = sin_phi          # (S,)
+        self.angles = angles            # (W, 4, S): α, β, γ and the elevation θ
+        self.flex = flex                # (W,)
+        self._reachable = reachable     # (W,) or a bool for one wrist
+        self.valid = valid              # (W, S): legal and within the smoothness bound
+        # (W, S) arrays filled where valid, or for one wrist lists (made arrays when asked)
+        self._f_r, self._second = f_r, second
+        self.wrong_side = wrong_side    # (W, S)
+        self.hand_length = hand_length
+        # chest-frame upper arm and forearm directions (W, 3, S), the chest turn (W, 2) as
+        # cos/sin and (cos ε, sin ε) (W, 2): bend directions are built from them on demand
+        self._upper, self._fore, self._turn, self._eps = upper, fore, turn, eps
+        self._gamma_prev = gamma_prev
+        self._limits = limits
+        self._require_side = require_side
+        self._legal = legal
+        self._ranked = ranked           # (elbow side rule, [k best first]) of wrist 0
+
+    @property
+    def f_r(self) -> np.ndarray:
+        """(W, S) strength category f_R of the valid candidates (0 elsewhere)."""
+        if isinstance(self._f_r, list):
+            self._f_r = np.array([self._f_r], dtype=np.int8)
+        return self._f_r
+
+    @property
+    def second(self) -> np.ndarray:
+        """(W, S) second-level score of the valid candidates (0 elsewhere)."""
+        if isinstance(self._second, list):
+            self._second = np.array([self._second])
+        return self._second
+
+    def category(self, i: int, k: int) -> int:
+        """f_R of candidate ``k`` of wrist ``i``."""
+        if i == 0 and isinstance(self._f_r, list):
+            return self._f_r[k]
+        return int(self.f_r[i, k])
+
+    @property
+    def reachable(self) -> np.ndarray:
+        """(W,): the wrist is within reach with the elbow inside its limits."""
+        return np.atleast_1d(np.asarray(self._reachable, dtype=bool))
+
+    @property
+    def alpha(self) -> np.ndarray:
+        return self.angles[:, 0]
+
+    @property
+    def beta(self) -> np.ndarray:
+        return self.angles[:, 1]
+
+    @property
+    def gamma(self) -> np.ndarray:
+        return self.angles[:, 2]
+
+    @property
+    def legal(self) -> np.ndarray:
+        """(W, S): reachable, inside the joint limits, the elbow on its side if required."""
+        if self._legal is None:
+            lo, hi = self._limits
+            legal = np.logical_and.reduce((self.angles >= lo) & (self.angles <= hi), 1)
+            self._legal = legal & ~self.wrong_side if self._require_side else legal
+        return self._legal
+
+    def ranked(self, i: int, elbow_side: str) -> list:
+        """Indices of wrist ``i``'s valid candidates, best first, as a list."""
+        if i == 0 and self._ranked is not None and self._ranked[0] == elbow_side:
+            return list(self._ranked[1])
+        return self.order(i, elbow_side).tolist()
 
     def order(self, i: int, elbow_side: str) -> np.ndarray:
-        """Indices of wrist ``i``'s valid candidates, best first."""
+        """Indices of wrist ``i``'s valid candidates, best first: the key of
+        :func:`~reach_addon.core.strength.rank_order` (a few candidates are sorted as
+        Python tuples, which is the same order and cheaper than numpy for short lists)."""
+        if i == 0 and self._ranked is not None and self._ranked[0] == elbow_side:
+            return np.array(self._ranked[1], dtype=np.intp)
         idx = np.flatnonzero(self.valid[i])
         if idx.size <= 1:
             return idx
+        if idx.size <= _SCALAR_SCORING:
+            return np.array(_rank(idx.tolist(), self.f_r[i].tolist(), self.second[i].tolist(),
+                                  self.wrong_side[i].tolist() if elbow_side == "prefer"
+                                  else None), dtype=idx.dtype)
         first = self.wrong_side[i, idx] if elbow_side == "prefer" else None
         return idx[strength.rank_order(self.f_r[i, idx], self.second[i, idx], first)]
 
@@ -146,15 +224,58 @@ class Solutions:
         out[:, 4] = self.wrists[i] + self.hand_length * fore
         return out
 
+    def bend_at(self, i: int, k: int) -> np.ndarray:
+        """Unit direction (3,), canonical frame, that candidate ``k`` of wrist ``i``'s
+        forearm bends toward: (f - cos ε u) / sin ε; with a straight elbow, the direction
+        of the kept twist (see :func:`solve`)."""
+        ux, uy, uz = self._upper[i, :, k].tolist()
+        ce, se = self._eps[i].tolist()
+        if se < _STRAIGHT:
+            a = ux / max(1.0 - uz, 1e-12)
+            g = math.radians(self._gamma_prev)
+            cg, sg = math.cos(g), math.sin(g)
+            # reference r = (-a u_y, a u_x - u_z, u_y), turned by γ about -u: r cos γ - t sin γ
+            # with t = u × r = (1 - a u_x, -a u_y, u_x)
+            bx = -a * uy * cg - (1.0 - a * ux) * sg
+            by = (a * ux - uz) * cg + a * uy * sg
+            bz = uy * cg - ux * sg
+        else:
+            fx, fy, fz = self._fore[i, :, k].tolist()
+            bx, by, bz = (fx - ce * ux) / se, (fy - ce * uy) / se, (fz - ce * uz) / se
+        cb, sb = self._turn[i].tolist()
+        return np.array([cb * bx + sb * by, cb * by - sb * bx, bz])
+
+    @property
+    def bend(self) -> np.ndarray:
+        """Bend directions of every sample, (W, 3, S), canonical frame."""
+        w, s = self.valid.shape
+        out = np.empty((w, 3, s))
+        for i in range(w):
+            for k in range(s):
+                out[i, :, k] = self.bend_at(i, k)
+        return out
+
     def config(self, i: int, k: int) -> ArmConfig:
-        return ArmConfig(float(self.body[i]), float(self.alpha[i, k]), float(self.beta[i, k]),
-                         float(self.gamma[i, k]), float(self.flex[i]))
+        a, b, g, _t = self.angles[i, :, k].tolist()
+        return ArmConfig(float(self.body[i]), a, b, g, float(self.flex[i]))
 
     def pose(self, i: int, k: int, joints=None, hand=(0.0, 0.0)) -> Pose:
         if joints is None:
             joints = self.joints(i, k)[0]
-        bend = self.bend[i, :, k].copy()
-        return Pose(self.config(i, k), joints, bend, int(self.f_r[i, k]), hand)
+        return Pose(self.config(i, k), joints, self.bend_at(i, k), self.category(i, k), hand)
+
+
+def _rank(ks: list, f_r: list, second: list, wrong: list | None) -> list:
+    """Candidate indices ``ks`` sorted as :func:`~reach_addon.core.strength.rank_order`
+    sorts them (wrong side first key if given, then f_R, the second-level score, the
+    index)."""
+    if wrong is None:
+        return sorted(ks, key=lambda k: (f_r[k], second[k], k))
+    return sorted(ks, key=lambda k: (wrong[k], f_r[k], second[k], k))
+
+
+#: An elbow with sin ε below this is straight: its twist cannot be seen and is kept.
+_STRAIGHT = 1e-6
 
 
 def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
@@ -166,18 +287,52 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
     ``previous`` the exertion is measured from the hanging arm (α = β = γ = 0) and a
     straight elbow gets twist 0. ``body_rotation`` overrides Table 1 (used when a path is
     timed with phased chest rotation).
+
+    The inner loop of the planner calls this for one wrist at a time, so the work is laid
+    out for few numpy calls (each costs about a microsecond however small its array):
+
+    * every per-wrist quantity is computed on floats (on (W,) arrays for many wrists) and
+      packed into one coefficient matrix, whose product with the swivel basis gives the
+      chest-frame upper arm and forearm directions and Algorithm 1's side value of every
+      sample at once;
+    * the elevation is atan2(|u_xy|, -u_z) (no clipping needed) and the twist is read
+      straight from u, f and u × f, with no bend direction built:
+
+      .. math::
+          γ = \\operatorname{atan2}(-f·t,\\ f·r),\\quad
+          r = (-a u_y,\\ a u_x - u_z,\\ u_y),\\ t = u × r = (1 - a u_x,\\ -a u_y,\\ u_x),\\
+          a = \\frac{u_x}{1 - u_z}
+
+      (r is :func:`~reach_addon.core.arm.swing_reference`), which with u·f = cos ε and both
+      terms multiplied by 1 - u_z > 0 becomes
+      atan2(u_x (cos ε - f_z) - (1 - u_z) f_x,\\ u_x (u × f)_z + (1 - u_z) (u × f)_x);
+      u × f = (d r / (L_1 L_2)) (sin φ b_1 - cos φ b_2) is affine in (cos φ, sin φ) like u and
+      f, so it comes out of the same matrix product. The bend direction
+      b = (f - cos ε u)/sin ε is built only for the poses returned;
+    * for one wrist with a previous configuration, the joint limits and the smoothness
+      bound of α, β and γ are intersected into one interval per angle (in floats), so
+      validity is one comparison per side; the few valid candidates are scored and ranked
+      as floats.
     """
     st = settings
     w = np.atleast_2d(np.asarray(wrists, dtype=float))
     n_w = len(w)
-    cos_phi, sin_phi = swivel_samples(float(st.swivel_step))
+    step = float(st.swivel_step)
+    cos_phi, sin_phi = swivel_samples(step)
+    basis = swivel_basis(step)                                           # (3, S)
+    n_s = basis.shape[1]
+    gamma_prev = 0.0 if previous is None else previous.gamma
+    limits = _settings_limits(st)
+    require = st.elbow_side == "require"
 
     # --- per wrist: plain floats for one wrist, arrays for many ---------------------
     if n_w == 1:
         m = SCALAR
-        wx, wy, wz = (float(v) for v in w[0])
+        wx, wy, wz = w[0].tolist()
         if body_rotation is None:
             body = float(body_rotation_deg(w[0], arm.arm_length, st))
+        elif isinstance(body_rotation, float):
+            body = body_rotation
         else:
             body = float(np.asarray(body_rotation, dtype=float).reshape(-1)[0])
     else:
@@ -187,101 +342,212 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
             body = np.asarray(body_rotation_deg(w, arm.arm_length, st), dtype=float)
         else:
             body = np.broadcast_to(np.asarray(body_rotation, dtype=float), (n_w,)).copy()
-    t = _wrist_terms(arm, wx, wy, wz, body, st, m)
-    body = np.atleast_1d(np.asarray(body, dtype=float))
-    shoulder, sternum = _rows(t["shoulder"], n_w), _rows(t["sternum"], n_w)
-    reachable = np.atleast_1d(np.asarray(t["reachable"], dtype=bool))
-    elbow_coef = _rows(t["elbow_coef"], n_w)                             # (W, 3, 3)
-    fore_coef = _rows(t["fore_coef"], n_w)
-    upper_coef = _rows(t["upper_coef"], n_w)
-    to_chest = _rows(t["to_chest"], n_w)
-    side_coef = _rows(t["side_coef"], n_w)                               # (W, 3)
-    cos_eps = np.atleast_1d(np.asarray(t["cos_eps"], dtype=float))[:, None]
-    sin_eps = np.atleast_1d(np.asarray(t["sin_eps"], dtype=float))[:, None]
-    flex = np.atleast_1d(np.asarray(t["flex"], dtype=float))
-    degenerate = np.atleast_1d(np.asarray(t["degenerate"], dtype=bool))[:, None]
+    values, reachable, degenerate, flex = _wrist_terms(arm, wx, wy, wz, body, st, m)
+    if m is SCALAR:
+        packed = np.array(values)[None]                                  # (1, 57)
+        wrist_ok = bool(reachable and st.elbow_min <= flex <= st.elbow_max)
+    else:
+        packed = np.stack(values, -1)                                    # (W, 57)
+        wrist_ok = reachable & (flex >= st.elbow_min) & (flex <= st.elbow_max)
+    straight = values[52] < _STRAIGHT
+    sternum, shoulder = packed[:, 0:3], packed[:, 3:6]
+    elbow_coef = packed[:, 6:15].reshape(n_w, 3, 3)
+    fore_coef = packed[:, 15:24].reshape(n_w, 3, 3)
+    eps, turn = packed[:, 51:53], packed[:, 53:55]
 
-    # --- per sample: (W, 3, S) in the chest frame --------------------------------------
-    basis = swivel_basis(float(st.swivel_step))                          # (3, S)
-    u = to_chest @ (upper_coef.transpose(0, 2, 1) @ basis)               # (W, 3, S)
-    f = to_chest @ (fore_coef.transpose(0, 2, 1) @ basis)
-    ux, uy, uz = u[:, 0], u[:, 1], u[:, 2]
+    # --- per sample: (W, 9, S) = chest-frame u, f, the side value, (u × f)_x, (u × f)_z --
+    p = packed[:, 24:51].reshape(n_w, 9, 3) @ basis
+    ux, uy, uz, fx, fy, fz, side, cross_x, cross_z = p.transpose(1, 0, 2)
+    angles = np.empty((n_w, 4, n_s))
+    theta, gamma = angles[:, 3], angles[:, 2]                            # views, (W, S)
 
     # Shoulder angles (α, β) = θ·(u_x, u_y)/|(u_x, u_y)|, θ = acos(-u_z).
-    theta = np.degrees(np.arccos(np.minimum(np.maximum(-uz, -1.0), 1.0)))
-    h = np.sqrt(ux * ux + uy * uy)
-    scale = theta / np.maximum(h, 1e-12)
-    alpha, beta = scale * ux, scale * uy
+    h = np.hypot(ux, uy)
+    np.degrees(np.arctan2(h, -uz), out=theta)
+    np.multiply(p[:, 0:2], (theta / np.maximum(h, 1e-12))[:, None], out=angles[:, 0:2])
 
-    # Twist γ: signed angle about -u from the swing reference to the bend direction.
-    k = 1.0 / np.maximum(1.0 - uz, 1e-12)
-    ref = (-ux * uy * k, -uz + ux * ux * k, uy)
-    gamma_prev = 0.0 if previous is None else previous.gamma
-    straight = sin_eps[:, 0] < 1e-6
-    bend = (f - cos_eps[:, :, None] * u) / np.where(straight, 1.0, sin_eps[:, 0])[:, None, None]
-    bx, by, bz = bend[:, 0], bend[:, 1], bend[:, 2]
-    gamma = np.degrees(np.arctan2(
-        -(ref[0] * (by * uz - bz * uy) + ref[1] * (bz * ux - bx * uz) + ref[2] * (bx * uy - by * ux)),
-        ref[0] * bx + ref[1] * by + ref[2] * bz))
-    if straight.any():
-        # A straight elbow shows no twist: keep the previous one.
-        g = np.radians(gamma_prev)
-        turned = _cross(tuple(-c for c in (ux, uy, uz)), ref)
-        kept = np.stack([ref[j] * np.cos(g) + turned[j] * np.sin(g) for j in range(3)], 1)
-        bend = np.where(straight[:, None, None], kept, bend)
-        gamma = np.where(straight[:, None], gamma_prev, gamma)
-    bend_canonical = to_chest.transpose(0, 2, 1) @ bend                  # (W, 3, S)
-
-    # --- legality ---------------------------------------------------------------------
-    wrist_ok = reachable & (flex >= st.elbow_min) & (flex <= st.elbow_max)
-    legal = ((alpha >= st.alpha_min) & (alpha <= st.alpha_max) & (beta >= st.beta_min)
-             & (beta <= st.beta_max) & (theta <= st.elevation_max)
-             & (gamma >= st.gamma_min) & (gamma <= st.gamma_max)) & wrist_ok[:, None]
+    # Twist γ = atan2(-f·t, f·r) (see the docstring), both terms times 1 - u_z > 0:
+    # -f·t (1 - u_z) = u_x (cos ε - f_z) - (1 - u_z) f_x (with u·f = cos ε) and
+    # f·r (1 - u_z) = u_x (u × f)_z + (1 - u_z) (u × f)_x.
+    # A straight elbow shows no twist: keep the previous one.
+    down = 1.0 - uz
+    cos_eps = packed[:, 51:52]
+    np.degrees(np.arctan2(ux * (cos_eps - fz) - down * fx, ux * cross_z + down * cross_x),
+               out=gamma)
     # Algorithm 1: side = (e - s)·n̂, affine in (cos φ, sin φ) like e.
-    side = side_coef @ basis                                             # (W, S)
-    wrong_side = ~((side > 0) | degenerate)
-    if st.elbow_side == "require":
-        legal &= ~wrong_side
-
-    valid = legal
-    if previous is not None and max_change is not None:
-        valid = legal & smooth(previous, body, alpha, beta, gamma, flex, max_change)
+    if m is SCALAR:
+        if straight:
+            gamma[:] = gamma_prev
+        if not wrist_ok:
+            angles[:, :3] = np.nan
+        wrong_side = np.zeros((1, n_s), dtype=bool) if degenerate else side <= 0
+    else:
+        if straight.any():
+            gamma[straight] = gamma_prev
+        if not wrist_ok.all():
+            angles[~wrist_ok, :3] = np.nan
+        wrong_side = ~((side > 0) | degenerate[:, None])
+    alpha, beta = angles[:, 0], angles[:, 1]
 
     prev_angles = (0.0, 0.0, 0.0) if previous is None else (
         previous.alpha, previous.beta, previous.gamma)
-    if n_w == 1 and valid.sum() <= _SCALAR_SCORING:
-        # Few candidates to rank: score them as floats (a numpy call costs ~1 µs each).
-        f_r = np.zeros(alpha.shape, dtype=np.int8)
-        second = np.zeros(alpha.shape)
-        for k in np.flatnonzero(valid[0]).tolist():
-            f_r[0, k], second[0, k] = strength.scores(
-                float(alpha[0, k]), float(beta[0, k]), float(gamma[0, k]), prev_angles, st)
-    else:
+    smooth_bound = previous is not None and max_change is not None
+    if m is SCALAR:
+        body_, flex_, ok_ = packed[:, 55], packed[:, 56], wrist_ok
+        bounds = _valid_bounds(st, previous, body, flex, max_change) if smooth_bound else limits
+        if bounds is None:                       # the body or the elbow moves too far
+            valid = np.zeros((1, n_s), dtype=bool)
+        else:
+            valid = np.logical_and.reduce((angles >= bounds[0]) & (angles <= bounds[1]), 1)
+            if len(bounds) == 3:                 # a twist window that wraps round ±180°
+                valid &= _smooth_angles(previous, body, angles, flex, max_change, m)
+            if require:
+                valid &= ~wrong_side
+        ks = valid[0].nonzero()[0]
+        ranked = None
+        if len(ks) <= _SCALAR_SCORING:
+            # Few candidates to rank: score them as floats (a numpy call costs ~1 µs each).
+            ks = ks.tolist()
+            f_r, second = [0] * n_s, [0.0] * n_s
+            if ks:
+                a_, b_, g_, _t = angles[0].tolist()
+                a0, b0, g0 = prev_angles
+                lh, lv = st.preferred_level_h, st.preferred_level_v
+                wa, wb, wg = st.weight_alpha, st.weight_beta, st.weight_gamma
+                score = strength.score_float
+                for k in ks:
+                    f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv, wa, wb, wg)
+            wrong = wrong_side[0].tolist() if st.elbow_side == "prefer" else None
+            ranked = (st.elbow_side, _rank(ks, f_r, second, wrong))
+        else:
+            f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
+        return Solutions(w, body_, sternum, shoulder, elbow_coef, fore_coef, cos_phi[0],
+                         sin_phi[0], angles, flex_, ok_, valid, f_r, second, wrong_side,
+                         arm.hand_length, p[:, 0:3], p[:, 3:6], turn, eps, float(gamma_prev),
+                         limits, require, None if smooth_bound else valid, ranked)
+
+    legal = np.logical_and.reduce((angles >= limits[0]) & (angles <= limits[1]), 1)
+    if require:
+        legal &= ~wrong_side
+    valid = legal
+    if smooth_bound:
+        valid = legal & _smooth_angles(previous, body, angles, flex, max_change, m)
+    if valid.any():
         f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
+    else:
+        f_r, second = np.zeros((n_w, n_s), dtype=np.int8), np.zeros((n_w, n_s))
     return Solutions(w, body, sternum, shoulder, elbow_coef, fore_coef, cos_phi[0], sin_phi[0],
-                     bend_canonical, alpha, beta, gamma, flex, reachable, legal, valid, f_r,
-                     second, wrong_side, arm.hand_length)
+                     angles, flex, wrist_ok, valid, f_r, second, wrong_side, arm.hand_length,
+                     p[:, 0:3], p[:, 3:6], turn, eps, float(gamma_prev), limits, require, legal)
 
 
-def _rows(value, n_w):
-    """Nested lists of floats (one wrist) or of (W,) arrays → an array with W first."""
-    a = np.asarray(value, dtype=float)
-    return a[None] if n_w == 1 else np.moveaxis(a, -1, 0)
+_LAST_LIMITS: list = [None, None]
+
+
+def _settings_limits(st):
+    """:func:`_limits` of a settings object (the last one asked for is remembered: the
+    planner asks with the same object every time)."""
+    if _LAST_LIMITS[0] is not st:
+        _LAST_LIMITS[1] = _limits(st.alpha_min, st.beta_min, st.gamma_min, st.alpha_max,
+                                  st.beta_max, st.gamma_max, st.elevation_max)
+        _LAST_LIMITS[0] = st
+    return _LAST_LIMITS[1]
+
+
+@lru_cache(maxsize=16)
+def _limits(alpha_min, beta_min, gamma_min, alpha_max, beta_max, gamma_max, elevation_max):
+    """Lower and upper limits (4, 1) of (α, β, γ, θ), for one comparison per side."""
+    lo = np.array([[alpha_min], [beta_min], [gamma_min], [-np.inf]])
+    hi = np.array([[alpha_max], [beta_max], [gamma_max], [elevation_max]])
+    return lo, hi
+
+
+def _valid_bounds(st, previous: ArmConfig, body: float, flex: float, max_change: float):
+    """(lower, upper) bounds (4, 1) on (α, β, γ, θ) of one wrist's candidates that are both
+    legal and within the smoothness bound of ``previous`` (:func:`smooth`): the joint
+    limits intersected with ``previous ± max_change`` for α and β and with the twist
+    window ``|γ - γ'| ≤ limit`` (mod 360°) for γ. None when nothing can be valid (the body
+    or the elbow moves too far, or the windows miss the limits); a third element when the
+    twist window meets the limits in two pieces (the caller then tests γ in full)."""
+    if not (abs(flex - previous.elbow) <= max_change
+            and abs(body - previous.body_rotation) <= max_change):
+        return None
+    a_lo, a_hi = max(st.alpha_min, previous.alpha - max_change), \
+        min(st.alpha_max, previous.alpha + max_change)
+    b_lo, b_hi = max(st.beta_min, previous.beta - max_change), \
+        min(st.beta_max, previous.beta + max_change)
+    if a_lo > a_hi or b_lo > b_hi:
+        return None
+    twist = max_change / max(min(flex / 20.0, 1.0), 1e-9)
+    g_lo, g_hi, split = st.gamma_min, st.gamma_max, False
+    if twist < 180.0:
+        centre = (previous.gamma + 180.0) % 360.0 - 180.0
+        pieces = [(max(g_lo, centre + k - twist), min(g_hi, centre + k + twist))
+                  for k in (-360.0, 0.0, 360.0)]
+        pieces = [q for q in pieces if q[0] <= q[1]]
+        if not pieces:
+            return None
+        if len(pieces) == 1:
+            g_lo, g_hi = pieces[0]
+        else:
+            split = True
+    bounds = np.array([a_lo, b_lo, g_lo, -np.inf, a_hi, b_hi, g_hi,
+                       st.elevation_max]).reshape(2, 4, 1)
+    return (bounds[0], bounds[1], True) if split else (bounds[0], bounds[1])
+
+
+def _smooth_angles(previous: ArmConfig, body, angles, flex, max_change, m):
+    """:func:`smooth` on the (W, 4, S) angle block of :func:`solve` (α, β, γ, θ): the
+    twist difference folded as min(|Δγ| mod 360, 360 - |Δγ| mod 360)."""
+    if m is SCALAR:
+        if not (abs(flex - previous.elbow) <= max_change
+                and abs(body - previous.body_rotation) <= max_change):
+            return np.zeros((1, angles.shape[2]), dtype=bool)
+        twist_limit = max_change / max(min(flex / 20.0, 1.0), 1e-9)
+        limit = np.array([[max_change], [max_change], [twist_limit]])
+        wrist_ok = True
+    else:
+        wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
+                    & (np.abs(body - previous.body_rotation) <= max_change))[:, None]
+        twist_limit = max_change / np.maximum(np.minimum(flex / 20.0, 1.0), 1e-9)
+        limit = np.empty((len(flex), 3, 1))
+        limit[:, :2] = max_change
+        limit[:, 2, 0] = twist_limit
+    d = np.abs(angles[:, :3] - np.array([[previous.alpha], [previous.beta], [previous.gamma]]))
+    g = d[:, 2]
+    np.remainder(g, 360.0, out=g)
+    np.minimum(g, 360.0 - g, out=g)
+    within = d <= limit
+    return within[:, 0] & within[:, 1] & within[:, 2] & wrist_ok
+
+
+@lru_cache(maxsize=64)
+def _min_reach(l1: float, l2: float, elbow_max: float) -> float:
+    """:meth:`ArmModel.min_reach`, remembered (it is asked for every wrist position)."""
+    interior = math.radians(180.0 - elbow_max)
+    return math.sqrt(max(l1 * l1 + l2 * l2 - 2 * l1 * l2 * math.cos(interior), 0.0))
 
 
 def _wrist_terms(arm: ArmModel, wx, wy, wz, body, st, m):
     """Everything about one wrist position that does not depend on the swivel angle,
-    written once for floats (``m`` = SCALAR) and for arrays of wrists (``m`` = ARRAY)."""
+    written once for floats (``m`` = SCALAR) and for arrays of wrists (``m`` = ARRAY).
+
+    Returns (values, reachable, degenerate, flexion), ``values`` being 57 numbers: sternum
+    (3), shoulder (3), elbow coefficients (3×3: centre, r·b1, r·b2), forearm direction
+    coefficients (3×3), the chest-frame coefficient rows of u (3 rows), f (3 rows),
+    Algorithm 1's side value (1 row) and the x and z components of u × f (2 rows), each
+    row multiplying (1, cos φ, sin φ); then cos ε, sin ε, the cos and sin of the chest
+    turn, the chest rotation and the elbow flexion."""
     l1, l2 = arm.upper_arm_length, arm.forearm_length
     rad = m.radians(body)
     cb, sb = m.cos(rad), m.sin(rad)
-    s0x, s0y, s0z = (float(v) for v in arm.shoulder)
+    s0x, s0y, s0z = arm.shoulder.tolist()
     sx, sy, sz = cb * s0x + sb * s0y, cb * s0y - sb * s0x, s0z + 0.0 * cb
-    t0x, t0y, t0z = (float(v) for v in arm.sternum)
+    t0x, t0y, t0z = arm.sternum.tolist()
     dx, dy, dz = wx - sx, wy - sy, wz - sz
     d = m.sqrt(dx * dx + dy * dy + dz * dz)
     tol = 1e-9 * arm.arm_length
-    reachable = (d <= l1 + l2 + tol) & (d >= arm.min_reach(st.elbow_max) - tol) & (d > tol)
+    reachable = (d <= l1 + l2 + tol) & (d >= _min_reach(l1, l2, st.elbow_max) - tol) & (d > tol)
     d = m.maximum(d, 1e-12)
     nx, ny, nz = dx / d, dy / d, dz / d
     cos_a = m.clip((l1 * l1 + d * d - l2 * l2) / (2 * l1 * d), -1.0, 1.0)
@@ -299,32 +565,40 @@ def _wrist_terms(arm: ArmModel, wx, wy, wz, body, st, m):
     b1y = m.where(vertical, ly / ln, nz * ny / hz)
     b1z = m.where(vertical, lz / ln, -hz)
     b2x, b2y, b2z = ny * b1z - nz * b1y, nz * b1x - nx * b1z, nx * b1y - ny * b1x
-    rb1 = [r * b1x, r * b1y, r * b1z]
-    rb2 = [r * b2x, r * b2y, r * b2z]
+    rb1 = (r * b1x, r * b1y, r * b1z)
+    rb2 = (r * b2x, r * b2y, r * b2z)
     cos_eps = m.clip((d * d - l1 * l1 - l2 * l2) / (2 * l1 * l2), -1.0, 1.0)   # u·f = cos ε
     # Algorithm 1: side = (e - s)·n̂, affine in (cos φ, sin φ) like e.
-    kx, ky, kz, degenerate = side_normal((wx, wy, wz), (sx, sy, sz),
-                                         tuple(float(v) for v in arm.waist), m)
-    zero, one = 0.0 * cb, 1.0 + 0.0 * cb
-    return {
-        "shoulder": [sx, sy, sz],
-        "sternum": [cb * t0x + sb * t0y, cb * t0y - sb * t0x, t0z + zero],
-        "reachable": reachable,
-        "elbow_coef": [[cx, cy, cz], rb1, rb2],
-        "fore_coef": [[(wx - cx) / l2, (wy - cy) / l2, (wz - cz) / l2],
-                      [-v / l2 for v in rb1], [-v / l2 for v in rb2]],
-        "upper_coef": [[(cx - sx) / l1, (cy - sy) / l1, (cz - sz) / l1],
-                       [v / l1 for v in rb1], [v / l1 for v in rb2]],
-        # Canonical → chest frame: x' = c x - s y, y' = s x + c y.
-        "to_chest": [[cb, -sb, zero], [sb, cb, zero], [zero, zero, one]],
-        "side_coef": [(cx - sx) * kx + (cy - sy) * ky + (cz - sz) * kz,
-                      rb1[0] * kx + rb1[1] * ky + rb1[2] * kz,
-                      rb2[0] * kx + rb2[1] * ky + rb2[2] * kz],
-        "cos_eps": cos_eps,
-        "sin_eps": m.sqrt(1.0 - cos_eps * cos_eps),
-        "flex": m.degrees(m.acos(cos_eps)),
-        "degenerate": degenerate,
-    }
+    kx, ky, kz, degenerate = side_normal((wx, wy, wz), (sx, sy, sz), arm.waist.tolist(), m)
+    zero = 0.0 * cb
+    # Unit upper arm and forearm directions, canonical frame, as (1, cos φ, sin φ) rows...
+    upper = ((cx - sx) / l1, (cy - sy) / l1, (cz - sz) / l1,
+             rb1[0] / l1, rb1[1] / l1, rb1[2] / l1, rb2[0] / l1, rb2[1] / l1, rb2[2] / l1)
+    fore = ((wx - cx) / l2, (wy - cy) / l2, (wz - cz) / l2,
+            -rb1[0] / l2, -rb1[1] / l2, -rb1[2] / l2, -rb2[0] / l2, -rb2[1] / l2,
+            -rb2[2] / l2)
+
+    def chest(c):
+        # ... turned into the chest frame (x' = c x - s y, y' = s x + c y) and laid out
+        # one row per component: (x'_0, x'_1, x'_2), (y'_0, ...), (z'_0, ...).
+        return (cb * c[0] - sb * c[1], cb * c[3] - sb * c[4], cb * c[6] - sb * c[7],
+                sb * c[0] + cb * c[1], sb * c[3] + cb * c[4], sb * c[6] + cb * c[7],
+                c[2], c[5], c[8])
+
+    # u × f = (e - s) × (w - s) / (L1 L2) = (d r / (L1 L2)) (sin φ b1 - cos φ b2): linear in
+    # (cos φ, sin φ); its chest-frame x and z rows give the twist without a division.
+    q = d * r / (l1 * l2)
+    cross_x, cross_y, cross_z = (zero, -q * b2x, q * b1x), (zero, -q * b2y, q * b1y), \
+        (zero, -q * b2z, q * b1z)
+    flex = m.degrees(m.acos(cos_eps))
+    values = (cb * t0x + sb * t0y, cb * t0y - sb * t0x, t0z + zero, sx, sy, sz,
+              cx, cy, cz) + rb1 + rb2 + fore + chest(upper) + chest(fore) + (
+        (cx - sx) * kx + (cy - sy) * ky + (cz - sz) * kz,
+        rb1[0] * kx + rb1[1] * ky + rb1[2] * kz,
+        rb2[0] * kx + rb2[1] * ky + rb2[2] * kz) + tuple(
+        cb * cross_x[j] - sb * cross_y[j] for j in range(3)) + cross_z
+    values += (cos_eps, m.sqrt(1.0 - cos_eps * cos_eps), cb, sb, body + zero, flex)
+    return values, reachable, degenerate, flex
 
 
 def wrap_degrees(angle):
@@ -334,13 +608,22 @@ def wrap_degrees(angle):
 
 def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
     """The smoothness bound: no joint angle changes by more than ``max_change`` degrees from
-    ``previous``. Shapes: ``body``/``flex`` (W,), the shoulder angles (W, S). The twist
-    counts in proportion to elbow flexion up to 20° (a nearly straight elbow hides its
-    twist, which is then free to settle)."""
-    flex = np.asarray(flex)
-    wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
-                & (np.abs(np.asarray(body) - previous.body_rotation) <= max_change))[:, None]
-    twist_limit = (max_change / np.maximum(np.minimum(flex / 20.0, 1.0), 1e-9))[:, None]
+    ``previous``. Shapes: ``body``/``flex`` (W,) (or floats for one wrist), the shoulder
+    angles (W, S). The twist counts in proportion to elbow flexion up to 20° (a nearly
+    straight elbow hides its twist, which is then free to settle)."""
+    if isinstance(flex, float) and isinstance(body, float):
+        if not (abs(flex - previous.elbow) <= max_change
+                and abs(body - previous.body_rotation) <= max_change):
+            return np.zeros(np.shape(alpha), dtype=bool)
+        twist_limit = max_change / max(min(flex / 20.0, 1.0), 1e-9)
+        twist = np.abs((gamma - (previous.gamma - 180.0)) % 360.0 - 180.0)
+        return ((np.abs(alpha - previous.alpha) <= max_change)
+                & (np.abs(beta - previous.beta) <= max_change) & (twist <= twist_limit))
+    else:
+        flex = np.asarray(flex)
+        wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
+                    & (np.abs(np.asarray(body) - previous.body_rotation) <= max_change))[:, None]
+        twist_limit = (max_change / np.maximum(np.minimum(flex / 20.0, 1.0), 1e-9))[:, None]
     return (wrist_ok & (np.abs(alpha - previous.alpha) <= max_change)
             & (np.abs(beta - previous.beta) <= max_change)
             & (np.abs(wrap_degrees(gamma - previous.gamma)) <= twist_limit))
@@ -348,20 +631,28 @@ def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
 
 def body_capsules_at(arm: ArmModel, body: float):
     """The body's capsules with the chest turned by ``body`` degrees, as float tuples
-    (a, b, centre, half length, radius) for quick scalar tests."""
-    a, b, cap_r = arm.capsules_at(float(body))
-    return [(p, q, [0.5 * (p[i] + q[i]) for i in range(3)], 0.5 * math.dist(p, q), r)
-            for p, q, r in zip(a.tolist(), b.tolist(), cap_r.tolist())]
+    (a, b, centre, half length, radius) for quick scalar tests (the turn of
+    :meth:`ArmModel.capsules_at`, on floats)."""
+    a, b, radii, turns = (v.tolist() for v in arm._capsule_arrays)
+    body = float(body)
+    c, s = math.cos(math.radians(body)), math.sin(math.radians(body))
+    out = []
+    for p, q, r, turn in zip(a, b, radii, turns):
+        if turn and body != 0.0:
+            p = [p[0] * c + p[1] * s, p[1] * c - p[0] * s, p[2]]
+            q = [q[0] * c + q[1] * s, q[1] * c - q[0] * s, q[2]]
+        out.append((p, q, [0.5 * (p[i] + q[i]) for i in range(3)], 0.5 * math.dist(p, q), r))
+    return out
 
 
 def segment_hits_body(p, q, radius, capsules) -> bool:
     """Does the capsule p-q (float 3-sequences) of ``radius`` pass through one of
     ``capsules`` (from :func:`body_capsules_at`)? Bounding spheres first."""
-    mid = [0.5 * (p[i] + q[i]) for i in range(3)]
+    mid = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])]
     half = 0.5 * math.dist(p, q)
     for ca, cb, cmid, chalf, cr in capsules:
         if math.dist(mid, cmid) < half + chalf + radius + cr and \
-                segment_distance_xyz(p, q, ca, cb) < radius + cr:
+                segment_distance_float(p, q, ca, cb) < radius + cr:
             return True
     return False
 

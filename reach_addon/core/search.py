@@ -22,6 +22,14 @@ choices (each a setting):
   index order). The search is depth-first in that order: the first candidate that gets a
   valid pose becomes the current node; a node whose candidates are all used up is left
   (backtracking) and its parent tries its next candidate.
+* **Blocked neighbourhoods**: a node's candidates within ``Settings.blocked_radius`` steps
+  of a position its parent tried and found blocked are moved to the end of its list
+  (kept, in the same relative order, so the search can still backtrack through them).
+  Sliding along an obstacle, the greedy order would otherwise try the same two or three
+  directions into the obstacle again at every node (one step on, a step in the same
+  direction lands one step from the blocked position); with the memory the search tries
+  them once per obstacle face, not once per node. On the demo's reach over a crate this
+  cut the positions tested from 230 to about 120 with the same path.
 * **Visited** positions: a candidate within ``Settings.visited_resolution`` steps of a
   position already tested (a hash grid of that size) is skipped, so the search never loops.
 * **Guiding nodes** are passed once the wrist comes within ``Settings.guide_radius`` cells.
@@ -69,7 +77,9 @@ class _Node:
     parent: int
     guide: int
     depth: int
-    candidates: list | None = None
+    candidates: list | None = None      # positions (lists of 3 floats), the next one last
+    exact: int = 0                      # how many of the last candidates are exact targets
+    failed: list = field(default_factory=list)   # positions tried from here and blocked
 
 
 @dataclass
@@ -116,6 +126,11 @@ class BestFirstSearch:
         self.node_budget = s.node_budget if node_budget is None else node_budget
         self.stall_budget = s.stall_budget if stall_budget is None else stall_budget
         self.depth_limit = depth_limit
+        self.offsets = self.step * self.directions
+        self.target_list = self.target.tolist()
+        self.blocked_radius = float(s.blocked_radius)
+        # candidates exactly one step from a blocked position count (floating-point slack)
+        self.blocked_sq = (self.blocked_radius * self.step) ** 2 * (1.0 + 1e-9)
         self.nodes: list[_Node] = [_Node(start, -1, self._advance_guide(0, start.wrist), 0)]
         self.stack = [0]
         self.visited = {self._key(start.wrist)}
@@ -132,11 +147,13 @@ class BestFirstSearch:
 
     # --- helpers ---------------------------------------------------------------------
     def _key(self, p):
-        return tuple(np.floor(np.asarray(p) / self.resolution).astype(np.int64).tolist())
+        r = self.resolution
+        return (math.floor(p[0] / r), math.floor(p[1] / r), math.floor(p[2] / r))
 
     def _advance_guide(self, index: int, wrist) -> int:
+        w = np.asarray(wrist, dtype=float).tolist()
         while index < len(self.guides) and \
-                np.linalg.norm(self.guides[index] - wrist) <= self.guide_radius:
+                math.dist(self.guides[index].tolist(), w) <= self.guide_radius:
             index += 1
         return index
 
@@ -144,20 +161,42 @@ class BestFirstSearch:
         return self.guides[node.guide] if node.guide < len(self.guides) else self.target
 
     def _candidates(self, node: _Node) -> list:
+        """The positions to try from ``node``, best last (they are popped): the target if
+        within a step, then the step toward the goal and the sphere of steps, nearest the
+        goal first, those near a position blocked from the parent last.
+
+        |w + s d - g|² = |w - g|² + s² - 2 s d·(g - w), so the sphere of steps is ordered
+        by -d·(g - w) (one matrix product); the straight step toward the goal is the
+        nearest of all and comes first."""
         w = node.pose.wrist
         goal = self._goal(node)
         to_goal = goal - w
-        dist = float(np.linalg.norm(to_goal))
-        points = [w + self.step * self.directions]
-        exact = []
-        if dist > 1e-12:
-            points.insert(0, (w + to_goal * min(1.0, self.step / dist))[None])
-        to_target = self.target - w
-        if float(np.linalg.norm(to_target)) <= self.step:
-            exact.append(self.target.copy())
-        pts = np.concatenate(points)
-        order = np.argsort(np.linalg.norm(pts - goal, axis=1), kind="stable")
-        return [(p, True) for p in exact] + [(pts[i], False) for i in order]
+        dist = math.sqrt(float(to_goal @ to_goal))
+        key = self.directions @ -to_goal
+        straight = (w + to_goal * min(1.0, self.step / dist)).tolist() if dist > 1e-12 else None
+        parent_failed = self.nodes[node.parent].failed if node.parent >= 0 else None
+        if parent_failed and self.blocked_radius > 0.0:
+            blocked = np.array(parent_failed)
+            pts = w + self.offsets
+            f = pts[:, None, :] - blocked[None]
+            near = (np.einsum("ijk,ijk->ij", f, f) <= self.blocked_sq).any(1)
+            best = pts[np.lexsort((key, near))].tolist()          # clear ones first
+            if straight is not None:
+                d = blocked - straight
+                if (np.einsum("ij,ij->i", d, d) <= self.blocked_sq).any():
+                    best.insert(len(best) - int(np.count_nonzero(near)), straight)
+                else:
+                    best.insert(0, straight)
+            best.reverse()
+            out = best
+        else:
+            out = (w + self.offsets[np.argsort(key, kind="stable")[::-1]]).tolist()
+            if straight is not None:
+                out.append(straight)
+        if math.dist(self.target_list, w.tolist()) <= self.step:
+            out.append(list(self.target_list))
+            node.exact = 1
+        return out
 
     # --- the search ------------------------------------------------------------------
     def run(self, max_nodes: int | None = None) -> bool:
@@ -179,21 +218,26 @@ class BestFirstSearch:
                 if not node.candidates:
                     self.stack.pop()  # all candidates used: backtrack
                     continue
-                point, exact = node.candidates.pop(0)
-                if not exact:
+                exact = node.exact > 0          # exact targets sit at the end: popped first
+                point = node.candidates.pop()
+                if exact:
+                    node.exact -= 1
+                else:
                     key = self._key(point)
                     if key in self.visited:
                         continue
                     self.visited.add(key)
                 tested += 1
                 self.nodes_searched += 1
-                pose = self.generator.solve(point, node.pose)
-                if pose is not None:
+                pose = self.generator.solve(np.array(point), node.pose)
+                if pose is None:
+                    node.failed.append(point)
+                else:
                     self.nodes.append(_Node(pose, node_index,
                                             self._advance_guide(node.guide, pose.wrist),
                                             node.depth + 1))
                     self.stack.append(len(self.nodes) - 1)
-                    d = float(np.linalg.norm(pose.wrist - self.target))
+                    d = math.dist(pose.wrist.tolist(), self.target_list)
                     if d < self.closest_distance - 1e-12:
                         self.closest_distance = d
                         self.closest = len(self.nodes) - 1

@@ -129,6 +129,12 @@ class Settings:
         "straight line to the guiding node (evenly spread on a sphere)", "search", 6, 200)
     goal_tolerance: float = _f(0.005, "Goal tolerance", "Wrist within this of the target "
                                "counts as reached", "search", 1e-6, 0.2, "arm lengths")
+    blocked_radius: float = _f(
+        1.0, "Blocked radius", "Candidate positions within this many steps of a position "
+        "the parent node found blocked are tried last (0 = off). One step: moving on from "
+        "a node, the step in a direction that was blocked lands one step from the blocked "
+        "position, so the search does not run into the same obstacle face at every node",
+        "search", 0.0, 4.0, "steps")
     visited_resolution: float = _f(
         0.5, "Visited resolution", "Positions closer than this many steps count as "
         "already visited", "search", 0.05, 2.0)

@@ -85,6 +85,8 @@ def chest_rotation_deg(direction_deg, distance_m, fade_start_m=TABLE1_FADE_START
     the paper's subject (see :func:`body_rotation_deg`). Floats in, float out; arrays in,
     array out.
     """
+    if isinstance(direction_deg, float) and isinstance(distance_m, float):
+        return _chest_rotation_float(direction_deg, distance_m, fade_start_m, max_deg)
     m, direction = _operand(direction_deg)
     m2, distance = _operand(distance_m)
     if m is not m2:
@@ -98,6 +100,25 @@ def chest_rotation_deg(direction_deg, distance_m, fade_start_m=TABLE1_FADE_START
         rotation = m.where(distance >= near, rotation, 0.0)
     if max_deg is not None:
         rotation = m.minimum(rotation, max_deg)
+    return rotation
+
+
+def _chest_rotation_float(direction: float, distance: float, fade_start_m: float,
+                          max_deg) -> float:
+    """:func:`chest_rotation_deg` for one float reach, step by step (the planner asks for
+    every wrist position it tries)."""
+    (d0, s0, i0), (d1, s1, i1) = TABLE1
+    t = (distance - d0) / (d1 - d0)
+    t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
+    rotation = direction * (s0 + (s1 - s0) * t) + (i0 + (i1 - i0) * t)
+    rotation = rotation if rotation > 0.0 else 0.0
+    if fade_start_m < d0:
+        w = (distance - fade_start_m) / (d0 - fade_start_m)
+        rotation = rotation * (0.0 if w < 0.0 else 1.0 if w > 1.0 else w)
+    elif distance < d0:
+        rotation = 0.0
+    if max_deg is not None and rotation > max_deg:
+        rotation = max_deg
     return rotation
 
 
@@ -200,6 +221,6 @@ class ChestPath:
             return table
         if self.span <= 1e-12:
             return table
-        remaining = min(1.0, float(np.linalg.norm(wrist - self.target)) / self.span)
+        remaining = min(1.0, math.dist(wrist.tolist(), self.target.tolist()) / self.span)
         limit = self.settings.chest_rotation_max
-        return float(np.clip(table + self.offset * remaining, -limit, limit))
+        return min(max(table + self.offset * remaining, -limit), limit)

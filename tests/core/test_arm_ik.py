@@ -56,7 +56,8 @@ def test_no_jump_inside_the_reachable_range(alpha, beta, vx, vy, vz):
         return
     a1, b1 = shoulder_angles(u1)
     a2, b2 = shoulder_angles(u2)
-    moved = np.degrees(np.arccos(np.clip(u1 @ u2, -1, 1)))
+    # the angle between them by atan2 (arccos loses it below ~1e-6° near 1)
+    moved = np.degrees(np.arctan2(np.linalg.norm(np.cross(u1, u2)), u1 @ u2))
     assert np.hypot(a2 - a1, b2 - b1) <= 17.5 * moved + 1e-6
 
 
