@@ -1,8 +1,8 @@
 """``python -m reach_addon``: the command line, with the bpy wheel as the Blender host."""
 
-import sys
 
 if __name__ == "__main__":
     from .cli import main
+    from .compat import exit_module_blender
 
-    sys.exit(main())
+    exit_module_blender(main())

@@ -15,7 +15,10 @@ def register():
         bpy.utils.register_class(cls)
     properties.register_properties()
     presets.register_paths()
-    if hasattr(bpy.utils, "register_cli_command"):
+    # ``blender -c reach`` exists only in the Blender program. Blender as a Python module
+    # (the bpy wheel, binary_path "") has no ``-c``, and there a command still registered
+    # when Python exits crashes the interpreter (bpy 4.2 and 4.5: segmentation fault).
+    if hasattr(bpy.utils, "register_cli_command") and bpy.app.binary_path:
         from ..cli import blender_command
 
         _cli.append(bpy.utils.register_cli_command("reach", blender_command))

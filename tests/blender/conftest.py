@@ -37,6 +37,10 @@ def addon(addon_zip):
     name = "bl_ext.user_default.reach_addon"
     assert name in bpy.context.preferences.addons.keys()
     yield sys.modules[name]
+    # Disabled before Python exits, as Blender does on quit: bpy 4.2 and 4.5 as a module
+    # crash at exit (segmentation fault) while a property group is still registered.
+    if name in bpy.context.preferences.addons.keys():
+        bpy.ops.preferences.addon_disable(module=name)
 
 
 @pytest.fixture
