@@ -7,6 +7,12 @@ planning is :mod:`reach_addon.core`, keys are :mod:`.bake`, drawing is :mod:`.vi
 
 Bad input raises :class:`~reach_addon.core.ReachError` *before* anything in the scene is
 changed. The scene's current frame is restored when the work ends, however it ends.
+
+A chase samples the target on every frame of its motion (``frame_set``, so keys, parents
+and constraints all count) and the obstacles too: while none of them moves the chase is the
+core's chase task; when one does (keys, a parent, a deforming modifier), each frame is
+planned against the obstacles of that frame (:func:`reach_addon.core.live.chase_steps`), a
+new BVH being built only for frames where the obstacles' signature changed.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ import bpy
 import numpy as np
 
 from ..core import Planner, ReachError, Settings, Task
+from ..core.live import chase_steps
 from . import bake as bake_mod
 from . import rig as rig_mod
 from . import viz
@@ -134,16 +141,31 @@ def validate(context, request: Request, bake: bool):
     return armature, targets, collection
 
 
-def _chase_range(context, target, frame_start):
-    """Frames of a chase: from the start frame to the end of the target's own animation (its
-    action, or its parents'), else to the scene's end frame."""
-    end = None
-    ob = target
-    while ob is not None:
-        ad = ob.animation_data
+def _animation_end(ob, seen=None):
+    """Last frame of the animation that moves ``ob``: its own action and its data's (a
+    curve's path time), its parents' and its constraints' targets', followed recursively;
+    None if nothing is animated."""
+    seen = set() if seen is None else seen
+    if ob is None or ob.name in seen:
+        return None
+    seen.add(ob.name)
+    ends = []
+    for block in (ob, ob.data):
+        ad = getattr(block, "animation_data", None) if block is not None else None
         if ad is not None and ad.action is not None:
-            end = max(end or -math.inf, ad.action.frame_range[1])
-        ob = ob.parent
+            ends.append(ad.action.frame_range[1])
+    for other in [ob.parent] + [getattr(c, "target", None) for c in ob.constraints if not c.mute]:
+        end = _animation_end(other, seen)
+        if end is not None:
+            ends.append(end)
+    return max(ends) if ends else None
+
+
+def _chase_range(context, target, frame_start):
+    """Frames of a chase: from the start frame to the end of the animation that moves the
+    target (keys on it or its data, a parent, a constraint's target such as the curve of a
+    Follow Path), else to the scene's end frame."""
+    end = _animation_end(target)
     if end is None:
         end = context.scene.frame_end
     end = int(math.ceil(end))
@@ -174,12 +196,11 @@ def steps(context, request: Request, bake: bool = True):
         obstacles = gather_obstacles(context, exclude, collection)
         yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
 
+        frame_obstacles = None
         if request.task == "chase":
             f0, f1 = _chase_range(context, targets[0], frame_start)
-            path = []
-            for f in range(f0, f1 + 1):
-                scene.frame_set(f)
-                path.append(np.array(targets[0].matrix_world.translation))
+            path, frame_obstacles = _sample_chase(context, targets[0], exclude, collection,
+                                                  obstacles, f0, f1)
             scene.frame_set(frame_start)
             tasks = [Task("chase", np.array(path), info.start, fps, names=names[:1])]
         else:
@@ -195,7 +216,14 @@ def steps(context, request: Request, bake: bool = True):
         plans = []
         frame = frame_start
         for k, task in enumerate(tasks):
-            plan_steps = planner.plan_steps(task)
+            if frame_obstacles is not None and any(o is not obstacles for o in frame_obstacles):
+                # Obstacles that move: each frame of the chase against its own obstacles.
+                planners = {id(obstacles): planner}
+                for o in frame_obstacles:
+                    planners.setdefault(id(o), Planner(info.arm, o, request.settings))
+                plan_steps = chase_steps([planners[id(o)] for o in frame_obstacles], task)
+            else:
+                plan_steps = planner.plan_steps(task)
             while True:
                 try:
                     fraction, message = next(plan_steps)
@@ -229,6 +257,26 @@ def steps(context, request: Request, bake: bool = True):
     finally:
         if scene.frame_current != original_frame:
             scene.frame_set(original_frame)
+
+
+def _sample_chase(context, target, exclude, collection, obstacles, f0, f1):
+    """The target's world position on every frame f0..f1 (keys, parents, constraints all
+    evaluated by ``frame_set``), and the obstacles on every frame: the same
+    :class:`~reach_addon.core.Obstacles` while nothing moves, a new BVH for frames where an
+    obstacle moved or changed shape (the signature of :class:`.live.ObstacleCache`)."""
+    from .live import ObstacleCache
+
+    scene = context.scene
+    cache = ObstacleCache(exclude, collection.name if collection is not None else None)
+    path, frames = [], []
+    for f in range(f0, f1 + 1):
+        scene.frame_set(f)
+        path.append(np.array(target.matrix_world.translation))
+        if f == f0:
+            cache.obstacles = obstacles
+            cache.signature = cache.compute_signature(context, geometry=True)
+        frames.append(cache.get(context, geometry=True)[0])
+    return path, frames
 
 
 def run(context, request: Request, bake: bool = True) -> Outcome:

@@ -1,9 +1,14 @@
-"""Operators: Plan (preview), Bake, Clear, Detect bones.
+"""Operators: Plan (preview), Bake, Clear, Detect bones, Live, Key Pose.
 
 Plan and Bake run the pipeline. In the UI they are modal: the plan advances on a timer in
 slices of about 30 ms, the panel shows progress, and Esc cancels with nothing baked. In
 background mode (``INVOKE_DEFAULT`` runs ``execute`` there) they run synchronously. Every
 :class:`~reach_addon.core.ReachError` becomes ``self.report({'ERROR'}, ...)``.
+
+Live toggles live mode (:mod:`reach_addon.blender.live`): while it is on the arm follows the
+target; Key Pose (K in the 3D View while Live is on) keys the pose on screen at the current
+frame. Live has no automatic undo step of its own: turning it off pushes one ("Reach Live"),
+so one Ctrl+Z takes the arm back to where it was before Live. Key Pose is one undo step.
 """
 
 from __future__ import annotations
@@ -13,7 +18,7 @@ import time
 
 import bpy
 
-from ..blender import pipeline, rig, viz
+from ..blender import live, pipeline, rig, viz
 from ..core import ReachError
 from .properties import last_result, overrides_of, settings_from
 
@@ -239,4 +244,96 @@ def result_lines(props) -> list:
     return lines
 
 
-classes = (REACH_OT_plan, REACH_OT_bake, REACH_OT_clear, REACH_OT_detect_bones)
+def live_request(props) -> pipeline.Request:
+    """The request live mode follows: the panel's, reaching for its first target."""
+    request = request_from(props)
+    request.targets = request.targets[:1]
+    request.task = "reach"
+    return request
+
+
+def set_live(context, on: bool) -> None:
+    """Turn live mode on (from the panel's inputs) or off (one undo step). Raises
+    ReachError for bad input."""
+    props = context.scene.reach
+    if not on:
+        live.stop(push_undo=True)
+        return
+    if props.running:
+        raise ReachError("a plan or bake is running; wait for it or press Esc first")
+    live.start(context, live_request(props), budget_s=props.live_budget_ms / 1000.0)
+
+
+class REACH_OT_live(bpy.types.Operator):
+    """Live: the arm follows the target while you move it (G, typing a location, scrubbing
+    an animated target); K keys the pose. Click again to stop"""
+
+    bl_idname = "reach.live"
+    bl_label = "Live Reach"
+    bl_options = {"REGISTER"}     # turning Live off pushes its own undo step
+
+    @classmethod
+    def poll(cls, context):
+        if live.is_active():
+            return True
+        return _poll(cls, context)
+
+    def execute(self, context):
+        try:
+            set_live(context, not live.is_active())
+        except ReachError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        if live.is_active():
+            self.report({"INFO"}, "Live on: move the target; K keys the pose")
+        else:
+            self.report({"INFO"}, "Live off")
+        return {"FINISHED"}
+
+    # Blender calls these when the class is registered / unregistered: the K shortcut lives
+    # and dies with the add-on, and unregistering never leaves a handler or timer behind.
+    @classmethod
+    def register(cls):
+        wm = bpy.context.window_manager
+        kc = wm.keyconfigs.addon if wm is not None else None
+        if kc is not None:
+            km = kc.keymaps.new(name="3D View", space_type="VIEW_3D")
+            _keymaps.append((km, km.keymap_items.new("reach.key_pose", "K", "PRESS")))
+
+    @classmethod
+    def unregister(cls):
+        live.shutdown()
+        while _keymaps:
+            km, kmi = _keymaps.pop()
+            km.keymap_items.remove(kmi)
+
+
+_keymaps = []
+
+
+class REACH_OT_key_pose(bpy.types.Operator):
+    """Key the live pose at the current frame (K in the 3D View while Live is on)"""
+
+    bl_idname = "reach.key_pose"
+    bl_label = "Key Live Pose"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if not live.is_active():
+            cls.poll_message_set("Turn on Live first")
+            return False
+        return True
+
+    def execute(self, context):
+        try:
+            result = live.key_pose(context)
+        except ReachError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Keyed {len(result.bones)} bone(s) at frame {result.frames[0]}")
+        return {"FINISHED"}
+
+
+classes = (REACH_OT_plan, REACH_OT_bake, REACH_OT_clear, REACH_OT_detect_bones, REACH_OT_live,
+           REACH_OT_key_pose)

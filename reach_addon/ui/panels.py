@@ -3,8 +3,11 @@ settings in sub-panels, collapsed by default."""
 
 from __future__ import annotations
 
+import textwrap
+
 import bpy
 
+from ..blender import live
 from ..core.settings import GROUPS, fields
 from .operators import result_lines
 
@@ -60,6 +63,24 @@ class REACH_PT_main(_Reach, bpy.types.Panel):
             else:
                 box.label(text=f"{props.progress * 100:.0f}% {props.status}")
             box.label(text="Esc to cancel", icon="CANCEL")
+
+        box = layout.box()
+        on = live.is_active(context.scene)
+        row = box.row(align=True)
+        row.scale_y = 1.2
+        row.operator("reach.live", text="Live", icon="REC" if on else "PLAY", depress=on)
+        sub = row.row(align=True)
+        sub.enabled = on
+        sub.operator("reach.key_pose", text="Key (K)", icon="KEY_HLT")
+        box.prop(props, "live_budget_ms")
+        lines = live.status_lines() if on or not live.is_active() else []
+        scale = context.preferences.system.ui_scale
+        pixels = context.region.width if context.region else 300
+        width = max(16, int((pixels - 50 * scale) / (7.4 * scale)))     # characters per line
+        col = box.column(align=True)
+        for k, line in enumerate(lines):
+            for j, part in enumerate(textwrap.wrap(line, width) or [""]):
+                col.label(text=part, icon="INFO" if k == 0 and j == 0 else "BLANK1")
 
 
 class REACH_PT_result(_Reach, bpy.types.Panel):

@@ -1,7 +1,7 @@
 """Blender properties: the planner settings (generated from
 :class:`~reach_addon.core.Settings`, so defaults, ranges and descriptions have one source)
 and the per-scene Reach inputs (armature, arm, targets, obstacles, task, bake options,
-bone overrides, last result)."""
+bone overrides, last result, live mode)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from ..core import Settings
+from ..core import ReachError, Settings
+from ..core.live import DEFAULT_BUDGET_S
 from ..core.settings import fields
 
 ROLE_LABELS = {
@@ -66,11 +67,56 @@ def _is_armature(_self, ob):
     return ob.type == "ARMATURE"
 
 
+def _live_get(self):
+    from ..blender import live
+
+    return live.is_active(self.id_data)
+
+
+def _live_set(self, value):
+    """Scripts may set ``scene.reach.live``; errors cannot be reported from a setter, so
+    they go to the console and the panel's Live status."""
+    from ..blender import live
+    from .operators import set_live
+
+    if bool(value) == live.is_active(self.id_data):
+        return
+    try:
+        set_live(bpy.context, bool(value))
+    except Exception as exc:       # a setter must not raise into Blender
+        live.note_error(f"Live: {exc}" if isinstance(exc, ReachError) else
+                        f"Live stopped by an internal error: {exc}")
+        print(f"Reach Live: {exc}")
+
+
+def _live_inputs_update(self, context):
+    """A new armature, arm or target while Live is on: Live follows the new one (the pose on
+    screen stays)."""
+    from ..blender import live
+    from .operators import set_live
+
+    if live.is_active(self.id_data):
+        try:
+            set_live(context, True)
+        except Exception as exc:   # an update callback must not raise into Blender
+            live.stop(push_undo=True)
+            live.note_error(f"Live stopped: {exc}")
+
+
+def _live_budget_update(self, _context):
+    from ..blender import live
+
+    st = live.state()
+    if st is not None and st.scene == self.id_data.name:
+        st.budget_s = self.live_budget_ms / 1000.0
+
+
 def _scene_annotations():
     ann = {
         "armature": PointerProperty(name="Armature", type=bpy.types.Object, poll=_is_armature,
-                                    description="The character to pose"),
-        "arm": EnumProperty(name="Arm", default="AUTO", items=[
+                                    description="The character to pose",
+                                    update=_live_inputs_update),
+        "arm": EnumProperty(name="Arm", default="AUTO", update=_live_inputs_update, items=[
             ("AUTO", "Auto", "The arm nearer the (first) target"),
             ("RIGHT", "Right", "The character's right arm"),
             ("LEFT", "Left", "The character's left arm")]),
@@ -80,7 +126,8 @@ def _scene_annotations():
             ("GUIDED", "Guided", "Reach through the guiding nodes of the workspace grid"),
             ("CHASE", "Chase", "Follow an animated target over its frame range")]),
         "target": PointerProperty(name="Target", type=bpy.types.Object,
-                                  description="The object the wrist reaches for"),
+                                  description="The object the wrist reaches for",
+                                  update=_live_inputs_update),
         "targets": PointerProperty(name="Targets", type=bpy.types.Collection,
                                    description="Several targets, reached in order of their names"),
         "obstacles": EnumProperty(name="Obstacles", default="VISIBLE", items=[
@@ -109,6 +156,15 @@ def _scene_annotations():
         "progress": FloatProperty(name="Progress", default=0.0, min=0.0, max=1.0, subtype="FACTOR"),
         "running": BoolProperty(name="Running", default=False),
         "status": StringProperty(name="Status", default=""),
+        "live": BoolProperty(
+            name="Live", get=_live_get, set=_live_set,
+            description="The arm follows the target while you move it, without keys (the "
+                        "state of this Blender session, not saved in the file)"),
+        "live_budget_ms": FloatProperty(
+            name="Budget (ms)", default=round(DEFAULT_BUDGET_S * 1000.0, 2), min=1.0,
+            max=1000.0, update=_live_budget_update,
+            description="Longest time one live update may plan before Blender gets control "
+                        "back; the search continues on the next update"),
     }
     for name in OVERRIDES:
         parts = name.split("_")

@@ -1,0 +1,515 @@
+"""Live mode in Blender: the arm follows its target while the user moves it.
+
+One live session at a time. :func:`start` reads the scene through the pipeline (the same
+validation, rig adapter and obstacles as a bake) into a core
+:class:`~reach_addon.core.live.LiveSession`; :func:`update` is the one entry point every
+caller uses — Blender's timer while Live is on, the tests, the benchmark. Each update:
+
+1. re-reads what can change: the target's world position (so moving it with G, typing a
+   location, a constraint, a parent or scrubbing an animated target all count), the
+   obstacles (through :class:`ObstacleCache`, which rebuilds the BVH only when its cheap
+   signature changes) and the armature's transform (a moved armature restarts the session
+   from the pose on screen);
+2. advances the core re-plan for at most the time budget (1/30 s by default);
+3. when the core shows a new pose, writes it to the pose bones' rotation channels, without
+   keys, through :mod:`.bake`'s own matrices (:func:`~.bake.target_matrices`,
+   :func:`~.bake.local_matrices`, :func:`~.bake.channel_values`), so a live pose and a
+   baked frame of the same plan pose are the same.
+
+Blender calls: a ``depsgraph_update_post`` and a ``frame_change_post`` handler only wake a
+``bpy.app.timers`` timer (cheap, and never while it runs); the timer calls :func:`update`
+and asks to run again soon while the core is busy, otherwise it stops until the next wake.
+Handlers and the timer are removed when the session stops, on ``load_pre`` and when the
+add-on is unregistered; none of them lets an exception reach Blender (an error stops the
+session and the panel shows why).
+
+Keys and undo: :func:`key_pose` keys the pose on screen at the current frame through
+:func:`.bake.bake` (the "Key Pose" operator, K in the 3D View while Live is on). Stopping a
+session pushes one undo step ("Reach Live"), so Ctrl+Z takes the arm back to where it
+was before Live, as for any pose edit; an undo or redo while Live is on restarts the
+session from the restored pose.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import traceback
+import zlib
+from dataclasses import dataclass, field
+
+import bpy
+import numpy as np
+
+from ..core import Plan, ReachError, Stats
+from ..core.live import DEFAULT_BUDGET_S, LiveSession, LiveStatus
+from . import bake as bake_mod
+from . import pipeline
+from . import rig as rig_mod
+from .scene import GEOMETRY_TYPES, VIZ_TAG, character_objects, gather_obstacles
+
+#: Seconds between timer ticks while a re-plan is under way (Blender handles events between).
+TICK_S = 0.005
+UNDO_MESSAGE = "Reach Live"
+
+
+# --- obstacles, cached ----------------------------------------------------------------------
+
+class ObstacleCache:
+    """The obstacles of one scene, rebuilt only when they change.
+
+    The signature lists, for every object instance :func:`~.scene.gather_obstacles` would
+    read (same rules: visible, with geometry, not the character, the targets or Reach's own
+    display, inside the obstacle collection if one is given): its name, world matrix, data
+    block and vertex count, a counter of geometry edits seen by the depsgraph handler
+    (:meth:`note_geometry`), and — when ``geometry`` is asked for, as after a frame change
+    — a checksum of the evaluated vertices of objects whose shape can change without a
+    transform (modifiers, shape keys, edit mode). Reading matrices costs microseconds per
+    object; the BVH is rebuilt only when the signature differs."""
+
+    def __init__(self, exclude=(), collection: str | None = None):
+        self.exclude = set(exclude)
+        self.collection = collection
+        self.signature = None
+        self.obstacles = None
+        self.builds = 0
+        self._edits: dict[str, int] = {}
+
+    def note_geometry(self, name: str) -> None:
+        if name not in self.exclude:
+            self._edits[name] = self._edits.get(name, 0) + 1
+
+    def _collection(self):
+        if self.collection is None:
+            return None
+        coll = bpy.data.collections.get(self.collection)
+        if coll is None:
+            raise ReachError(f"obstacle collection '{self.collection}' no longer exists; "
+                             "choose another or plan against all visible objects")
+        return coll
+
+    def compute_signature(self, context, depsgraph=None, geometry: bool = False) -> tuple:
+        depsgraph = depsgraph or context.evaluated_depsgraph_get()
+        coll = self._collection()
+        allowed = {ob.name for ob in coll.all_objects} if coll is not None else None
+        out = []
+        for inst in depsgraph.object_instances:
+            ob = inst.object
+            if ob.type not in GEOMETRY_TYPES:
+                continue
+            original = ob.original
+            owner = inst.parent.original if inst.is_instance and inst.parent is not None \
+                else original
+            names = {owner.name, original.name}
+            if names & self.exclude or owner.get(VIZ_TAG) or original.get(VIZ_TAG):
+                continue
+            if allowed is not None and not names & allowed:
+                continue
+            if not owner.visible_get():
+                continue
+            data = ob.data
+            count = len(data.vertices) if ob.type == "MESH" else 0
+            entry = (owner.name, original.name,
+                     np.round(np.array(inst.matrix_world), 9).tobytes(),
+                     getattr(original.data, "name", ""), count, self._edits.get(original.name, 0))
+            if geometry and ob.type == "MESH" and count and _deformable(original):
+                co = np.empty(count * 3, dtype=np.float32)
+                data.vertices.foreach_get("co", co)
+                entry += (zlib.crc32(co.tobytes()),)
+            out.append(entry)
+        return tuple(out)
+
+    def get(self, context, depsgraph=None, geometry: bool = False):
+        """(obstacles, rebuilt?) for the scene as it is now."""
+        depsgraph = depsgraph or context.evaluated_depsgraph_get()
+        sig = self.compute_signature(context, depsgraph, geometry)
+        if not geometry and self.signature is not None and len(sig) == len(self.signature):
+            # Without checksums, keep the ones taken last time for objects that did not move.
+            sig = tuple(s + old[len(s):] if s == old[:len(s)] else s
+                        for s, old in zip(sig, self.signature))
+        if self.obstacles is not None and sig == self.signature:
+            return self.obstacles, False
+        self.obstacles = gather_obstacles(context, self.exclude, self._collection(), depsgraph)
+        self.signature = sig
+        self.builds += 1
+        return self.obstacles, True
+
+
+def _deformable(ob) -> bool:
+    data = ob.data
+    return bool(len(ob.modifiers) or getattr(data, "shape_keys", None) is not None
+                or ob.mode == "EDIT" or (data is not None and data.animation_data is not None))
+
+
+# --- the session ------------------------------------------------------------------------------
+
+@dataclass
+class UpdateReport:
+    """What one :func:`update` did."""
+
+    changed: bool                 # a new pose was written to the bones
+    busy: bool                    # the re-plan is not finished: call again
+    replanned: bool               # the target or the obstacles moved: a new re-plan began
+    status: LiveStatus
+    elapsed_s: float = 0.0
+
+
+@dataclass
+class LiveState:
+    """The Blender side of a live session: names (Python references do not survive undo),
+    the rig read at the start, the bones' start pose and the core session."""
+
+    scene: str
+    request: pipeline.Request
+    armature: str
+    target: str
+    info: rig_mod.RigInfo
+    session: LiveSession
+    cache: ObstacleCache
+    armature_matrix: np.ndarray
+    armature_inverse: np.ndarray
+    start_arm_pose: object         # the core Pose of the rig's start configuration
+    start_pose: dict               # bone → armature-space matrix when the session began
+    start_world: dict              # role → world matrix of its reference bone
+    chest_head: np.ndarray
+    keyed: dict                    # role → bone that receives the rotation
+    budget_s: float = DEFAULT_BUDGET_S
+    message: str = ""              # a Blender-side problem (the target was deleted, …)
+    rebuild: bool = False
+    frame_changed: bool = False
+    timings: list = field(default_factory=list)
+
+
+_state: LiveState | None = None
+_last_status = ""                  # why the last session ended, for the panel
+_in_update = False
+_drawn: tuple = ()                 # the status last drawn
+
+
+def state() -> LiveState | None:
+    return _state
+
+
+def is_active(scene=None) -> bool:
+    return _state is not None and (scene is None or scene.name == _state.scene)
+
+
+def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
+    """Read the scene into a new :class:`LiveState` (raises ReachError on bad input)."""
+    armature, targets, collection = pipeline.validate(context, request, bake=True)
+    scene = context.scene
+    context.view_layer.update()
+    target = targets[0]
+    info = rig_mod.build(armature, request.side, request.overrides,
+                         target=np.array(target.matrix_world.translation))
+    exclude = character_objects(armature, scene) | {t.name for t in targets}
+    cache = ObstacleCache(exclude, collection.name if collection is not None else None)
+    obstacles, _ = cache.get(context, geometry=True)
+    session = LiveSession(info.arm, obstacles, request.settings, info.start, target.name)
+
+    bmap = info.bones
+    arm_bones = bmap.arms[info.side]
+    keyed = {"upper_arm": arm_bones.keyed("upper_arm"), "forearm": arm_bones.keyed("forearm"),
+             "hand": arm_bones.keyed("hand"), "chest": bmap.keyed_chest}
+    reference = {"upper_arm": arm_bones.upper_arm, "forearm": arm_bones.forearm,
+                 "hand": arm_bones.hand, "chest": bmap.keyed_chest}
+    if arm_bones.clavicle:
+        keyed["clavicle"] = arm_bones.keyed("clavicle")
+        reference["clavicle"] = arm_bones.clavicle
+    for name in keyed.values():
+        if name not in armature.pose.bones:
+            raise ReachError(f"bone '{name}' is missing from armature '{armature.name}'")
+    mw = np.array(armature.matrix_world)
+    start_pose = {pb.name: np.array(pb.matrix) for pb in armature.pose.bones}
+    start_world = {role: mw @ start_pose[ref] for role, ref in reference.items()}
+    chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
+    return LiveState(scene.name, request, armature.name, target.name, info, session, cache,
+                     mw, np.linalg.inv(mw), session.planner.generator.config_pose(info.start),
+                     start_pose, start_world, chest_head, keyed, budget_s)
+
+
+def start(context, request: pipeline.Request, budget_s: float | None = None) -> LiveState:
+    """Begin live mode for ``request`` (its armature, arm, first target, obstacles,
+    settings and bone overrides); the arm is posed on the following updates. Raises
+    :class:`~reach_addon.core.ReachError` for bad input, leaving nothing running."""
+    global _state, _last_status
+    stop(push_undo=False)
+    st = _open(context, request, DEFAULT_BUDGET_S if budget_s is None else float(budget_s))
+    _state = st
+    _last_status = ""
+    _install()
+    return st
+
+
+def stop(push_undo: bool = True) -> bool:
+    """End live mode, leaving the pose as it is on screen. With ``push_undo`` the pose
+    becomes one undo step. Returns True if a session was running."""
+    global _state
+    was = _state is not None
+    _state = None
+    _uninstall()
+    if was and push_undo:
+        _undo_push()
+    return was
+
+
+def _undo_push():
+    try:
+        if bpy.ops.ed.undo_push.poll():
+            bpy.ops.ed.undo_push(message=UNDO_MESSAGE)
+    except (RuntimeError, AttributeError):
+        pass  # no undo stack (e.g. while Blender is loading a file)
+
+
+def _objects(st: LiveState):
+    scene = bpy.data.scenes.get(st.scene)
+    armature = bpy.data.objects.get(st.armature)
+    target = bpy.data.objects.get(st.target)
+    for ob, what, name in ((armature, "armature", st.armature), (target, "target", st.target)):
+        if ob is None or scene is None or ob.name not in scene.objects:
+            raise ReachError(f"the {what} '{name}' is gone from the scene; Live stopped")
+    return scene, armature, target
+
+
+def update(context=None, budget_s: float | None = None) -> UpdateReport:
+    """One live update (what the timer runs): notice what moved, advance the re-plan for
+    at most ``budget_s`` seconds (the session's budget if None) and pose the arm if the
+    core shows a new pose. Without a session it does nothing."""
+    global _in_update
+    t0 = time.perf_counter()
+    st = _state
+    if st is None:
+        return UpdateReport(False, False, False, LiveStatus(message=_last_status or "Live is off"))
+    context = context or bpy.context
+    _in_update = True
+    try:
+        scene, armature, target = _objects(st)
+        wait = None
+        if armature.mode == "EDIT":
+            wait = f"armature '{armature.name}' is in Edit Mode; Live waits"
+        elif context.scene != scene:
+            wait = f"Live waits for scene '{scene.name}' to be shown"
+        elif getattr(getattr(scene, "reach", None), "running", False):
+            wait = "a plan or bake is running; Live waits"
+        if wait is not None:
+            st.message = wait
+            return UpdateReport(False, False, False, st.session.status, time.perf_counter() - t0)
+        view_layer = context.view_layer
+        view_layer.update()
+        if st.rebuild or not np.allclose(np.array(armature.matrix_world), st.armature_matrix,
+                                         atol=1e-9):
+            st = _reopen(context, st)
+        st.message = ""
+        depsgraph = context.evaluated_depsgraph_get()
+        obstacles, _rebuilt = st.cache.get(context, depsgraph, geometry=st.frame_changed)
+        st.frame_changed = False
+        replanned = st.session.set_obstacles(obstacles)
+        replanned |= st.session.set_target(np.array(target.matrix_world.translation), target.name)
+        changed = st.session.advance(st.budget_s if budget_s is None else budget_s)
+        if changed:
+            _apply(st, armature)
+        elapsed = time.perf_counter() - t0
+        st.timings.append(elapsed)
+        del st.timings[:-1000]
+        return UpdateReport(changed, st.session.busy, replanned, st.session.status, elapsed)
+    finally:
+        _in_update = False
+
+
+def _reopen(context, st: LiveState) -> LiveState:
+    """The armature moved or an undo restored another pose: read the rig again from the
+    pose on screen, keeping the request and the budget."""
+    global _state
+    new = _open(context, st.request, st.budget_s)
+    _state = new
+    return new
+
+
+def _apply(st: LiveState, armature) -> None:
+    """Write the session's pose to the bones' rotation channels (no keys)."""
+    plan = Plan(None, st.info.arm, st.session.settings, [st.start_arm_pose, st.session.pose],
+                [], Stats())
+    targets = bake_mod.target_matrices(st.info, plan, st.start_world, st.chest_head)
+    targets_arm = {role: st.armature_inverse[None] @ m for role, m in targets.items()}
+    locals_ = bake_mod.local_matrices(armature, st.keyed, targets_arm, st.start_pose)
+    pose = armature.pose.bones
+    for name, mats in locals_.items():
+        path, values = bake_mod.channel_values(pose[name], mats[1:])
+        setattr(pose[name], path, tuple(float(v) for v in values[-1]))
+    for side, (bone_name, prop) in st.info.bones.ik_fk.items():
+        if side == st.info.side and pose[bone_name].get(prop) != 1.0:
+            pose[bone_name][prop] = 1.0
+            armature.update_tag()
+
+
+def key_pose(context=None) -> bake_mod.BakeResult:
+    """Key the pose on screen at the current frame, through :func:`.bake.bake` (the chest
+    too when Live turned it). Raises ReachError when Live is off."""
+    st = _state
+    if st is None:
+        raise ReachError("Live is off: turn on Live in the Reach panel, then key the pose")
+    context = context or bpy.context
+    scene, armature, _target = _objects(st)
+    pose = st.session.pose
+    _apply(st, armature)
+    context.view_layer.update()
+    frame = scene.frame_current
+    plan = Plan(None, st.info.arm, st.session.settings, [pose], [], Stats())
+    result = bake_mod.bake(context, armature, st.info, [(plan, frame)], new_action=False)
+    start = st.info.start.body_rotation
+    if abs(pose.config.body_rotation - start) > 1e-9:
+        name = st.info.bones.keyed_chest
+        pb = armature.pose.bones[name]
+        channels = bake_mod.Channels(armature, armature.animation_data.action)
+        path, values = bake_mod.channel_values(pb, [np.array(pb.matrix_basis)])
+        bake_mod.write_channel(channels, f'pose.bones["{name}"].{path}', values,
+                               np.array([float(frame)]), name)
+        result.bones = [name] + [b for b in result.bones if b != name]
+        context.view_layer.update()
+    return result
+
+
+# --- status for the panel --------------------------------------------------------------------
+
+def note_error(message: str) -> None:
+    """Show ``message`` in the panel's Live status (an error that could not be reported)."""
+    global _last_status
+    _last_status = message
+
+
+def status_lines() -> list:
+    """Lines the panel shows while Live is on (or why it stopped)."""
+    st = _state
+    if st is None:
+        return [_last_status] if _last_status else []
+    s = st.session.status
+    lines = [st.message] if st.message else []
+    head = {"idle": "waiting", "searching": "searching", "moving": "moving",
+            "reached": "on target", "closest": "closest approach",
+            "blocked": "blocked"}.get(s.state, s.state)
+    distance = "" if not math.isfinite(s.distance) else f", {s.distance:.3f} arm lengths away"
+    lines.append(f"{st.target}: {head}{distance}")
+    if s.reason is not None:
+        lines.append(s.message)
+    if st.timings:
+        recent = np.array(st.timings[-60:]) * 1000
+        lines.append(f"update {np.median(recent):.1f} ms, {st.session.updates} poses")
+    return lines
+
+
+# --- handlers and the timer ----------------------------------------------------------------
+
+def _tick():
+    """The timer: one budgeted update; again soon while busy, else sleep until woken."""
+    global _last_status
+    if _state is None:
+        return None
+    try:
+        report = update(bpy.context)
+    except ReachError as exc:
+        _last_status = f"Live stopped: {exc}"
+        stop(push_undo=True)
+        _redraw()
+        return None
+    except Exception as exc:  # never into Blender's event loop
+        traceback.print_exc()
+        _last_status = f"Live stopped by an internal error: {exc}"
+        stop(push_undo=True)
+        _redraw()
+        return None
+    global _drawn
+    shown = (report.status.state, report.status.message, _state.message if _state else "")
+    if report.changed or shown != _drawn:      # redraw only when there is something new
+        _drawn = shown
+        _redraw()
+    return TICK_S if report.busy else None
+
+
+def _wake():
+    if _state is not None and not _in_update and not bpy.app.timers.is_registered(_tick):
+        bpy.app.timers.register(_tick, first_interval=0.0)
+
+
+def _on_depsgraph(scene, depsgraph=None):
+    try:
+        st = _state
+        if st is None or _in_update:
+            return
+        if depsgraph is not None:
+            for u in depsgraph.updates:
+                if u.is_updated_geometry and isinstance(u.id, bpy.types.Object):
+                    st.cache.note_geometry(u.id.name)
+        _wake()
+    except Exception:
+        traceback.print_exc()
+
+
+def _on_frame(scene, depsgraph=None):
+    try:
+        if _state is not None:
+            _state.frame_changed = True
+            _wake()
+    except Exception:
+        traceback.print_exc()
+
+
+def _on_undo(*_args):
+    try:
+        if _state is not None:
+            _state.rebuild = True
+            _wake()
+    except Exception:
+        traceback.print_exc()
+
+
+def _on_load_pre(*_args):
+    global _last_status
+    try:
+        if stop(push_undo=False):
+            _last_status = "Live stopped: another file was opened"
+    except Exception:
+        traceback.print_exc()
+
+
+_HANDLERS = (("depsgraph_update_post", _on_depsgraph), ("frame_change_post", _on_frame),
+             ("undo_post", _on_undo), ("redo_post", _on_undo), ("load_pre", _on_load_pre))
+
+
+def _install():
+    for name, fn in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if fn not in handlers:
+            handlers.append(fn)
+    if not bpy.app.timers.is_registered(_tick):
+        bpy.app.timers.register(_tick, first_interval=0.0)
+
+
+def _uninstall():
+    for name, fn in _HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        while fn in handlers:
+            handlers.remove(fn)
+    if bpy.app.timers.is_registered(_tick):
+        bpy.app.timers.unregister(_tick)
+
+
+def installed() -> bool:
+    """Are any of live mode's handlers or its timer registered?"""
+    return any(fn in getattr(bpy.app.handlers, name) for name, fn in _HANDLERS) or \
+        bpy.app.timers.is_registered(_tick)
+
+
+def shutdown() -> None:
+    """For the add-on's unregister: stop without an undo step and remove everything."""
+    global _last_status
+    stop(push_undo=False)
+    _uninstall()
+    _last_status = ""
+
+
+def _redraw():
+    wm = getattr(bpy.context, "window_manager", None)
+    for window in wm.windows if wm is not None else ():
+        for area in window.screen.areas if window.screen else ():
+            if area.type == "VIEW_3D":
+                area.tag_redraw()

@@ -1,0 +1,547 @@
+"""Live reach: re-planning while the target (or the scene) moves, in time-budgeted slices.
+
+A :class:`LiveSession` keeps one :class:`~reach_addon.core.tasks.Planner` (its
+configuration generator, collision checker, BVH and, once built, its workspace grid) and
+the pose the user currently sees. When the target moves it starts a re-plan from that pose;
+:meth:`LiveSession.advance` runs the re-plan for at most a time budget (default
+:data:`DEFAULT_BUDGET_S`, 1/30 s) and returns, so an interactive caller stays responsive;
+the next call continues exactly where the last one stopped (the search is the resumable
+:class:`~reach_addon.core.search.BestFirstSearch` that ``Planner.search_steps`` runs), and
+a re-plan gives the same poses however it is sliced.
+
+What we chose, and why
+----------------------
+* **Warm start.** The search starts from the pose of the previous plan (the pose on
+  screen), not from the rest pose; the planner, with its BVH and workspace grid, is reused
+  until the obstacles change (:meth:`LiveSession.set_obstacles`), so a small move of the
+  target costs a few search nodes. When the target moves again before a search is done
+  (a fast drag), the progress is kept: the arm moves to the closest position found so far
+  and the new search starts there.
+* **Re-plan = the reach task's search.** The same best-first search as a ``reach`` task,
+  with the same fallback through guiding nodes and the same shorter leash for a target
+  already diagnosed unreachable. Shortcut smoothing and frame timing are left out: live
+  mode shows one pose, not a timed motion.
+* **No jump beyond the smoothness bound.** Each update shows at most one new pose, a pose
+  of the searched path: the farthest one (usually the last) that is within the smoothness
+  bound of the pose shown before
+  (:meth:`~reach_addon.core.generator.ConfigurationGenerator.smooth_between`:
+  ``Settings.max_joint_step`` per step of wrist travel). When a detour makes the end too
+  far a jump, the arm walks along the path over the next updates.
+* **Unreachable targets** leave the arm at the closest approach the search found, with the
+  reason and message a plan would give (out of reach, inside an obstacle, no path). An
+  obstacle moved onto the arm is cleared by turning the arm about the wrist if a pose
+  within the bound does it; otherwise the arm stays and the status names the obstacle.
+* **Workspace grid in slices.** The guided fallback needs the workspace grid, which takes
+  most of a second to build; :func:`workspace_steps` builds exactly the grid of
+  :func:`~reach_addon.core.workspace.build_workspace` in slices, so it too respects the
+  budget.
+
+Chase with moving obstacles
+---------------------------
+:func:`chase_steps` is the chase task of :mod:`~reach_addon.core.tasks` with one planner
+per frame: each frame is re-planned from the previous frame's pose against the obstacles
+*at that frame* (the caller re-samples animated obstacles and passes the same planner for
+frames where nothing moved). With one planner for every frame it gives exactly the poses of
+``Planner.plan`` for the chase task. A frame whose pose is hit by an obstacle that moved
+into it fails the chase, naming the obstacle and the frame.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import ik
+from .arm import ArmConfig, Pose
+from .collision import Obstacles
+from .errors import NO_PATH, START_IN_COLLISION, require_finite
+from .search import BestFirstSearch, SearchResult
+from .settings import Settings
+from .tasks import Plan, Planner, Segment, Stats, Task
+from .workspace import _NEIGHBOURS, Workspace, workspace_box
+
+#: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
+DEFAULT_BUDGET_S = 1.0 / 30.0
+
+#: Search nodes tested between two looks at the clock (one node costs about 0.5–3 ms).
+NODES_PER_SLICE = 2
+
+_UNKNOWN = object()
+
+#: A target that moved less than this (arm lengths) has not moved.
+TARGET_EPSILON = 1e-6
+
+#: States of a live session, as :attr:`LiveStatus.state`.
+IDLE, SEARCHING, MOVING, REACHED, CLOSEST, BLOCKED = (
+    "idle", "searching", "moving", "reached", "closest", "blocked")
+
+
+@dataclass
+class LiveStatus:
+    """What the session is doing and, after a re-plan, how it went. ``reason`` is one of
+    :data:`~reach_addon.core.errors.REASONS` when the target is not reached; ``message``
+    says it in words the panel shows; ``distance`` is wrist-to-target in arm lengths."""
+
+    state: str = IDLE
+    reason: str | None = None
+    message: str = "waiting for a target"
+    distance: float = math.inf
+    nodes_searched: int = 0
+    search_time_s: float = 0.0
+
+
+class LiveSession:
+    """One arm following one target interactively (see the module docstring).
+
+    ``start``: the arm's configuration (or pose) on screen when the session begins.
+    ``name``: what the user calls the target (for messages)."""
+
+    def __init__(self, arm, obstacles: Obstacles | None, settings: Settings | None = None,
+                 start: ArmConfig | Pose | None = None, name: str = "target"):
+        self.settings = settings if settings is not None else Settings()
+        self.planner = Planner(arm, obstacles, self.settings)
+        if start is None:
+            raise ValueError("a live session needs the arm's start configuration")
+        self.pose = start if isinstance(start, Pose) else self.planner.generator.config_pose(start)
+        require_finite("start pose", self.pose.joints)
+        self.name = name
+        self.target: np.ndarray | None = None      # world space
+        self.status = LiveStatus()
+        self.updates = 0                            # poses shown since the session began
+        self._job = None
+        self._searcher: BestFirstSearch | None = None
+        self._pending: Pose | None = None
+        self._path: list = []
+        self._cursor = 0
+        self._pose_clear = False
+
+    # --- inputs ----------------------------------------------------------------------
+    @property
+    def arm(self):
+        return self.planner.arm
+
+    @property
+    def obstacles(self) -> Obstacles:
+        return self.planner.obstacles
+
+    @property
+    def busy(self) -> bool:
+        return (self._job is not None or self._pending is not None
+                or self._cursor < len(self._path) - 1)
+
+    def set_obstacles(self, obstacles: Obstacles | None) -> bool:
+        """Plan against new obstacles from now on (a new planner: the workspace grid is
+        rebuilt if it is needed again). A re-plan toward the current target starts from the
+        pose on screen. Returns True if anything changed."""
+        obstacles = obstacles if obstacles is not None else Obstacles(None)
+        if obstacles is self.planner.obstacles:
+            return False
+        self.planner = Planner(self.arm, obstacles, self.settings)
+        self._pose_clear = False
+        # progress made against the old obstacles is not kept: it may touch the new ones
+        self._searcher, self._pending = None, None
+        if self.target is not None:
+            self._restart()
+        return True
+
+    def set_target(self, target_world, name: str | None = None, force: bool = False) -> bool:
+        """Follow ``target_world`` (a world position). Starts a re-plan from the pose on
+        screen if the target moved (or ``force``); returns True if it did."""
+        target = require_finite(f"target '{name or self.name}'", target_world).reshape(3)
+        if name is not None:
+            self.name = name
+        moved = self.target is None or \
+            float(np.linalg.norm(target - self.target)) > TARGET_EPSILON * self.arm.arm_length
+        if not (moved or force):
+            return False
+        self.target = target.copy()
+        self._restart()
+        return True
+
+    def _restart(self):
+        if self._job is not None and self._searcher is not None and self._pending is None:
+            # The target moved during a search: keep the progress made (the path to the
+            # closest position so far, as far as the smoothness bound allows); the next
+            # update shows it and the new search starts there.
+            partial = self._searcher.result().path
+            k = self._farthest_smooth(partial, 0)
+            if k > 0:
+                self._pending = partial[k]
+        if self._job is not None:
+            self._job.close()
+        self._searcher = None
+        self._path, self._cursor = [], 0
+        self._job = self._replan(self.arm.to_canonical_points(self.target))
+        self.status = LiveStatus(SEARCHING, None, f"searching toward '{self.name}'",
+                                 self._distance(self.pose))
+
+    # --- running ---------------------------------------------------------------------
+    def advance(self, budget_s: float | None = DEFAULT_BUDGET_S) -> bool:
+        """Work on the current re-plan for at most ``budget_s`` seconds (None: to the end),
+        then show at most one new pose. Returns True if :attr:`pose` changed."""
+        if self._pending is not None:
+            self.pose, self._pending = self._pending, None
+            self._pose_clear = True
+            self.updates += 1
+            self.status.distance = self._distance(self.pose)
+            return True
+        deadline = None if budget_s is None else time.perf_counter() + budget_s
+        while self._job is not None:
+            try:
+                next(self._job)
+            except StopIteration:
+                self._job = None
+                break
+            if deadline is not None and time.perf_counter() >= deadline:
+                return False
+        return self._show_next()
+
+    def run(self) -> list:
+        """Advance until idle; the poses shown, in order (for scripts and tests)."""
+        shown = []
+        while self.busy:
+            if self.advance(None):
+                shown.append(self.pose)
+        return shown
+
+    def _show_next(self) -> bool:
+        """Move the shown pose along the searched path: to its end if that is within the
+        smoothness bound of the pose shown now, else as far as the bound allows."""
+        last = len(self._path) - 1
+        if self._cursor >= last:
+            return False
+        # Consecutive poses of a searched path are within the bound of each other, so the
+        # arm always gets at least one step further.
+        k = max(self._cursor + 1, self._farthest_smooth(self._path, self._cursor))
+        self._cursor = k
+        self.pose = self._path[k]
+        self.updates += 1
+        if k >= last:
+            self.status.state = REACHED if self.status.reason is None else CLOSEST
+        self.status.distance = self._distance(self.pose)
+        return True
+
+    def _farthest_smooth(self, path: list, cursor: int) -> int:
+        """Index of the farthest pose of ``path`` after ``cursor`` that is within the
+        smoothness bound of the pose shown: the end if it is, else walking forward while
+        each next pose still is; ``cursor`` if none is."""
+        gen = self.planner.generator
+        last = len(path) - 1
+        if last <= cursor:
+            return cursor
+        if gen.smooth_between(self.pose, path[last]):
+            return last
+        k = cursor
+        while k < last and gen.smooth_between(self.pose, path[k + 1]):
+            k += 1
+        return k
+
+    def _search(self, start: Pose, target_c, guided: bool = False, **limits):
+        """:meth:`Planner.search_steps` (the same search, yielding every
+        :data:`NODES_PER_SLICE` nodes), keeping the searcher so that a re-plan interrupted
+        by a new target can keep the progress made. The workspace grid must exist for a
+        guided search."""
+        guides, radius = None, 0.0
+        if guided:
+            ws = self.planner.workspace
+            guides = ws.guiding_nodes(start.wrist, target_c)
+            radius = self.settings.guide_radius * float(np.min(ws.cell))
+        generator = self.planner.generator.for_reach(start, target_c)
+        self._searcher = BestFirstSearch(generator, start, target_c, guides, radius, **limits)
+        while not self._searcher.run(NODES_PER_SLICE):
+            yield
+        return self._searcher.result()
+
+    def _distance(self, pose: Pose) -> float:
+        if self.target is None:
+            return math.inf
+        wrist = self.arm.to_world_points(pose.wrist)
+        return float(np.linalg.norm(wrist - self.target)) / self.arm.arm_length
+
+    def _replan(self, target_c):
+        """The re-plan as a generator (yields every :data:`NODES_PER_SLICE` nodes)."""
+        planner, s = self.planner, self.settings
+        gen = planner.generator
+        start = self.pose
+        # A pose the search produced against these obstacles is clear; test only a pose
+        # from elsewhere (the rig, an undo) or one the obstacles may have moved into.
+        problem = None if self._pose_clear else gen.start_problem(start)
+        self._pose_clear = problem is None
+        if problem is not None and problem[0] == "sternum":
+            self.status = LiveStatus(
+                BLOCKED, START_IN_COLLISION,
+                f"the body is inside '{problem[1]}'; move the character or the obstacle",
+                self._distance(start))
+            return
+        prefix = []
+        if problem is not None:
+            # Something moved into the arm: first try another pose with the wrist where it
+            # is (within the smoothness bound), then search on from there.
+            escape = gen.for_reach(start, target_c).solve(start.wrist, start)
+            if escape is not None:
+                prefix, start, problem = [start], escape, None
+        # The diagnosis (is the target reachable at all?) costs a few ms: most moves of the
+        # target are caught within the first slice and never need it.
+        diagnosis = _UNKNOWN
+        steps = self._search(start, target_c)
+        result = None
+        try:
+            next(steps)
+        except StopIteration as done:
+            result = done.value
+        if result is None:
+            diagnosis = gen.diagnose_target(target_c)
+            if diagnosis is not None:
+                # Known unreachable: the shorter leash of the reach task, from the start.
+                steps.close()
+                steps = self._search(start, target_c, stall_budget=max(20, s.stall_budget // 4))
+            yield
+            result = yield from steps
+        if not result.success and diagnosis is _UNKNOWN:
+            diagnosis = gen.diagnose_target(target_c)
+        if not result.success and diagnosis is None and s.guided_fallback:
+            if not planner.has_workspace:
+                self.status.message = "building the workspace grid for a guided search"
+                planner._workspace = yield from workspace_steps(gen)
+            retry = yield from self._search(start, target_c, True)
+            nodes = result.nodes_searched + retry.nodes_searched
+            elapsed = result.search_time_s + retry.search_time_s
+            if retry.success or retry.closest_distance < result.closest_distance:
+                result = retry
+            result.nodes_searched, result.search_time_s = nodes, elapsed
+        if prefix:
+            result.path = prefix + list(result.path)
+        self._searcher = None
+        self._finish(result, diagnosis, start, problem)
+
+    def _finish(self, result: SearchResult, diagnosis, start: Pose, problem):
+        status = LiveStatus(MOVING, None, f"on '{self.name}'", self._distance(start),
+                            result.nodes_searched, result.search_time_s)
+        if not result.success:
+            status.reason, status.message = self.planner._failure(self.name, result,
+                                                                  diagnosis, start)
+        end = result.path[-1] if result.path else start
+        if problem is not None and self.planner.generator.pose_collides(end):
+            status.reason = START_IN_COLLISION
+            status.message = (f"'{problem[1]}' touches the arm (at the {problem[0]}) and no "
+                              "clear pose was found nearby; move it away from the arm")
+        self._path, self._cursor = list(result.path), 0
+        if len(self._path) > 1:
+            self._pose_clear = True     # every pose after the first was solved clear
+        if len(self._path) < 2:
+            status.state = REACHED if status.reason is None else CLOSEST
+        self.status = status
+
+
+# --- chase ---------------------------------------------------------------------------------
+
+def chase_steps_per_frame(settings: Settings, fps: float) -> int:
+    """Search steps the wrist may take in one frame: ``chase_max_speed / fps / step``."""
+    return max(1, int(settings.chase_max_speed / fps / settings.step + 1e-9))
+
+
+def chase_frame(generator, previous: Pose, target_c, steps: int):
+    """One frame of a chase: a best-first search from ``previous`` toward ``target_c``
+    (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
+    along; returns (the pose committed, the search result)."""
+    s = generator.settings
+    searcher = BestFirstSearch(generator.for_reach(previous, target_c), previous, target_c,
+                               node_budget=s.chase_nodes_per_frame,
+                               stall_budget=s.chase_nodes_per_frame, depth_limit=steps)
+    searcher.run()
+    result = searcher.result()
+    return result.path[min(steps, len(result.path) - 1)], result
+
+
+def chase_steps(planners, task: Task, chunk: int = 1):
+    """Plan a chase with one planner per frame (``planners[f]`` holds the obstacles at
+    frame ``f``; pass the same planner for frames where nothing moved). A generator like
+    :meth:`Planner.plan_steps`: yields (fraction, message) every ``chunk`` frames and
+    returns the :class:`Plan`."""
+    t0 = time.perf_counter()
+    planners = list(planners)
+    if task.kind != "chase":
+        raise ValueError("chase_steps plans chase tasks")
+    if len(planners) != len(task.targets):
+        raise ValueError(f"one planner per frame: {len(task.targets)} frames, "
+                         f"{len(planners)} planners")
+    first = planners[0]
+    arm, s = first.arm, first.settings
+    start = first.generator.config_pose(task.start)
+    require_finite("start pose", start.joints)
+    problem = first.generator.start_problem(start)
+    if problem is not None:
+        plan = first._start_failure(task, start, problem)
+        plan.stats.planning_time_s = time.perf_counter() - t0
+        return plan
+    length = arm.arm_length
+    steps = chase_steps_per_frame(s, task.fps)
+    trajectory = arm.to_canonical_points(task.targets)
+    poses, path = [start], [start.wrist]
+    stats = Stats()
+    on_target = 0
+    hit = None
+    for f in range(1, len(trajectory)):
+        if chunk and f % chunk == 0:
+            yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
+        gen = planners[f].generator
+        nxt, res = chase_frame(gen, poses[-1], trajectory[f], steps)
+        stats.nodes_searched += res.nodes_searched
+        stats.search_time_s += res.search_time_s
+        stats.nodes_in_solution += min(steps, len(res.path) - 1)
+        poses.append(nxt)
+        path.append(nxt.wrist)
+        if np.linalg.norm(nxt.wrist - trajectory[f]) <= s.goal_tolerance * length:
+            on_target += 1
+        if hit is None and planners[f] is not planners[f - 1]:
+            contact = gen.checker.first_hit(arm.to_world_points(nxt.joints))
+            if contact is not None:
+                hit = (f, contact)
+    stats.nodes_in_solution += 1  # the start, as in the reach tasks
+    stats.path_length_arm_lengths = float(
+        np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
+    _motion_stats(stats, poses, planners, stats.path_length_arm_lengths)
+    gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
+    name = task.name(0)
+    last = planners[-1]
+    if hit is not None:
+        f, (part, obstacle) = hit
+        reason, message = START_IN_COLLISION, (
+            f"'{obstacle}' moves into the arm (at the {part}) on frame {f} of the chase of "
+            f"'{name}' and no clear pose was found; change the obstacle's motion or the "
+            "chase speed limit")
+    elif gap <= s.goal_tolerance:
+        reason, message = None, f"caught '{name}' ({on_target} of {len(poses) - 1} frames on target)"
+    else:
+        diagnosis = last.generator.diagnose_target(trajectory[-1])
+        fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
+                            trajectory[-1])
+        reason, message = last._failure(name, fake, diagnosis, start)
+        if reason == NO_PATH:
+            message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
+                       "lengths behind); raise the chase speed limit or the nodes per frame")
+    seg = Segment(0, name, task.targets[-1], reason is None, reason, message, 0,
+                  len(poses) - 1, stats, arm.to_world_points(np.array(path)), np.zeros((0, 3)))
+    total = Stats()
+    total.add(stats)
+    total.frames = len(poses)
+    plan = Plan(task, arm, s, poses, [seg], total, first._workspace)
+    plan.stats.planning_time_s = time.perf_counter() - t0
+    return plan
+
+
+def _motion_stats(stats: Stats, poses, planners, motion_length: float):
+    """Frames, strength categories and least clearance (each frame against its own
+    obstacles), as the reach tasks report them."""
+    length = planners[0].arm.arm_length
+    stats.motion_path_length_arm_lengths = motion_length
+    stats.frames = len(poses)
+    for p in poses:
+        stats.strength_categories[max(0, min(2, int(p.f_r)))] += 1
+    arm = planners[0].arm
+    for p, planner in zip(poses, planners):
+        c = planner.generator.checker.clearance(arm.to_world_points(p.joints), 0.5 * length)
+        stats.min_clearance_arm_lengths = min(stats.min_clearance_arm_lengths, c / length)
+
+
+# --- the workspace grid, in slices -----------------------------------------------------------
+
+def workspace_steps(generator, chunk: int = 8):
+    """:func:`~reach_addon.core.workspace.build_workspace` as a generator: the same grid,
+    built ``chunk`` cells at a time (it yields between slices and returns the
+    :class:`~reach_addon.core.workspace.Workspace`). ``build_time_s`` counts the time spent
+    building, not the time between slices."""
+    busy = 0.0
+    t = time.perf_counter()
+    arm, obstacles, settings = generator.arm, generator.obstacles, generator.settings
+    n = settings.grid_cells
+    lower, cell = workspace_box(arm, settings)
+    idx = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1).reshape(-1, 3)
+    centers = lower + (idx + 0.5) * cell
+    world = arm.to_world_points(centers)
+    half_diagonal = 0.5 * float(np.linalg.norm(cell))
+    occupied = np.zeros(n ** 3, dtype=bool)
+    if not obstacles.empty:
+        tree = obstacles.tree
+        bound = half_diagonal + generator.checker.margin
+        for k, p in enumerate(world.tolist()):
+            occupied[k] = tree.find_nearest(p, bound)[0] is not None
+        occupied = occupied.reshape(n, n, n)
+        busy += time.perf_counter() - t
+        yield
+        t = time.perf_counter()
+        regions = _free_regions(occupied)
+        for k, region in enumerate(regions):
+            if obstacles.point_inside(world.reshape(n, n, n, 3)[region[0]]):
+                for c in region:
+                    occupied[c] = True
+            if k % 8 == 7:
+                busy += time.perf_counter() - t
+                yield
+                t = time.perf_counter()
+    else:
+        occupied = occupied.reshape(n, n, n)
+    busy += time.perf_counter() - t
+    yield
+    t = time.perf_counter()
+
+    valid = np.zeros((n, n, n), dtype=bool)
+    free = np.flatnonzero(~occupied.reshape(-1))
+    # Batches of at least two wrists: ik.solve scores one wrist with float arithmetic and
+    # several with arrays; the grid must not depend on where the slices fall.
+    bounds = list(range(0, free.size, chunk))
+    if len(bounds) > 1 and free.size - bounds[-1] < 2:
+        bounds.pop()
+    for b, lo in enumerate(bounds):
+        hi = bounds[b + 1] if b + 1 < len(bounds) else free.size
+        rows = free[lo:hi]
+        sol = ik.solve(arm, centers[rows], settings) if rows.size > 1 else \
+            ik.solve(arm, centers[np.repeat(rows, 2)], settings)
+        for row, flat in enumerate(rows):
+            order = sol.order(row, settings.elbow_side)[: settings.max_pose_tries]
+            if order.size == 0:
+                continue
+            joints = sol.joints(row, order)
+            clear = ~ik.self_collision(arm, float(sol.body[row]), joints, include_hand=False)
+            if any(not generator.checker.collides(j, include_hand=False)
+                   for j in arm.to_world_points(joints[clear])):
+                valid.reshape(-1)[flat] = True
+        busy += time.perf_counter() - t
+        yield
+        t = time.perf_counter()
+    busy += time.perf_counter() - t
+    return Workspace(lower, cell, n, occupied, valid, busy)
+
+
+def _free_regions(occupied) -> list:
+    """The 26-connected regions of cells clear of any surface, each a list of cell
+    indices starting with its first cell in row-major order: the regions, and the cell
+    tested for being inside an obstacle, of ``workspace._mark_inside_regions`` (written with
+    tuples, which is several times faster than indexing with numpy rows)."""
+    n = occupied.shape[0]
+    seen = occupied.copy()
+    steps = [tuple(int(v) for v in d) for d in _NEIGHBOURS]
+    regions = []
+    for start in map(tuple, np.argwhere(~occupied).tolist()):
+        if seen[start]:
+            continue
+        seen[start] = True
+        region, stack = [start], [start]
+        while stack:
+            x, y, z = stack.pop()
+            for dx, dy, dz in steps:
+                nxt = (x + dx, y + dy, z + dz)
+                if 0 <= nxt[0] < n and 0 <= nxt[1] < n and 0 <= nxt[2] < n and not seen[nxt]:
+                    seen[nxt] = True
+                    region.append(nxt)
+                    stack.append(nxt)
+        regions.append(region)
+    return regions
+
+
+__all__ = ["DEFAULT_BUDGET_S", "LiveSession", "LiveStatus", "chase_frame", "chase_steps",
+           "chase_steps_per_frame", "workspace_steps", "IDLE", "SEARCHING", "MOVING",
+           "REACHED", "CLOSEST", "BLOCKED"]
