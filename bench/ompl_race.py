@@ -1,0 +1,698 @@
+"""Reach against OMPL's RRTConnect on the paper's four tasks: one race per task.
+
+``python -m bench.ompl_race`` plans the four demo tasks (:func:`reach_addon.demo.demo_tasks`,
+the workplace of :data:`reach_addon.demo.WORKPLACE`) with Reach's planner and with the Open
+Motion Planning Library, then measures both paths the same way and prints a table.
+:func:`race` is what the full benchmark calls (repeatedly, for medians).
+
+What each side does
+-------------------
+* **Reach**: ``Planner.plan(task)``, timed from the call to the returned plan: the
+  best-first search, shortcut smoothing, minimum-jerk timing into frames and the plan's
+  statistics. The workspace grid (the paper's preprocessing) is built before the clock
+  starts and reported on its own, as Table 2 does.
+* **OMPL**: ``RRTConnect`` in a ``SimpleSetup``, then ``simplifySolution()``: OMPL's path
+  simplifier (shortcuts, vertex reduction, smoothing) with no time limit, which runs until
+  nothing improves, so the result does not depend on the machine's speed. Timed from the
+  goal's inverse kinematics to the simplified path. OMPL's random numbers are seeded
+  (``ompl.util.RNG.setSeed``) before every leg, so a race is repeatable.
+
+How the comparison is made fair
+-------------------------------
+* **Same joint space.** OMPL plans over the configuration the core animates: body (chest)
+  rotation, the shoulder angles α, β, γ and elbow flexion of :mod:`reach_addon.core.arm`,
+  plus the hand's two wrist angles, which the core also chooses per pose (it turns the hand
+  to clear obstacles). The bounds are the joint limits of ``Settings``; the elevation limit
+  √(α² + β²) ≤ ``Settings.elevation_max`` and, when ``Settings.elbow_side`` is
+  ``"require"``, Algorithm 1's elbow side are part of validity, because the core never
+  accepts a pose that breaks them either. Forward kinematics follows the same formulas
+  (the test checks it against :func:`reach_addon.core.arm.forward_kinematics`).
+* **Same collision test.** A state is valid when the core would accept the pose: the
+  body's own capsules tested as :class:`~reach_addon.core.generator.ConfigurationGenerator`
+  tests them (:func:`reach_addon.core.ik.segment_hits_body`), and the arm and hand against
+  the obstacles by the core's :class:`~reach_addon.core.collision.CollisionChecker`, with
+  the same clearance margin.
+* **Same start, an equivalent goal.** The first leg starts from the task's start pose, as
+  the core's does; each later leg from where OMPL's previous leg ended. The goal is the
+  pose the core's configuration generator gives for the target on its own: the strongest
+  legal, collision-free configuration with the wrist on it (``generator.solve(target)``,
+  chest rotation from Table 1). It is found without knowledge of any path.
+* **Comparable motion resolution.** Each joint's coordinate is its angle in radians times
+  the farthest it can carry the wrist (its lever arm, in arm lengths; the wrist angles by
+  the hand's length), so a distance in OMPL's space approximates wrist travel in arm
+  lengths. OMPL's motion validator checks states every ``Settings.step`` (0.02) of that
+  distance: the core's step between search positions.
+* **Same yardstick.** Both paths are interpolated linearly in joint space, densely enough
+  that the wrist moves at most 0.002 arm lengths between samples (Reach's between its
+  frames, OMPL's between its waypoints), and every sample is measured the same way: wrist
+  path length in arm lengths, mean strength category f_R (``core.strength.f_r``) and
+  contacts found by an independent check (below).
+
+The independent check
+---------------------
+Every sample's four segments (clavicle, upper arm, forearm, hand, with the arm's radii)
+are measured against the obstacle triangles by exact segment–triangle distance, written
+here in numpy and sharing no code with the planner's BVH checker. A sample *collides* when
+some segment comes closer to a triangle than its radius (no clearance margin: actual
+contact). The chain starts at the sternum, outside every obstacle, so a segment inside a
+closed obstacle implies a segment crossing its surface, which the test sees. The body's own
+capsules are not part of this check.
+
+What differs (and is not hidden)
+--------------------------------
+* The core ranks poses by shoulder strength, keeps joint changes within its smoothness
+  bound and turns the chest by Table 1; OMPL only needs valid states. The chest rotation is
+  a free joint for OMPL (within ``Settings.chest_rotation_max``). The f_R and path length
+  columns show what those preferences buy.
+* Reach's time includes turning the path into timed frames and the plan's statistics;
+  OMPL produces no timing.
+* Multi-target tasks (``sequence``): Reach plans the whole task in one call; OMPL plans
+  each leg, and its times and paths are summed. A chase re-plans every
+  frame, which has no OMPL counterpart: both planners instead race a few representative
+  legs, from the start pose through the target's positions at ``chase_waypoints`` evenly
+  spaced frames (Reach plans them as one ``sequence`` task), and the row says so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import math
+import sys
+import time
+from functools import lru_cache
+
+import numpy as np
+
+from reach_addon.core import Planner, Task
+from reach_addon.core import ik
+from reach_addon.core.arm import forward_kinematics
+from reach_addon.core.numeric import SCALAR
+from reach_addon.core.strength import f_r
+
+#: Keys of the dictionary :func:`race` returns (the numbers are plain Python floats/ints).
+KEYS = ("task", "reach_time_s", "ompl_time_s", "reach_path_length", "ompl_path_length",
+        "reach_mean_f_r", "ompl_mean_f_r", "reach_collisions", "ompl_collisions",
+        "time_ratio", "path_length_ratio", "f_r_difference",
+        "reach_success", "ompl_success", "reach_arm_collisions", "ompl_arm_collisions",
+        "reach_min_clearance", "ompl_min_clearance",
+        "reach_preprocess_time_s", "ompl_validity_checks", "legs", "note")
+
+#: Wrist spacing of the dense interpolation measured by the independent check (arm lengths).
+DENSE_SPACING = 0.002
+#: Targets of a chase raced as legs (evenly spaced frames of its trajectory).
+CHASE_WAYPOINTS = 4
+#: The independent check reports clearances up to this far (arm lengths); beyond, "far".
+CLEARANCE_HORIZON = 0.05
+#: Joint order of a configuration row here: the core's five angles, then the hand's two.
+JOINT_NAMES = ("body", "alpha", "beta", "gamma", "elbow", "wrist_bend", "wrist_side")
+
+
+# --- the joint space -----------------------------------------------------------------------
+
+class JointSpace:
+    """The seven joints (degrees), their limits and the lever-arm metric OMPL plans in.
+
+    ``scale[i]`` turns degrees into OMPL coordinates: radians × lever arm, the lever being
+    the farthest the joint can carry the wrist, in arm lengths — the chest turns the wrist
+    about the spine axis (shoulder offset + arm), α and β swing the whole arm (1), γ and the
+    elbow swing the forearm; the wrist angles move only the hand, by its length.
+    """
+
+    def __init__(self, arm, settings):
+        self.arm = arm
+        self.settings = settings
+        s, length = settings, arm.arm_length
+        chest = s.chest_rotation_max if s.chest_rotation else 0.0
+        limits = [(-chest, chest), (s.alpha_min, s.alpha_max), (s.beta_min, s.beta_max),
+                  (s.gamma_min, s.gamma_max), (s.elbow_min, s.elbow_max),
+                  (-s.wrist_bend_max, s.wrist_bend_max), (-s.wrist_side_max, s.wrist_side_max)]
+        # OMPL needs each lower bound strictly below its upper bound: a joint held fixed
+        # by the settings gets a sliver of room.
+        self.lo = np.array([lo if hi > lo else lo - 1e-6 for lo, hi in limits])
+        self.hi = np.array([hi if hi > lo else hi + 1e-6 for lo, hi in limits])
+        spine = float(np.hypot(arm.shoulder[0], arm.shoulder[1]))
+        fore = arm.forearm_length / length
+        hand = max(arm.hand_length / length, 0.05)
+        self.lever = np.array([(spine + length) / length, 1.0, 1.0, fore, fore, hand, hand])
+        self.scale = np.radians(1.0) * self.lever
+
+    def coordinates(self, q) -> np.ndarray:
+        """OMPL coordinates of configurations ``q`` (..., 7) in degrees."""
+        return np.asarray(q, dtype=float) * self.scale
+
+    def angles(self, x) -> np.ndarray:
+        """Degrees of OMPL coordinates ``x`` (..., 7)."""
+        return np.asarray(x, dtype=float) / self.scale
+
+    def distance(self, qa, qb) -> float:
+        """OMPL's distance between two configurations: about the wrist travel (arm lengths)."""
+        return float(np.linalg.norm(self.coordinates(qb) - self.coordinates(qa)))
+
+    def ompl_space(self):
+        """A bounded ``RealVectorStateSpace`` whose motion checks are a core step apart."""
+        from ompl import base as ob
+
+        space = ob.RealVectorStateSpace(len(JOINT_NAMES))
+        bounds = ob.RealVectorBounds(len(JOINT_NAMES))
+        bounds.low = self.coordinates(self.lo).tolist()
+        bounds.high = self.coordinates(self.hi).tolist()
+        space.setBounds(bounds)
+        for i, name in enumerate(JOINT_NAMES):
+            space.setDimensionName(i, name)
+        space.setLongestValidSegmentFraction(self.settings.step / space.getMaximumExtent())
+        return space
+
+
+def pose_row(pose) -> np.ndarray:
+    """A core :class:`~reach_addon.core.arm.Pose` as a configuration row (7,), degrees."""
+    return np.concatenate([pose.config.as_array(), np.asarray(pose.hand, dtype=float)])
+
+
+def joints_of(arm, q) -> np.ndarray:
+    """Canonical joint positions (N, 5, 3) of configuration rows (N, 7): the core's forward
+    kinematics, with the hand turned by its two wrist angles as in
+    :func:`reach_addon.core.arm.hand_direction`."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    joints, bend = forward_kinematics(arm, q[:, :5])
+    s, e, w = joints[:, 1], joints[:, 2], joints[:, 3]
+    u = (e - s) / arm.upper_arm_length
+    f = (w - e) / arm.forearm_length
+    h = np.cross(u, bend)
+    h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-12)
+    p = np.cross(h, f)
+    fb, fs = np.radians(q[:, 5:6]), np.radians(q[:, 6:7])
+    d = f * np.cos(fb) * np.cos(fs) + p * np.sin(fb) * np.cos(fs) + h * np.sin(fs)
+    joints[:, 4] = w + arm.hand_length * d
+    return joints
+
+
+def joints_of_one(arm, q) -> list:
+    """:func:`joints_of` for one configuration on plain floats (OMPL's validity checker calls
+    it thousands of times; numpy costs about a microsecond per call on tiny arrays).
+    Returns five [x, y, z] lists, canonical frame."""
+    body, alpha, beta, gamma, flex, wb, ws = (float(v) for v in q)
+    theta = math.radians(math.hypot(alpha, beta))
+    phi = math.atan2(beta, alpha)
+    st = math.sin(theta)
+    ux, uy, uz = st * math.cos(phi), st * math.sin(phi), -math.cos(theta)
+    k = 1.0 / max(1.0 - uz, 1e-12)
+    rx, ry, rz = -ux * uy * k, -uz + ux * ux * k, uy           # swing reference
+    ax, ay, az = -ux, -uy, -uz                                  # twist axis -u
+    cx, cy, cz = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx
+    g = math.radians(gamma)
+    cg, sg = math.cos(g), math.sin(g)
+    bx, by, bz = rx * cg + cx * sg, ry * cg + cy * sg, rz * cg + cz * sg
+    e = math.radians(flex)
+    ce, se = math.cos(e), math.sin(e)
+    fx, fy, fz = ux * ce + bx * se, uy * ce + by * se, uz * ce + bz * se
+    hx, hy, hz = uy * bz - uz * by, uz * bx - ux * bz, ux * by - uy * bx
+    hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
+    hx, hy, hz = hx / hn, hy / hn, hz / hn
+    px, py, pz = hy * fz - hz * fy, hz * fx - hx * fz, hx * fy - hy * fx
+    b1, b2 = math.radians(wb), math.radians(ws)
+    kf, kp, kh = math.cos(b1) * math.cos(b2), math.sin(b1) * math.cos(b2), math.sin(b2)
+    dx, dy, dz = fx * kf + px * kp + hx * kh, fy * kf + py * kp + hy * kh, fz * kf + pz * kp + hz * kh
+    t = math.radians(body)
+    c, s = math.cos(t), math.sin(t)
+    l1, l2, lh = arm.upper_arm_length, arm.forearm_length, arm.hand_length
+    st0, sh0 = arm.sternum.tolist(), arm.shoulder.tolist()
+    sternum = [c * st0[0] + s * st0[1], -s * st0[0] + c * st0[1], st0[2]]
+    shoulder = [c * sh0[0] + s * sh0[1], -s * sh0[0] + c * sh0[1], sh0[2]]
+    elbow = [shoulder[0] + l1 * (c * ux + s * uy), shoulder[1] + l1 * (-s * ux + c * uy),
+             shoulder[2] + l1 * uz]
+    wrist = [elbow[0] + l2 * (c * fx + s * fy), elbow[1] + l2 * (-s * fx + c * fy),
+             elbow[2] + l2 * fz]
+    hand = [wrist[0] + lh * (c * dx + s * dy), wrist[1] + lh * (-s * dx + c * dy),
+            wrist[2] + lh * dz]
+    return [sternum, shoulder, elbow, wrist, hand]
+
+
+class Validity:
+    """OMPL's state validity checker: would the core accept this configuration?
+
+    Legal (joint limits by the state bounds, the elevation limit and, if required, the elbow
+    side of Algorithm 1), clear of the body's own capsules as the configuration generator
+    tests them, and clear of the obstacles by the core's own :class:`CollisionChecker`
+    (arm and hand, with its clearance margin). ``calls`` counts the states checked.
+    """
+
+    def __init__(self, planner: Planner, space: JointSpace):
+        self.arm = planner.arm
+        self.settings = planner.settings
+        self.checker = planner.generator.checker
+        self.space = space
+        self.scale = space.scale.tolist()
+        self.elbow_rule = planner.settings.elbow_side == "require"
+        self.waist = tuple(planner.arm.waist.tolist())
+        self.capsules = [(np.asarray(c.a, float).tolist(), np.asarray(c.b, float).tolist(),
+                          float(c.radius), bool(c.turns_with_chest))
+                         for c in planner.arm.body_capsules]
+        self.calls = 0
+
+    def body_capsules(self, body: float) -> list:
+        """:func:`reach_addon.core.ik.body_capsules_at` on plain floats: the body's capsules
+        with the chest turned by ``body`` degrees, as (a, b, centre, half length, radius)."""
+        t = math.radians(body)
+        c, s = math.cos(t), math.sin(t)
+        out = []
+        for a, b, r, turns in self.capsules:
+            if turns and body != 0.0:
+                a = [c * a[0] + s * a[1], -s * a[0] + c * a[1], a[2]]
+                b = [c * b[0] + s * b[1], -s * b[0] + c * b[1], b[2]]
+            out.append((a, b, [0.5 * (a[i] + b[i]) for i in range(3)], 0.5 * math.dist(a, b), r))
+        return out
+
+    def __call__(self, state) -> bool:
+        self.calls += 1
+        return self.valid([state[i] / k for i, k in enumerate(self.scale)])
+
+    def valid(self, q) -> bool:
+        """Is configuration ``q`` (7 angles, degrees) valid?"""
+        arm, st = self.arm, self.settings
+        if math.hypot(q[1], q[2]) > st.elevation_max:
+            return False
+        sternum, shoulder, elbow, wrist, hand = joints = joints_of_one(arm, q)
+        if self.elbow_rule:
+            nx, ny, nz, degenerate = ik.side_normal(wrist, shoulder, self.waist, m=SCALAR)
+            side = ((elbow[0] - shoulder[0]) * nx + (elbow[1] - shoulder[1]) * ny
+                    + (elbow[2] - shoulder[2]) * nz)
+            if not (side > 0 or degenerate):
+                return False
+        if arm.body_capsules:
+            caps = self.body_capsules(q[0])
+            mid = [0.5 * (shoulder[i] + elbow[i]) for i in range(3)]
+            if ik.segment_hits_body(mid, elbow, arm.upper_arm_radius, caps) or \
+                    ik.segment_hits_body(elbow, wrist, arm.forearm_radius, caps) or \
+                    (self.checker.check_hand and
+                     ik.segment_hits_body(wrist, hand, arm.hand_radius, caps)):
+                return False
+        return not self.checker.collides(arm.to_world_points(np.array(joints)), include_hand=True)
+
+
+# --- the independent check -----------------------------------------------------------------
+
+def _dot(a, b):
+    return np.einsum("...i,...i->...", a, b)
+
+
+def _point_segment(p, a, b):
+    """Distances from points ``p`` to segments a-b (all (K, 3), pairwise)."""
+    ab = b - a
+    t = np.clip(_dot(p - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(p - a - t[:, None] * ab, axis=1)
+
+
+def _segment_segment(p1, q1, p2, q2):
+    """Pairwise distances between segments p1-q1 and p2-q2 ((K, 3) each).
+
+    |p1 + s d1 - p2 - t d2|² is a convex quadratic on the square [0, 1]²: its minimum is the
+    stationary point when that lies inside, else on an edge of the square, where it is the
+    distance from one segment's end to the other segment."""
+    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
+    a, b, e = _dot(d1, d1), _dot(d1, d2), _dot(d2, d2)
+    c, f = _dot(d1, r), _dot(d2, r)
+    det = a * e - b * b
+    ok = det > 1e-12 * np.maximum(a * e, 1e-300)
+    safe = np.where(ok, det, 1.0)
+    s = (b * f - c * e) / safe
+    t = (a * f - b * c) / safe
+    inside = ok & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)
+    gap = r + s[:, None] * d1 - t[:, None] * d2
+    best = np.where(inside, np.linalg.norm(gap, axis=1), np.inf)
+    for dist in (_point_segment(p1, p2, q2), _point_segment(q1, p2, q2),
+                 _point_segment(p2, p1, q1), _point_segment(q2, p1, q1)):
+        best = np.minimum(best, dist)
+    return best
+
+
+def _point_triangle(p, a, b, c):
+    """Pairwise distances from points ``p`` to triangles a, b, c ((K, 3) each): to the plane
+    if the foot of the perpendicular is inside the triangle, else to the nearest edge."""
+    n = np.cross(b - a, c - a)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    height = _dot(p - a, n)
+    foot = p - height[:, None] * n
+    inside = ((_dot(np.cross(b - a, foot - a), n) >= 0) & (_dot(np.cross(c - b, foot - b), n) >= 0)
+              & (_dot(np.cross(a - c, foot - c), n) >= 0))
+    edges = np.minimum(np.minimum(_point_segment(p, a, b), _point_segment(p, b, c)),
+                       _point_segment(p, c, a))
+    return np.where(inside, np.abs(height), edges)
+
+
+def _segment_crosses(p, q, a, b, c):
+    """Pairwise: does segment p-q pass through triangle a, b, c? (Möller–Trumbore)"""
+    d, e1, e2 = q - p, b - a, c - a
+    h = np.cross(d, e2)
+    det = _dot(e1, h)
+    ok = np.abs(det) > 1e-15
+    inv = 1.0 / np.where(ok, det, 1.0)
+    s = p - a
+    u = inv * _dot(s, h)
+    k = np.cross(s, e1)
+    v = inv * _dot(d, k)
+    t = inv * _dot(e2, k)
+    return ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
+
+
+def segment_triangle_distance(p, q, tris):
+    """Exact pairwise distances between segments p-q ((K, 3)) and triangles ((K, 3, 3)):
+    zero if the segment crosses the triangle, else the least of its ends to the triangle and
+    of the segment to the triangle's three edges."""
+    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
+    best = np.minimum(_point_triangle(p, a, b, c), _point_triangle(q, a, b, c))
+    for x, y in ((a, b), (b, c), (c, a)):
+        best = np.minimum(best, _segment_segment(p, q, x, y))
+    return np.where(_segment_crosses(p, q, a, b, c), 0.0, best)
+
+
+def independent_check(arm, world_joints, tris, include_hand=True, horizon=math.inf,
+                      chunk=256):
+    """Contacts of poses ``world_joints`` (N, 5, 3) with triangles ``tris`` (T, 3, 3).
+
+    Returns (poses in which a segment comes closer to a triangle than its radius, the same
+    counting the arm only (clavicle, upper arm, forearm), least clearance over all poses:
+    distance minus radius, capped at ``horizon``). Segment–triangle pairs whose bounds are
+    farther apart than ``horizon`` (a sphere round the capsule, the triangle's box) are
+    not measured: they can neither touch nor set the least clearance."""
+    joints = np.asarray(world_joints, dtype=float)
+    tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
+    segs = [(0, 1, arm.upper_arm_radius), (1, 2, arm.upper_arm_radius),
+            (2, 3, arm.forearm_radius)]
+    if include_hand and arm.hand_length > 0:
+        segs.append((3, 4, arm.hand_radius))
+    if len(joints) == 0 or len(tris) == 0:
+        return 0, 0, horizon
+    box_lo, box_hi = tris.min(axis=1), tris.max(axis=1)
+    radii = np.array([r for _a, _b, r in segs])
+    n_seg = len(segs)
+    colliding, colliding_arm, least = 0, 0, horizon
+    for lo in range(0, len(joints), chunk):
+        j = joints[lo:lo + chunk]
+        n = len(j)
+        p = np.stack([j[:, a] for a, _b, _r in segs], 1).reshape(-1, 3)      # (n·S, 3)
+        q = np.stack([j[:, b] for _a, b, _r in segs], 1).reshape(-1, 3)
+        r = np.tile(radii, n)
+        mid, half = 0.5 * (p + q), 0.5 * np.linalg.norm(q - p, axis=1)
+        outside = np.maximum(np.maximum(box_lo[None] - mid[:, None], mid[:, None] - box_hi[None]),
+                             0.0)                                            # (n·S, T, 3)
+        near = np.linalg.norm(outside, axis=2) <= (half + r + horizon)[:, None]
+        si, ti = np.nonzero(near)
+        if si.size == 0:
+            continue
+        clearance = segment_triangle_distance(p[si], q[si], tris[ti]) - r[si]
+        per_segment = np.full(n * n_seg, np.inf)
+        np.minimum.at(per_segment, si, clearance)
+        per_segment = per_segment.reshape(n, n_seg)
+        colliding += int((per_segment.min(axis=1) < 0).sum())
+        colliding_arm += int((per_segment[:, :3].min(axis=1) < 0).sum())
+        least = min(least, float(per_segment.min()))
+    return colliding, colliding_arm, least
+
+
+def densify(space: JointSpace, path, spacing):
+    """Configurations (N, 7) along ``path`` (K, 7) by linear interpolation in joint space,
+    subdivided until the wrist moves at most ``spacing`` (figure units) between samples."""
+    path = np.atleast_2d(np.asarray(path, dtype=float))
+    if len(path) < 2:
+        return path
+    arm = space.arm
+    out = [path[:1]]
+    for qa, qb in zip(path[:-1], path[1:]):
+        if np.array_equal(qa, qb):
+            continue
+        n = max(1, int(math.ceil(space.distance(qa, qb) * arm.arm_length / spacing)))
+        while True:
+            seg = qa + np.linspace(0.0, 1.0, n + 1)[1:, None] * (qb - qa)
+            seg[-1] = qb
+            wrists = joints_of(arm, np.concatenate([qa[None], seg]))[:, 3]
+            if np.linalg.norm(np.diff(wrists, axis=0), axis=1).max() <= spacing * (1 + 1e-9):
+                break
+            n *= 2
+        out.append(seg)
+    return np.concatenate(out)
+
+
+class PathMeasure:
+    """Path length, mean f_R and independent contacts of joint-space paths, cached by path
+    (Reach's paths are deterministic, so repeated races measure each only once)."""
+
+    def __init__(self, space: JointSpace, tris, include_hand: bool):
+        self.space = space
+        self.tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
+        self.include_hand = include_hand
+        self._cache: dict = {}
+
+    def __call__(self, path) -> dict:
+        path = np.atleast_2d(np.asarray(path, dtype=float))
+        key = hashlib.sha1(path.tobytes()).hexdigest()
+        if key not in self._cache:
+            if len(self._cache) > 64:
+                self._cache.clear()
+            self._cache[key] = self._measure(path)
+        return dict(self._cache[key])
+
+    def _measure(self, path) -> dict:
+        arm, st = self.space.arm, self.space.settings
+        length = arm.arm_length
+        dense = densify(self.space, path, DENSE_SPACING * length)
+        joints = joints_of(arm, dense)
+        wrists = joints[:, 3]
+        travel = float(np.linalg.norm(np.diff(wrists, axis=0), axis=1).sum()) if len(dense) > 1 else 0.0
+        levels = f_r(dense[:, 1], dense[:, 2], st.preferred_level_h, st.preferred_level_v)
+        hits, arm_hits, least = independent_check(arm, arm.to_world_points(joints), self.tris,
+                                                  self.include_hand, CLEARANCE_HORIZON * length)
+        return {"path_length": travel / length, "mean_f_r": float(np.mean(levels)),
+                "collisions": int(hits), "arm_collisions": int(arm_hits),
+                "min_clearance": least / length,
+                "samples": int(len(dense))}
+
+
+# --- OMPL ----------------------------------------------------------------------------------
+
+def _seed_ompl(seed: int) -> None:
+    """Seed OMPL's random numbers (OMPL rejects 0, so seed + 1 is passed). OMPL logs an
+    error when reseeding after its first draw, although the sequence from here on is
+    then still determined by the seed; the message is silenced."""
+    from ompl import util as ou
+
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LOG_NONE)
+    try:
+        ou.RNG.setSeed(int(seed) + 1)
+    finally:
+        ou.setLogLevel(level)
+
+
+def ompl_leg(space: JointSpace, validity: Validity, start, goal, seed: int, time_limit_s: float):
+    """One RRTConnect query from configuration ``start`` to ``goal`` (degrees, (7,)),
+    simplified. Returns (exact solution found, path (K, 7) in degrees)."""
+    from ompl import base as ob
+    from ompl import geometric as og
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LOG_WARN)
+    _seed_ompl(seed)
+    state_space = space.ompl_space()
+    si = ob.SpaceInformation(state_space)
+    si.setStateValidityChecker(validity)
+    si.setup()
+    setup = og.SimpleSetup(si)
+    setup.setPlanner(og.RRTConnect(si))
+    a, b = state_space.allocState(), state_space.allocState()
+    for i, (x, y) in enumerate(zip(space.coordinates(start).tolist(),
+                                   space.coordinates(goal).tolist())):
+        a[i], b[i] = x, y
+    setup.setStartAndGoalStates(a, b)
+    setup.solve(float(time_limit_s))
+    exact = bool(setup.haveExactSolutionPath())
+    if not setup.haveSolutionPath():
+        return False, np.array([start])
+    if exact:
+        setup.simplifySolution()
+    states = setup.getSolutionPath().getStates()
+    coords = np.array([[s[i] for i in range(len(JOINT_NAMES))] for s in states])
+    return exact, space.angles(coords)
+
+
+# --- the race ------------------------------------------------------------------------------
+
+@lru_cache(maxsize=1)
+def workplace_triangles() -> np.ndarray:
+    """Triangles (T, 3, 3) of the demo workplace, world space."""
+    from reach_addon.demo import WORKPLACE
+    from reach_addon.samples import triangle_soup
+
+    verts, tris, _owners, _names = triangle_soup(WORKPLACE)
+    return verts[tris]
+
+
+_CONTEXT: dict = {}
+
+
+def _context(planner: Planner, tris):
+    """Joint space, validity checker and path measure of one planner, built once."""
+    key = (id(planner), hashlib.sha1(np.ascontiguousarray(tris).tobytes()).hexdigest())
+    ctx = _CONTEXT.get(key)
+    if ctx is None or ctx[0] is not planner:
+        space = JointSpace(planner.arm, planner.settings)
+        ctx = (planner, space, Validity(planner, space),
+               PathMeasure(space, tris, planner.generator.checker.check_hand))
+        _CONTEXT.clear()
+        _CONTEXT[key] = ctx
+    return ctx[1:]
+
+
+def race_targets(task: Task, chase_waypoints: int = CHASE_WAYPOINTS):
+    """The targets both planners are given, in order, and a note on what was raced: a
+    chase's trajectory is sampled at ``chase_waypoints`` evenly spaced frames."""
+    if task.kind != "chase":
+        return task.targets, ""
+    n = len(task.targets)
+    frames = np.unique(np.round(np.linspace(0, n - 1, chase_waypoints + 1)[:-1]).astype(int))
+    note = (f"chase raced as {len(frames)} legs through the target's positions at frames "
+            f"{', '.join(map(str, frames.tolist()))} of {n} (both planners)")
+    return task.targets[frames], note
+
+
+def race(task_name: str, planner: Planner, task: Task, seed: int = 0,
+         time_limit_s: float = 10.0, *, triangles=None,
+         chase_waypoints: int = CHASE_WAYPOINTS) -> dict:
+    """Race Reach's planner against OMPL's RRTConnect on one task (see the module
+    docstring). ``time_limit_s`` bounds each OMPL leg. ``triangles`` (T, 3, 3), world
+    space, are the obstacles for the independent check; by default the demo workplace's,
+    which must then be what ``planner`` was built on. Returns plain numbers under
+    :data:`KEYS`; ratios are OMPL over Reach."""
+    tris = workplace_triangles() if triangles is None else np.asarray(triangles, float)
+    tris = tris.reshape(-1, 3, 3)
+    if triangles is None and planner.obstacles.triangle_count != len(tris):
+        raise ValueError(
+            f"race(): the planner's obstacles have {planner.obstacles.triangle_count} "
+            f"triangles, the demo workplace {len(tris)}; pass triangles=(T, 3, 3) world-space "
+            "triangles of the planner's obstacles for the independent check")
+    space, validity, measure = _context(planner, tris)
+    targets, note = race_targets(task, chase_waypoints)
+    if task.kind == "chase":
+        task = Task("sequence", targets, task.start, task.fps,
+                    names=tuple(f"frame {k}" for k in range(len(targets))))
+
+    # Reach: preprocessing first (reported apart, as in Table 2), then the plan.
+    preprocess = planner.workspace.build_time_s
+    t0 = time.perf_counter()
+    plan = planner.plan(task)
+    reach_time = time.perf_counter() - t0
+    reach = measure(np.array([pose_row(p) for p in plan.poses]))
+
+    # OMPL: leg by leg from the same start; each leg's goal from the core's generator.
+    generator = planner.generator
+    start = pose_row(generator.config_pose(task.start))
+    path, ompl_time, ompl_ok = [start], 0.0, True
+    checks0 = validity.calls
+    for leg, target in enumerate(targets):
+        t0 = time.perf_counter()
+        goal_pose = generator.solve(planner.arm.to_canonical_points(target))
+        if goal_pose is None:
+            ompl_time += time.perf_counter() - t0
+            ompl_ok = False
+            continue
+        goal = pose_row(goal_pose)
+        exact, leg_path = ompl_leg(space, validity, path[-1], goal, seed + leg, time_limit_s)
+        ompl_time += time.perf_counter() - t0
+        ompl_ok &= exact
+        path += list(leg_path[1:])
+    ompl = measure(np.array(path))
+
+    def ratio(x, y):
+        return float(x / y) if y > 0 else math.inf
+
+    return {
+        "task": str(task_name),
+        "reach_time_s": float(reach_time),
+        "ompl_time_s": float(ompl_time),
+        "reach_path_length": reach["path_length"],
+        "ompl_path_length": ompl["path_length"],
+        "reach_mean_f_r": reach["mean_f_r"],
+        "ompl_mean_f_r": ompl["mean_f_r"],
+        "reach_collisions": reach["collisions"],
+        "ompl_collisions": ompl["collisions"],
+        "time_ratio": ratio(ompl_time, reach_time),
+        "path_length_ratio": ratio(ompl["path_length"], reach["path_length"]),
+        "f_r_difference": ompl["mean_f_r"] - reach["mean_f_r"],
+        "reach_success": bool(plan.success),
+        "ompl_success": bool(ompl_ok),
+        "reach_arm_collisions": reach["arm_collisions"],
+        "ompl_arm_collisions": ompl["arm_collisions"],
+        "reach_min_clearance": reach["min_clearance"],
+        "ompl_min_clearance": ompl["min_clearance"],
+        "reach_preprocess_time_s": float(preprocess),
+        "ompl_validity_checks": int(validity.calls - checks0),
+        "legs": int(len(targets)),
+        "note": note,
+    }
+
+
+# --- command line --------------------------------------------------------------------------
+
+def _hits(total: int, arm: int) -> str:
+    return f"{total} ({arm})"
+
+
+def format_table(rows) -> str:
+    """The race results as a text table, with notes."""
+    head = (f"{'task':15s} {'legs':>4s} {'Reach s':>8s} {'OMPL s':>8s} {'×':>6s} "
+            f"{'Reach len':>9s} {'OMPL len':>8s} {'Reach f_R':>9s} {'OMPL f_R':>8s} "
+            f"{'Reach hits':>10s} {'OMPL hits':>9s}")
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        flag = "" if r["reach_success"] and r["ompl_success"] else (
+            "  (" + ", ".join(k for k, ok in (("Reach failed", r["reach_success"]),
+                                              ("OMPL failed", r["ompl_success"])) if not ok) + ")")
+        lines.append(
+            f"{r['task']:15s} {r['legs']:4d} {r['reach_time_s']:8.3f} {r['ompl_time_s']:8.3f} "
+            f"{r['time_ratio']:6.2f} {r['reach_path_length']:9.2f} {r['ompl_path_length']:8.2f} "
+            f"{r['reach_mean_f_r']:9.2f} {r['ompl_mean_f_r']:8.2f} "
+            f"{_hits(r['reach_collisions'], r['reach_arm_collisions']):>10s} "
+            f"{_hits(r['ompl_collisions'], r['ompl_arm_collisions']):>9s}{flag}")
+    lines.append("")
+    lines.append("times in seconds (× = OMPL / Reach); lengths: wrist path in arm lengths; f_R: "
+                 "mean strength category along the path (0 strongest, 2 weakest); hits: densely "
+                 f"interpolated poses ({DENSE_SPACING} arm lengths of wrist travel apart) that "
+                 "touch an obstacle by the independent check, (n) of them with the arm, the "
+                 "rest with the hand alone")
+    lines += [f"note: {r['note']}" for r in rows if r["note"]]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    """Race the four demo tasks and print the table."""
+    parser = argparse.ArgumentParser(prog="python -m bench.ompl_race", description=__doc__.split("\n")[0])
+    parser.add_argument("--seed", type=int, default=0, help="OMPL's random seed (default 0)")
+    parser.add_argument("--time-limit", type=float, default=10.0,
+                        help="seconds OMPL may spend on one leg (default 10)")
+    parser.add_argument("--task", action="append", default=None,
+                        help="race only this task (repeatable): collision_free, rotation, "
+                             "guided, chase")
+    args = parser.parse_args(argv)
+
+    import bpy  # noqa: F401  (mathutils and its BVH tree, for the core's obstacles)
+
+    from reach_addon.core import Settings
+    from reach_addon.demo import WORKPLACE, demo_tasks
+    from reach_addon.samples import obstacles, standard_arm
+
+    planner = Planner(standard_arm(), obstacles(WORKPLACE), Settings())
+    tasks = [(n, t) for n, t in demo_tasks() if args.task is None or n in args.task]
+    if not tasks:
+        print(f"no task named {', '.join(args.task)}; choose from collision_free, rotation, "
+              "guided, chase", file=sys.stderr)
+        return 2
+    rows = [race(name, planner, task, seed=args.seed, time_limit_s=args.time_limit)
+            for name, task in tasks]
+    print(format_table(rows))
+    print(f"\nReach workspace preprocessing (not in the times above): "
+          f"{rows[0]['reach_preprocess_time_s']:.3f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
