@@ -32,9 +32,10 @@ What we chose, and why
   obstacle moved onto the arm is cleared by turning the arm about the wrist if a pose
   within the bound does it; otherwise the arm stays and the status names the obstacle.
 * **Workspace grid in slices.** The guided fallback needs the workspace grid, which takes
-  most of a second to build; :func:`workspace_steps` builds exactly the grid of
-  :func:`~reach_addon.core.workspace.build_workspace` in slices, so it too respects the
-  budget.
+  most of a second to build; it is built in slices
+  (:func:`~reach_addon.core.workspace.workspace_steps`, the same generator
+  :func:`~reach_addon.core.workspace.build_workspace` runs to the end), so it too respects
+  the budget.
 
 Chase with moving obstacles
 ---------------------------
@@ -54,14 +55,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import ik
 from .arm import ArmConfig, Pose
 from .collision import Obstacles
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
 from .tasks import Plan, Planner, Segment, Stats, Task
-from .workspace import _NEIGHBOURS, Workspace, workspace_box
+from .workspace import workspace_steps  # noqa: F401  (re-exported)
 
 #: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
 DEFAULT_BUDGET_S = 1.0 / 30.0
@@ -445,101 +445,6 @@ def _motion_stats(stats: Stats, poses, planners, motion_length: float):
     for p, planner in zip(poses, planners):
         c = planner.generator.checker.clearance(arm.to_world_points(p.joints), 0.5 * length)
         stats.min_clearance_arm_lengths = min(stats.min_clearance_arm_lengths, c / length)
-
-
-# --- the workspace grid, in slices -----------------------------------------------------------
-
-def workspace_steps(generator, chunk: int = 8):
-    """:func:`~reach_addon.core.workspace.build_workspace` as a generator: the same grid,
-    built ``chunk`` cells at a time (it yields between slices and returns the
-    :class:`~reach_addon.core.workspace.Workspace`). ``build_time_s`` counts the time spent
-    building, not the time between slices."""
-    busy = 0.0
-    t = time.perf_counter()
-    arm, obstacles, settings = generator.arm, generator.obstacles, generator.settings
-    n = settings.grid_cells
-    lower, cell = workspace_box(arm, settings)
-    idx = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1).reshape(-1, 3)
-    centers = lower + (idx + 0.5) * cell
-    world = arm.to_world_points(centers)
-    half_diagonal = 0.5 * float(np.linalg.norm(cell))
-    occupied = np.zeros(n ** 3, dtype=bool)
-    if not obstacles.empty:
-        tree = obstacles.tree
-        bound = half_diagonal + generator.checker.margin
-        for k, p in enumerate(world.tolist()):
-            occupied[k] = tree.find_nearest(p, bound)[0] is not None
-        occupied = occupied.reshape(n, n, n)
-        busy += time.perf_counter() - t
-        yield
-        t = time.perf_counter()
-        regions = _free_regions(occupied)
-        for k, region in enumerate(regions):
-            if obstacles.point_inside(world.reshape(n, n, n, 3)[region[0]]):
-                for c in region:
-                    occupied[c] = True
-            if k % 8 == 7:
-                busy += time.perf_counter() - t
-                yield
-                t = time.perf_counter()
-    else:
-        occupied = occupied.reshape(n, n, n)
-    busy += time.perf_counter() - t
-    yield
-    t = time.perf_counter()
-
-    valid = np.zeros((n, n, n), dtype=bool)
-    free = np.flatnonzero(~occupied.reshape(-1))
-    # Batches of at least two wrists: ik.solve scores one wrist with float arithmetic and
-    # several with arrays; the grid must not depend on where the slices fall.
-    bounds = list(range(0, free.size, chunk))
-    if len(bounds) > 1 and free.size - bounds[-1] < 2:
-        bounds.pop()
-    for b, lo in enumerate(bounds):
-        hi = bounds[b + 1] if b + 1 < len(bounds) else free.size
-        rows = free[lo:hi]
-        sol = ik.solve(arm, centers[rows], settings) if rows.size > 1 else \
-            ik.solve(arm, centers[np.repeat(rows, 2)], settings)
-        for row, flat in enumerate(rows):
-            order = sol.order(row, settings.elbow_side)[: settings.max_pose_tries]
-            if order.size == 0:
-                continue
-            joints = sol.joints(row, order)
-            clear = ~ik.self_collision(arm, float(sol.body[row]), joints, include_hand=False)
-            if any(not generator.checker.collides(j, include_hand=False)
-                   for j in arm.to_world_points(joints[clear])):
-                valid.reshape(-1)[flat] = True
-        busy += time.perf_counter() - t
-        yield
-        t = time.perf_counter()
-    busy += time.perf_counter() - t
-    return Workspace(lower, cell, n, occupied, valid, busy)
-
-
-def _free_regions(occupied) -> list:
-    """The 26-connected regions of cells clear of any surface, each a list of cell
-    indices starting with its first cell in row-major order: the regions, and the cell
-    tested for being inside an obstacle, of ``workspace._mark_inside_regions`` (written with
-    tuples, which is several times faster than indexing with numpy rows)."""
-    n = occupied.shape[0]
-    seen = occupied.copy()
-    steps = [tuple(int(v) for v in d) for d in _NEIGHBOURS]
-    regions = []
-    for start in map(tuple, np.argwhere(~occupied).tolist()):
-        if seen[start]:
-            continue
-        seen[start] = True
-        region, stack = [start], [start]
-        while stack:
-            x, y, z = stack.pop()
-            for dx, dy, dz in steps:
-                nxt = (x + dx, y + dy, z + dz)
-                if 0 <= nxt[0] < n and 0 <= nxt[1] < n and 0 <= nxt[2] < n and not seen[nxt]:
-                    seen[nxt] = True
-                    region.append(nxt)
-                    stack.append(nxt)
-        regions.append(region)
-    return regions
 
 
 __all__ = ["DEFAULT_BUDGET_S", "LiveSession", "LiveStatus", "chase_frame", "chase_steps",

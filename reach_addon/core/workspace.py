@@ -121,8 +121,24 @@ def workspace_box(arm, settings):
 
 
 def build_workspace(generator: ConfigurationGenerator) -> Workspace:
-    """Preprocess the workspace for one arm and one obstacle set (see the module doc)."""
-    t0 = time.perf_counter()
+    """Preprocess the workspace for one arm and one obstacle set, in one go
+    (:func:`workspace_steps` run to the end)."""
+    steps = workspace_steps(generator, None)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def workspace_steps(generator: ConfigurationGenerator, chunk: int | None = 8):
+    """Preprocess the workspace (see the module doc) as a generator: it yields between
+    slices of work and returns the :class:`Workspace`, so live mode can build it within
+    its time budget. Arm poses are tested ``chunk`` cells at a time (None: all at once);
+    the grid does not depend on the chunk. ``build_time_s`` counts the time spent
+    building, not the time between slices."""
+    busy = 0.0
+    t = time.perf_counter()
     arm, obstacles, settings = generator.arm, generator.obstacles, generator.settings
     n = settings.grid_cells
     lower, cell = workspace_box(arm, settings)
@@ -137,15 +153,37 @@ def build_workspace(generator: ConfigurationGenerator) -> Workspace:
         for k, p in enumerate(world.tolist()):
             occupied[k] = tree.find_nearest(p, bound)[0] is not None
         occupied = occupied.reshape(n, n, n)
-        _mark_inside_regions(occupied, world.reshape(n, n, n, 3), obstacles)
+        busy += time.perf_counter() - t
+        yield
+        t = time.perf_counter()
+        regions = _free_regions(occupied)
+        for k, region in enumerate(regions):
+            if obstacles.point_inside(world.reshape(n, n, n, 3)[region[0]]):
+                for c in region:
+                    occupied[c] = True
+            if k % 8 == 7:
+                busy += time.perf_counter() - t
+                yield
+                t = time.perf_counter()
     else:
         occupied = occupied.reshape(n, n, n)
+    busy += time.perf_counter() - t
+    yield
+    t = time.perf_counter()
 
     valid = np.zeros((n, n, n), dtype=bool)
     free = np.flatnonzero(~occupied.reshape(-1))
-    if free.size:
-        sol = ik.solve(arm, centers[free], settings)
-        for row, flat in enumerate(free):
+    # Batches of at least two wrists: ik.solve scores one wrist with float arithmetic and
+    # several with arrays; the grid must not depend on where the slices fall.
+    bounds = list(range(0, free.size, chunk or max(free.size, 1)))
+    if len(bounds) > 1 and free.size - bounds[-1] < 2:
+        bounds.pop()
+    for b, lo in enumerate(bounds):
+        hi = bounds[b + 1] if b + 1 < len(bounds) else free.size
+        rows = free[lo:hi]
+        sol = ik.solve(arm, centers[rows], settings) if rows.size > 1 else \
+            ik.solve(arm, centers[np.repeat(rows, 2)], settings)
+        for row, flat in enumerate(rows):
             order = sol.order(row, settings.elbow_side)[: settings.max_pose_tries]
             if order.size == 0:
                 continue
@@ -154,28 +192,34 @@ def build_workspace(generator: ConfigurationGenerator) -> Workspace:
             if any(not generator.checker.collides(j, include_hand=False)
                    for j in arm.to_world_points(joints[clear])):
                 valid.reshape(-1)[flat] = True
-    return Workspace(lower, cell, n, occupied, valid, time.perf_counter() - t0)
+        busy += time.perf_counter() - t
+        yield
+        t = time.perf_counter()
+    busy += time.perf_counter() - t
+    return Workspace(lower, cell, n, occupied, valid, busy)
 
 
-def _mark_inside_regions(occupied, world_centers, obstacles):
-    """Flood-fill the cells clear of any surface into 26-connected regions and mark a
-    region occupied when its first cell is inside a closed obstacle."""
+def _free_regions(occupied) -> list:
+    """The 26-connected regions of cells clear of any surface, each a list of cell
+    indices starting with its first cell in row-major order: the regions, and the cell
+    tested for being inside an obstacle (written with tuples, which is several times faster
+    than indexing with numpy rows)."""
     n = occupied.shape[0]
     seen = occupied.copy()
-    for start in map(tuple, np.argwhere(~occupied)):
+    steps = [tuple(int(v) for v in d) for d in _NEIGHBOURS]
+    regions = []
+    for start in map(tuple, np.argwhere(~occupied).tolist()):
         if seen[start]:
             continue
-        region = [start]
         seen[start] = True
-        stack = [start]
+        region, stack = [start], [start]
         while stack:
-            cur = stack.pop()
-            for d in _NEIGHBOURS:
-                nxt = (cur[0] + d[0], cur[1] + d[1], cur[2] + d[2])
+            x, y, z = stack.pop()
+            for dx, dy, dz in steps:
+                nxt = (x + dx, y + dy, z + dz)
                 if 0 <= nxt[0] < n and 0 <= nxt[1] < n and 0 <= nxt[2] < n and not seen[nxt]:
                     seen[nxt] = True
                     region.append(nxt)
                     stack.append(nxt)
-        if obstacles.point_inside(world_centers[start]):
-            for cell in region:
-                occupied[cell] = True
+        regions.append(region)
+    return regions
