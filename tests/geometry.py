@@ -8,6 +8,8 @@ point-to-triangle distances with numpy.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from reach_addon.samples import (CHEST_Z, HANGING, box, figure_transform, obstacles, shelf,
@@ -85,3 +87,9 @@ def segment_crosses(p, q, tris) -> bool:
     v = f * (qv @ d)
     t = f * np.einsum("ij,ij->i", e2, qv)
     return bool((ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)).any())
+
+
+def angle_deg(a, b):
+    """Angle between two vectors, in degrees."""
+    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+    return math.degrees(math.acos(float(np.clip(a @ b, -1.0, 1.0))))

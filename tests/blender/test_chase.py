@@ -10,30 +10,16 @@ import bpy
 import numpy as np
 import pytest
 import rigs
-from geometry import segment_clearance
+from geometry import angle_deg, segment_clearance
+from test_bake import SKIN_CHAIN, triangles, world_heads
 
-CHAIN = ("UpperArm.R", "LowerArm.R", "Palm.R")     # the Quaternius arm that moves the skin
+CHAIN = SKIN_CHAIN["quaternius"]
 KEY_FRAMES = (1, 10, 19, 28, 37)
 
 
 def heads(armature):
     bpy.context.view_layer.update()
-    mw = armature.matrix_world
-    return [np.array(mw @ armature.pose.bones[n].head) for n in CHAIN]
-
-
-def triangles(ob):
-    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = ev.data
-    mesh.calc_loop_triangles()
-    mw = np.array(ev.matrix_world)
-    co = np.array([v.co for v in mesh.vertices]) @ mw[:3, :3].T + mw[:3, 3]
-    return co[np.array([t.vertices for t in mesh.loop_triangles])]
-
-
-def angle_deg(a, b):
-    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
-    return math.degrees(math.acos(float(np.clip(a @ b, -1.0, 1.0))))
+    return world_heads(armature, CHAIN)
 
 
 def loop_points(info):

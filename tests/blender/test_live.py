@@ -15,34 +15,12 @@ import bpy
 import numpy as np
 import pytest
 import rigs
-from geometry import segment_clearance
-
-# The bones that move the skin, shoulder → elbow → wrist (from a survey of the files).
-SKIN_CHAIN = {
-    "cesium": ("Skeleton_arm_joint_R", "Skeleton_arm_joint_R__2_", "Skeleton_arm_joint_R__3_"),
-    "quaternius": ("UpperArm.R", "LowerArm.R", "Palm.R"),
-    "metarig": ("upper_arm.R", "forearm.R", "hand.R"),
-}
-
+from geometry import angle_deg, segment_clearance
+from test_bake import SKIN_CHAIN, triangles, world_heads
 
 def heads(armature, names):
     bpy.context.view_layer.update()
-    mw = armature.matrix_world
-    return [np.array(mw @ armature.pose.bones[n].head) for n in names]
-
-
-def triangles(ob):
-    ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = ev.data
-    mesh.calc_loop_triangles()
-    mw = np.array(ev.matrix_world)
-    co = np.array([v.co for v in mesh.vertices]) @ mw[:3, :3].T + mw[:3, 3]
-    return co[np.array([t.vertices for t in mesh.loop_triangles])]
-
-
-def angle_deg(a, b):
-    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
-    return math.degrees(math.acos(float(np.clip(a @ b, -1.0, 1.0))))
+    return world_heads(armature, names)
 
 
 def check_jump(settings, length, a, b):
