@@ -60,7 +60,7 @@ from .collision import Obstacles
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
-from .tasks import Plan, Planner, Segment, Stats, Task
+from .tasks import Plan, Planner, Segment, Stats, Task, motion_stats
 from .workspace import workspace_steps  # noqa: F401  (re-exported)
 
 #: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
@@ -403,7 +403,8 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     stats.nodes_in_solution += 1  # the start, as in the reach tasks
     stats.path_length_arm_lengths = float(
         np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
-    _motion_stats(stats, poses, planners, stats.path_length_arm_lengths)
+    motion_stats(stats, planners[0].arm, poses, [p.generator.checker for p in planners],
+                 stats.path_length_arm_lengths)
     gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
     name = task.name(0)
     last = planners[-1]
@@ -431,20 +432,6 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     plan = Plan(task, arm, s, poses, [seg], total, first._workspace)
     plan.stats.planning_time_s = time.perf_counter() - t0
     return plan
-
-
-def _motion_stats(stats: Stats, poses, planners, motion_length: float):
-    """Frames, strength categories and least clearance (each frame against its own
-    obstacles), as the reach tasks report them."""
-    length = planners[0].arm.arm_length
-    stats.motion_path_length_arm_lengths = motion_length
-    stats.frames = len(poses)
-    for p in poses:
-        stats.strength_categories[max(0, min(2, int(p.f_r)))] += 1
-    arm = planners[0].arm
-    for p, planner in zip(poses, planners):
-        c = planner.generator.checker.clearance(arm.to_world_points(p.joints), 0.5 * length)
-        stats.min_clearance_arm_lengths = min(stats.min_clearance_arm_lengths, c / length)
 
 
 __all__ = ["DEFAULT_BUDGET_S", "LiveSession", "LiveStatus", "chase_frame", "chase_steps",

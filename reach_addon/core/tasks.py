@@ -342,17 +342,8 @@ class Planner:
             "task, a larger node budget or a smaller clearance")
 
     def _motion_stats(self, stats: Stats, poses, motion_length: float, snapped: int):
-        length = self.arm.arm_length
-        stats.motion_path_length_arm_lengths = motion_length
-        stats.frames = len(poses)
-        stats.snapped_frames = snapped
-        for p in poses:
-            stats.strength_categories[max(0, min(2, int(p.f_r)))] += 1
-        checker = self.generator.checker
-        search_radius = 0.5 * length
-        for p in poses:
-            c = checker.clearance(self.arm.to_world_points(p.joints), search_radius)
-            stats.min_clearance_arm_lengths = min(stats.min_clearance_arm_lengths, c / length)
+        motion_stats(stats, self.arm, poses, [self.generator.checker] * len(poses),
+                     motion_length, snapped)
 
     def _chase(self, task: Task, start: Pose, chunk: int):
         s, arm, gen = self.settings, self.arm, self.generator
@@ -435,3 +426,19 @@ def plan(task: Task, arm: ArmModel, obstacles: Obstacles | None, settings: Setti
     if planner is None:
         planner = Planner(arm, obstacles, settings)
     return planner.plan(task)
+
+
+def motion_stats(stats: Stats, arm: ArmModel, poses, checkers, motion_length: float,
+                 snapped: int = 0) -> None:
+    """Fill the motion part of ``stats``: frames, strength categories, snapped frames and
+    the least clearance, each pose measured by its own checker (one per pose: a chase
+    against moving obstacles has one obstacle set per frame)."""
+    length = arm.arm_length
+    stats.motion_path_length_arm_lengths = motion_length
+    stats.frames = len(poses)
+    stats.snapped_frames = snapped
+    for p in poses:
+        stats.strength_categories[max(0, min(2, int(p.f_r)))] += 1
+    for p, checker in zip(poses, checkers):
+        c = checker.clearance(arm.to_world_points(p.joints), 0.5 * length)
+        stats.min_clearance_arm_lengths = min(stats.min_clearance_arm_lengths, c / length)
