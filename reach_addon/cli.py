@@ -157,6 +157,7 @@ def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
         "armature": outcome.rig.armature_name, "arm": outcome.rig.side,
         "baked": outcome.baked, "action": outcome.action,
         "settings": settings.to_dict(), "tasks": tasks,
+        "obstacles": outcome.summary()["obstacles"],
     }
 
 

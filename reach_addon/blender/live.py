@@ -46,7 +46,7 @@ from ..core.live import DEFAULT_BUDGET_S, LiveSession, LiveStatus
 from . import bake as bake_mod
 from . import pipeline
 from . import rig as rig_mod
-from .scene import GEOMETRY_TYPES, VIZ_TAG, character_objects, gather_obstacles
+from .scene import character_objects, gather_obstacles, visit_obstacles
 
 #: Seconds between timer ticks while a re-plan is under way (Blender handles events between).
 TICK_S = 0.005
@@ -58,9 +58,10 @@ UNDO_MESSAGE = "Reach Live"
 class ObstacleCache:
     """The obstacles of one scene, rebuilt only when they change.
 
-    The signature lists, for every object instance :func:`~.scene.gather_obstacles` would
-    read (same rules: visible, with geometry, not the character, the targets or Reach's own
-    display, inside the obstacle collection if one is given): its name, world matrix, data
+    The signature lists, for every piece :func:`~.scene.visit_obstacles` finds (the walk
+    and the rules :func:`~.scene.gather_obstacles` uses: visible, with geometry, not the
+    character, the targets or Reach's own display, inside the obstacle collection if one is
+    given): its owner and name, world matrix, data
     block and vertex count, a counter of geometry edits seen by the depsgraph handler
     (:meth:`note_geometry`), and — when ``geometry`` is asked for, as after a frame change
     — a checksum of the evaluated vertices of objects whose shape can change without a
@@ -89,35 +90,23 @@ class ObstacleCache:
         return coll
 
     def compute_signature(self, context, depsgraph=None, geometry: bool = False) -> tuple:
-        depsgraph = depsgraph or context.evaluated_depsgraph_get()
-        coll = self._collection()
-        allowed = {ob.name for ob in coll.all_objects} if coll is not None else None
-        out = []
-        for inst in depsgraph.object_instances:
-            ob = inst.object
-            if ob.type not in GEOMETRY_TYPES:
-                continue
+        edits = self._edits
+
+        def read(piece, ob):
+            # Inside the depsgraph's iteration step (see scene.visit_obstacles): copy only.
             original = ob.original
-            owner = inst.parent.original if inst.is_instance and inst.parent is not None \
-                else original
-            names = {owner.name, original.name}
-            if names & self.exclude or owner.get(VIZ_TAG) or original.get(VIZ_TAG):
-                continue
-            if allowed is not None and not names & allowed:
-                continue
-            if not owner.visible_get():
-                continue
             data = ob.data
-            count = len(data.vertices) if ob.type == "MESH" else 0
-            entry = (owner.name, original.name,
-                     np.round(np.array(inst.matrix_world), 9).tobytes(),
-                     getattr(original.data, "name", ""), count, self._edits.get(original.name, 0))
-            if geometry and ob.type == "MESH" and count and _deformable(original):
+            count = len(data.vertices) if piece.type == "MESH" else 0
+            entry = (piece.owner, piece.name, np.round(piece.matrix, 9).tobytes(),
+                     getattr(original.data, "name", ""), count, edits.get(piece.name, 0))
+            if geometry and count and _deformable(original):
                 co = np.empty(count * 3, dtype=np.float32)
                 data.vertices.foreach_get("co", co)
                 entry += (zlib.crc32(co.tobytes()),)
-            out.append(entry)
-        return tuple(out)
+            return entry
+
+        pieces = visit_obstacles(context, read, self.exclude, self._collection(), depsgraph)
+        return tuple(entry for _piece, entry in pieces)
 
     def get(self, context, depsgraph=None, geometry: bool = False):
         """(obstacles, rebuilt?) for the scene as it is now."""

@@ -79,6 +79,7 @@ class Outcome:
     baked: bool = False
     action: str | None = None
     failure: str | None = None           # why nothing was baked, when baking was asked for
+    obstacles: list = field(default_factory=list)   # (name, triangles) of each obstacle used
 
     @property
     def success(self) -> bool:
@@ -89,6 +90,7 @@ class Outcome:
             "armature": self.rig.armature_name, "arm": self.rig.side, "baked": self.baked,
             "action": self.action, "success": self.success,
             "tasks": [r.to_dict() for r in self.results],
+            "obstacles": [{"name": n, "triangles": t} for n, t in self.obstacles],
         }
 
 
@@ -234,7 +236,7 @@ def steps(context, request: Request, bake: bool = True):
             plans.append((plan, frame))
             frame += len(plan.poses)
 
-        outcome = Outcome(request, info, plans, [])
+        outcome = Outcome(request, info, plans, [], obstacles=obstacles.triangle_counts())
         keyed = []
         draw = request.draw
         if bake:

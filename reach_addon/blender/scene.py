@@ -1,22 +1,39 @@
-"""Scene → obstacles: every visible object with geometry (or one collection), evaluated,
-in world space, as one BVH tree.
+"""Scene → obstacles: every visible object with faces (or one collection), evaluated, in
+world space, as one BVH tree.
 
 Geometry is read through the evaluated depsgraph, so modifiers, geometry nodes, curves,
-text and collection instances count as the user sees them. Vertex positions and triangles
-are pulled in bulk (``foreach_get``) and transformed with numpy; the tree is built once by
-:meth:`reach_addon.core.Obstacles.from_triangles`.
+text, metaballs, surfaces and every kind of instancing (collection instances, geometry-nodes
+instances realized or not, particles drawn as objects) count as the user sees them.
 
-Left out: the character's own meshes (deformed by or parented under the armature), the
-targets, Reach's own visual feedback (the "Reach" collection), and hidden objects.
+What counts
+-----------
+Objects of the types in :data:`SURFACE_TYPES` give triangles: a mesh its evaluated mesh; a
+curve, surface, text or metaball the mesh Blender evaluates for it (a curve without bevel
+or extrusion has none and is skipped). Every other type has no faces and is skipped: grease
+pencil (strokes), point clouds, volumes, hair curves, empties, cameras, lights, light
+probes, speakers, lattices, armatures. Left out too: the character's own meshes (deformed
+by or parented under the armature), the targets, Reach's own display (tagged
+:data:`VIZ_TAG`), hidden objects, and — when a collection is given — objects outside it.
+
+Safety
+------
+``depsgraph.object_instances`` yields objects that exist only during their iteration step
+(reading them later crashed Blender). :func:`visit_obstacles` is the one place that walks
+it: everything — the instance's matrix, its triangles, a signature — is read inside the
+step by a callback and copied to numpy. The rules above are written once there, for
+:func:`gather_obstacles` and for live mode's :class:`~.live.ObstacleCache` alike.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..core import Obstacles, ReachError
 
-GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
+#: Object types whose evaluated geometry can have faces.
+SURFACE_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "FONT", "META"})
 #: Custom property that marks objects Reach made (trajectory, markers): never obstacles.
 VIZ_TAG = "reach_viz"
 
@@ -37,81 +54,130 @@ def character_objects(armature, scene) -> set:
     return names
 
 
-def _collection_objects(collection) -> set:
-    return {ob.name for ob in collection.all_objects}
+@dataclass
+class Piece:
+    """One depsgraph instance that may be an obstacle, as plain data (safe to keep)."""
+
+    owner: str               # what the user sees: the instancer, or the object itself
+    name: str                # the original object the geometry comes from
+    type: str                # Blender's object type of the evaluated instance
+    is_instance: bool
+    matrix: np.ndarray       # world matrix, 4×4
+
+    @property
+    def label(self) -> str:
+        return self.owner if self.name == self.owner else f"{self.owner}/{self.name}"
+
+
+def visit_obstacles(context, read, exclude=(), collection=None, depsgraph=None) -> list:
+    """Walk the depsgraph's instances once and call ``read(piece, evaluated_object)``,
+    inside the iteration step, for every instance that may be an obstacle (a type of
+    :data:`SURFACE_TYPES`, visible, not excluded, in ``collection`` if given). ``read``
+    must copy what it needs and keep no reference to the object; it returns a value, or
+    None to skip the piece. Returns [(piece, value)] in depsgraph order, without the
+    curve, surface, text or metaball pieces whose evaluated mesh also came through as a
+    mesh instance of the same owner (counted once, as the mesh)."""
+    depsgraph = depsgraph or context.evaluated_depsgraph_get()
+    exclude = set(exclude)
+    allowed = {ob.name for ob in collection.all_objects} if collection is not None else None
+    viz = {ob.name for ob in context.scene.objects if ob.get(VIZ_TAG)}
+    wanted: dict[tuple, bool] = {}
+    out, meshed = [], set()
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        kind = ob.type
+        if kind not in SURFACE_TYPES:
+            continue
+        is_instance = bool(inst.is_instance)
+        original = ob.original
+        parent = inst.parent.original if is_instance and inst.parent is not None else None
+        owner = parent if parent is not None else original
+        key = (owner.name, original.name)
+        ok = wanted.get(key)
+        if ok is None:
+            names = set(key)
+            ok = wanted[key] = (not names & exclude and not names & viz
+                                and (allowed is None or bool(names & allowed))
+                                and owner.visible_get())
+        if not ok:
+            continue
+        if kind == "MESH" and is_instance:
+            meshed.add(key)
+        piece = Piece(key[0], key[1], kind, is_instance, np.array(inst.matrix_world))
+        value = read(piece, ob)
+        if value is not None:
+            out.append((piece, value))
+    return [(p, v) for p, v in out if p.type == "MESH" or (p.owner, p.name) not in meshed]
 
 
 def gather_obstacles(context, exclude=(), collection=None, depsgraph=None) -> Obstacles:
-    """One world-space BVH of the obstacles.
+    """One world-space BVH of the obstacles; each object (or instancer) is one owner, so
+    :meth:`~reach_addon.core.Obstacles.triangle_counts` lists what was used.
 
     ``exclude``: object names never to count (the character's meshes, the targets).
     ``collection``: if given, only objects in it (and its children) count; a collection
     whose objects have no faces is an error, since the user asked for those obstacles.
     """
-    depsgraph = depsgraph or context.evaluated_depsgraph_get()
-    exclude = set(exclude)
-    allowed = _collection_objects(collection) if collection is not None else None
-    viz = {ob.name for ob in context.scene.objects if ob.get(VIZ_TAG)}
+    cache: dict = {}
 
-    def wanted(original, parent_original):
-        owner = parent_original if parent_original is not None else original
-        name = original.name
-        if owner.name in exclude or name in exclude or owner.name in viz or name in viz:
-            return False
-        if allowed is not None and owner.name not in allowed and name not in allowed:
-            return False
-        return owner.visible_get()
-
-    verts, tris, owners, names = [], [], [], []
-    offset = 0
-    meshed_parents = set()
-    pending = []
-    for inst in depsgraph.object_instances:
-        ob = inst.object
-        if inst.is_instance and ob.type == "MESH" and inst.parent is not None:
-            meshed_parents.add(inst.parent.original.name)
-        if ob.type not in GEOMETRY_TYPES:
-            continue
-        parent = inst.parent.original if inst.is_instance and inst.parent is not None else None
-        if not wanted(ob.original, parent):
-            continue
-        label = ob.original.name if parent is None else f"{parent.name}/{ob.original.name}"
-        pending.append((ob, np.array(inst.matrix_world), label, inst.is_instance,
-                        ob.original.name))
-
-    for ob, matrix, label, is_instance, original_name in pending:
-        if ob.type != "MESH" and not is_instance and original_name in meshed_parents:
-            continue  # its evaluated geometry comes through as a mesh instance
-        v, t = _triangles(ob)
+    def read(piece, ob):
+        v, t = _triangles(ob, cache)
         if len(t) == 0:
-            continue
-        verts.append(v @ matrix[:3, :3].T + matrix[:3, 3])
-        tris.append(t + offset)
-        owners.append(np.full(len(t), len(names)))
-        names.append(label)
-        offset += len(v)
+            return None
+        m = piece.matrix
+        world = v @ m[:3, :3].T + m[:3, 3]
+        if not np.isfinite(world).all():
+            raise ReachError(f"obstacle '{piece.label}' has NaN or infinite vertices (check "
+                             "its transform and modifiers), or hide it")
+        return world, t
 
-    if not tris:
+    pieces = visit_obstacles(context, read, exclude, collection, depsgraph)
+    if not pieces:
         if collection is not None:
             raise ReachError(
                 f"the obstacle collection '{collection.name}' has no visible objects with "
                 "faces; add meshes to it or plan against all visible objects")
         return Obstacles(None)
+    labels: dict[str, int] = {}
+    verts, tris, owners = [], [], []
+    offset = 0
+    for piece, (v, t) in pieces:
+        owner = labels.setdefault(piece.label, len(labels))
+        verts.append(v)
+        tris.append(t + offset)
+        owners.append(np.full(len(t), owner))
+        offset += len(v)
     return Obstacles.from_triangles(np.concatenate(verts), np.concatenate(tris),
-                                    np.concatenate(owners), names)
+                                    np.concatenate(owners), list(labels))
 
 
-def _triangles(ob):
-    """Local-space vertices (N, 3) and triangles (M, 3) of an evaluated object."""
-    mesh = ob.to_mesh() if ob.type != "MESH" else ob.data
+def _triangles(ob, cache):
+    """Local-space vertices (N, 3) and triangles (M, 3) of an evaluated object, read now.
+    Meshes shared by many instances (geometry-nodes scatters, particles) are read once per
+    gather: ``cache`` is keyed by the mesh's address and sizes, valid while the depsgraph
+    holds its evaluated geometry (the whole walk). Types that cannot give a mesh give none."""
+    if ob.type == "MESH":
+        mesh = ob.data
+        key = (mesh.as_pointer(), len(mesh.vertices), len(mesh.loops))
+        if key not in cache:
+            cache[key] = _mesh_arrays(mesh)
+        return cache[key]
     try:
-        mesh.calc_loop_triangles()
-        n_v, n_t = len(mesh.vertices), len(mesh.loop_triangles)
-        verts = np.empty(n_v * 3, dtype=np.float32)
-        mesh.vertices.foreach_get("co", verts)
-        tris = np.empty(n_t * 3, dtype=np.int32)
-        mesh.loop_triangles.foreach_get("vertices", tris)
-        return verts.reshape(-1, 3).astype(float), tris.reshape(-1, 3)
+        mesh = ob.to_mesh()
+    except RuntimeError:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int32)
+    try:
+        return _mesh_arrays(mesh) if mesh is not None else (np.zeros((0, 3)),
+                                                            np.zeros((0, 3), np.int32))
     finally:
-        if ob.type != "MESH":
-            ob.to_mesh_clear()
+        ob.to_mesh_clear()
+
+
+def _mesh_arrays(mesh):
+    mesh.calc_loop_triangles()
+    n_v, n_t = len(mesh.vertices), len(mesh.loop_triangles)
+    verts = np.empty(n_v * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", verts)
+    tris = np.empty(n_t * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    return verts.reshape(-1, 3).astype(float), tris.reshape(-1, 3)

@@ -168,6 +168,16 @@ class Obstacles:
     def empty(self) -> bool:
         return self.tree is None
 
+    def triangle_counts(self) -> list:
+        """[(obstacle name, triangle count)] for every owner, in owner order (what the report
+        and the panel list as the obstacles used)."""
+        if self.tree is None:
+            return []
+        if self.triangle_owner is None or not self.owner_names:
+            return [("obstacle", self.triangle_count)]
+        counts = np.bincount(self.triangle_owner, minlength=len(self.owner_names))
+        return [(name, int(n)) for name, n in zip(self.owner_names, counts)]
+
     def owner(self, index) -> str:
         """Name of the object a triangle index belongs to ('obstacle' if unknown)."""
         if self.triangle_owner is None or index is None or not self.owner_names:

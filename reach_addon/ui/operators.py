@@ -241,6 +241,25 @@ def result_lines(props) -> list:
                      f"mean f_R {st['mean_f_r']:.2f}")
         if not t["success"]:
             lines.append("  " + t["message"])
+    return lines + obstacle_lines(res)
+
+
+#: The panel names at most this many obstacles (the report has them all).
+SHOWN_OBSTACLES = 12
+
+
+def obstacle_lines(res: dict) -> list:
+    """What the last plan used as obstacles: a count, then each with its triangles."""
+    obstacles = res.get("obstacles")
+    if obstacles is None:
+        return []
+    if not obstacles:
+        return ["Obstacles: none"]
+    total = sum(o["triangles"] for o in obstacles)
+    lines = [f"Obstacles: {len(obstacles)}, {total} triangles"]
+    lines += [f"  {o['name']}: {o['triangles']}" for o in obstacles[:SHOWN_OBSTACLES]]
+    if len(obstacles) > SHOWN_OBSTACLES:
+        lines.append(f"  … and {len(obstacles) - SHOWN_OBSTACLES} more (see the report)")
     return lines
 
 
