@@ -28,7 +28,9 @@ The body frame
 Nothing about orientation or size is assumed. From the bones, in world space at the
 current frame: **right** = right shoulder − left shoulder, **up** = from the base of the
 spine (the chest's lowest ancestor within 2.5 shoulder widths) to the neck, made
-perpendicular to right, **forward** = up × right. The canonical arm frame of the
+perpendicular to right, **forward** = up × right (right × up for a mirrored armature,
+whose object transform has a negative determinant: its right-side bones are on the body's
+left, and the arm's canonical-to-world map is a reflection). The canonical arm frame of the
 core has its origin on the spine axis (the line through the chest bone's head along up) at
 shoulder height, x toward the reaching arm's side. Body capsules (chest, pelvis, head) are
 sized in proportion to the shoulder half-width; arm capsule radii come from the skin when
@@ -480,15 +482,20 @@ class BodyFrame:
         return m
 
 
+def world_length(armature, vector) -> float:
+    """World length of a vector given in the armature's space (rest bones), under its
+    object's whole transform: non-uniform and negative (mirroring) scale included."""
+    return float(np.linalg.norm(np.array(armature.matrix_world)[:3, :3] @ np.asarray(vector)))
+
+
 def _spine_base(armature, chest_name, shoulder_width):
     """The lowest spine bone below the chest: its farthest ancestor within 2.5 shoulder
     widths (so a root bone at the floor does not count), or the chest itself."""
     bones = armature.data.bones
     chest = np.array(bones[chest_name].head_local)
-    scale = float(np.linalg.norm(np.array(armature.matrix_world)[:3, 0]))
     best, best_d = chest_name, 0.0
     for b in _ancestors(bones[chest_name]):
-        d = np.linalg.norm(np.array(b.head_local) - chest) * scale
+        d = world_length(armature, np.array(b.head_local) - chest)
         if best_d < d <= 2.5 * shoulder_width:
             best, best_d = b.name, d
     return best
@@ -515,7 +522,11 @@ def body_frame(armature, bmap: BoneMap) -> BodyFrame:
         raise ReachError(f"cannot tell which way is up on armature '{armature.name}': the "
                          "neck is level with the chest; set the chest bone by hand")
     up /= np.linalg.norm(up)
-    forward = np.cross(up, right)
+    # A mirrored armature (a negative determinant: scale −1 on one axis) has its right-side
+    # bones on the body's left: the right, up and forward of its bones make a left-handed
+    # frame, so forward is the other way round. The arm's to_world is then a reflection,
+    # which the core allows.
+    forward = np.cross(up, right) * np.sign(np.linalg.det(np.array(armature.matrix_world)[:3, :3]))
     mid = 0.5 * (shoulder_r + shoulder_l)
     origin = chest + up * ((mid - chest) @ up)
     half = float(np.linalg.norm((shoulder_r - origin) - ((shoulder_r - origin) @ up) * up))
@@ -575,9 +586,8 @@ def hand_length(armature, hand_name, forearm_len):
     wrist = np.array(bone.head_local)
     if not kids:
         return 0.74 * forearm_len
-    scale = float(np.linalg.norm(np.array(armature.matrix_world)[:3, 0]))
-    reach = max(max(np.linalg.norm(np.array(b.head_local) - wrist),
-                    np.linalg.norm(np.array(b.tail_local) - wrist)) for b in kids) * scale
+    reach = max(max(world_length(armature, np.array(b.head_local) - wrist),
+                    world_length(armature, np.array(b.tail_local) - wrist)) for b in kids)
     return float(np.clip(reach, 0.4 * forearm_len, 1.0 * forearm_len))
 
 
