@@ -13,7 +13,8 @@ to ``bench/results.json`` and a readable ``bench/results.md``:
 3. **Chase / live re-plan**: time per target update (:mod:`bench.live_bench`).
 4. **Bake**: 1000 frames written in bulk on the metarig's keyed bones; **obstacle
    scaling**: the collision-free task with the table top tessellated to 5k, 100k and 1M
-   triangles (search time and BVH build time).
+   triangles (search time and BVH build time); **gather**: obstacles read from a
+   geometry-nodes scatter of 10,000 instances in front of a real character.
 5. **Batch throughput**: a 200-task study on 1 and 2 local worker processes (one run each:
    it takes minutes).
 """
@@ -231,6 +232,43 @@ def scaling(runs: int):
     return out
 
 
+def gather_scatter(runs: int):
+    """Obstacle gathering from a geometry-nodes scatter: 10,000 unrealized cube instances
+    on a 100 × 100 grid one arm length wide, half an arm length in front of a real
+    character's reaching shoulder (Quaternius; ``tests/blender/obstacle_scene.py``)."""
+    sys.path.insert(0, str(ROOT / "tests" / "blender"))
+    import obstacle_scene
+    import rigs
+
+    from reach_addon.blender import rig as rig_mod
+    from reach_addon.blender.scene import character_objects, gather_obstacles
+
+    arm = rigs.load("quaternius")
+    rigs.rest_still(arm)
+    info = rig_mod.build(arm, "right")
+    length = info.arm.arm_length
+    centre = info.joints_world["shoulder"] + 0.5 * length * info.frame.forward
+    matrix = np.eye(4)
+    matrix[:3, :3] = np.column_stack([info.frame.right, info.frame.up, -info.frame.forward])
+    matrix[:3, 3] = centre
+    spacing = length / 100
+    obstacle_scene.add_gn_instances("Scatter", matrix, obstacle_scene.grid_points(100, spacing),
+                                    0.5 * spacing)
+    bpy.context.view_layer.update()
+    exclude = character_objects(arm, bpy.context.scene)
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        obs = gather_obstacles(bpy.context, exclude)
+        times.append(time.perf_counter() - t0)
+    counts = dict(obs.triangle_counts())
+    log(f"  10,000 instances, {obs.triangle_count:,d} triangles ({counts}): gather "
+        f"{1000 * statistics.median(times):.0f} ms")
+    return {"gather_10k_instances_ms": 1000 * statistics.median(times),
+            "gather_10k_instances_spread_s": spread(times),
+            "gather_10k_instances_triangles": obs.triangle_count}
+
+
 # --- 5. batch throughput ---------------------------------------------------------------------------
 
 STUDY = """
@@ -305,7 +343,8 @@ def markdown(results) -> str:
                   "the hand alone (see the README's Limitations)."]
     lines += ["", "## Other figures", ""]
     for k in ("chase_update_ms_p50", "chase_update_ms_p95", "bake_1000x8_ms",
-              "bake_1000_frames_ms", "bake_bones", "batch_1proc_s", "batch_2proc_s",
+              "bake_1000_frames_ms", "bake_bones", "gather_10k_instances_ms",
+              "gather_10k_instances_triangles", "batch_1proc_s", "batch_2proc_s",
               "batch_speedup_2proc"):
         if k in results:
             v = results[k]
@@ -322,7 +361,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--skip", action="append", default=[],
-                        choices=("table2", "ompl", "chase", "bake", "scaling", "batch"))
+                        choices=("table2", "ompl", "chase", "bake", "scaling", "gather",
+                                 "batch"))
     parser.add_argument("--output", default=str(ROOT / "bench"))
     args = parser.parse_args(argv)
     results = {"reach_version": __version__, "blender_version": bpy.app.version_string,
@@ -335,6 +375,8 @@ def main(argv=None) -> int:
              ("chase", "chase / live re-plan", chase_updates),
              ("bake", "bake", lambda: bake_1000(args.runs)),
              ("scaling", "obstacle scaling", lambda: {"scaling": scaling(args.runs)}),
+             ("gather", "obstacles from a 10,000-instance scatter",
+              lambda: gather_scatter(args.runs)),
              ("batch", "batch throughput", batch_throughput)]
     results.setdefault("ompl", [])
     for key, title, fn in steps:
