@@ -13,14 +13,15 @@ OUT_DIR/session.json; then Blender quits.
 import json
 import sys
 import time
-import traceback
 from pathlib import Path
 
 import bpy
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import timer_session  # noqa: E402
+
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 OUT, ARMATURE, TARGET = Path(ARGS[0]), ARGS[1], ARGS[2]
-DEADLINE = time.monotonic() + 200.0
 seen = {"blender": bpy.app.version_string, "steps": []}
 
 
@@ -63,22 +64,4 @@ def session():
     seen["alive_after_save"] = bool(bpy.context.window_manager.windows)
 
 
-SESSION = session()
-
-
-def tick():
-    try:
-        if time.monotonic() > DEADLINE:
-            raise RuntimeError("the session ran out of time")
-        return next(SESSION)
-    except StopIteration:
-        seen["ok"] = True
-    except Exception:
-        seen["error"] = traceback.format_exc()
-    (OUT / "session.json").write_text(json.dumps(seen, indent=1))
-    bpy.ops.wm.quit_blender()
-    return None
-
-
-OUT.mkdir(parents=True, exist_ok=True)
-bpy.app.timers.register(tick, first_interval=1.0)
+timer_session.drive(session(), seen, OUT, 200.0, first_interval=1.0)

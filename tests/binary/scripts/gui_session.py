@@ -24,15 +24,17 @@ import json
 import subprocess
 import sys
 import time
-import traceback
 from pathlib import Path
 
 import bpy
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import timer_session  # noqa: E402
+
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 OUT, ARMATURE, TARGET = Path(ARGS[0]), ARGS[1], ARGS[2]
 STEP = float(ARGS[3]) if len(ARGS) > 3 else None      # the planner step for Plan and Bake
-DEADLINE = time.monotonic() + 240.0           # the session gives up after this long
+DEADLINE_S = 240.0                            # the session gives up after this long
 seen = {"blender": bpy.app.version_string, "steps": [], "draws": {}}
 t_start = time.monotonic()
 
@@ -289,27 +291,4 @@ def session():
     screenshot("reached")
 
 
-SESSION = session()
-
-
-def tick():
-    try:
-        if time.monotonic() > DEADLINE:
-            raise RuntimeError("the session ran out of time")
-        return next(SESSION)
-    except StopIteration:
-        seen["ok"] = True
-    except Exception:
-        seen["error"] = traceback.format_exc()
-    finish()
-    return None
-
-
-def finish():
-    seen["seconds"] = round(time.monotonic() - t_start, 2)
-    (OUT / "session.json").write_text(json.dumps(seen, indent=1))
-    bpy.ops.wm.quit_blender()
-
-
-OUT.mkdir(parents=True, exist_ok=True)
-bpy.app.timers.register(tick, first_interval=0.5)
+timer_session.drive(session(), seen, OUT, DEADLINE_S)
