@@ -323,6 +323,19 @@ def hand_direction(upper, bend, forearm, wrist_bend_deg, wrist_side_deg):
                      fz * cf + pz * cp + hz * ch])
 
 
+def hand_angles(upper, bend, forearm, direction):
+    """The wrist's two angles (degrees) of a hand pointing along ``direction``: the inverse
+    of :func:`hand_direction`, β_w = atan2(d·p, d·f), σ_w = asin(d·h). Used to start a
+    motion from the hand a rig has, wherever it points (even beyond the wrist's range)."""
+    u, b, f, d = (np.asarray(v, dtype=float) for v in (upper, bend, forearm, direction))
+    h = np.cross(u, b)
+    h /= max(float(np.linalg.norm(h)), 1e-12)
+    p = np.cross(h, f)
+    d = d / max(float(np.linalg.norm(d)), 1e-12)
+    return (float(np.degrees(np.arctan2(d @ p, d @ f))),
+            float(np.degrees(np.arcsin(np.clip(d @ h, -1.0, 1.0)))))
+
+
 def forward_kinematics(arm: ArmModel, configs):
     """Joint positions (..., 5, 3) and bend directions (..., 3), canonical frame, for
     configurations (..., 5) = (body rotation, α, β, γ, elbow) in degrees.

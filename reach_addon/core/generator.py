@@ -74,20 +74,39 @@ class ConfigurationGenerator:
                                start.config.body_rotation, target)
         return view
 
+    def move_scale(self, previous: Pose, wrist) -> float:
+        """How many search steps a move of the wrist from ``previous`` spans (at least 1),
+        rounded up to a quarter step so that the hand orders can be cached."""
+        distance = math.dist(np.asarray(wrist, dtype=float).tolist(), previous.wrist.tolist())
+        return max(1.0, math.ceil(4.0 * distance / self.step_length - 1e-9) / 4.0)
+
     def max_change(self, previous: Pose, wrist) -> float:
         """Smoothness bound for a move of the wrist from ``previous``: the bound per step,
         scaled up in proportion for moves longer than one step."""
         distance = math.dist(np.asarray(wrist, dtype=float).tolist(), previous.wrist.tolist())
         return self.settings.max_joint_step * max(1.0, distance / self.step_length)
 
-    def hand_order(self, previous_hand) -> list:
-        """The hand samples, nearest the previous wrist angles first (stable)."""
-        key = tuple(previous_hand)
+    def hand_order(self, previous_hand, scale: float = 1.0) -> list:
+        """The hand samples within ``Settings.hand_step_turn`` × ``scale`` of the previous
+        wrist angles (turn of the hand's direction relative to the forearm), nearest first
+        (stable). A previous hand farther than that from every sample (a rig's own start
+        pose) may go to the nearest samples, within half the bound beyond the nearest."""
+        key = (tuple(previous_hand), scale)
         order = self._hand_orders.get(key)
         if order is None:
-            pb, ps = key
-            order = sorted(self.hand_samples, key=lambda h: math.hypot(h[0] - pb, h[1] - ps))
-            if len(self._hand_orders) < 64:
+            c0 = hand_coefficients(*previous_hand)
+
+            def turn(h):
+                c = self._hand_coefficients[h]
+                dot = c[0] * c0[0] + c[1] * c0[1] + c[2] * c0[2]
+                return math.degrees(math.acos(max(-1.0, min(1.0, dot))))
+
+            turns = {h: turn(h) for h in self.hand_samples}
+            bound = self.settings.hand_step_turn * scale
+            bound = max(bound, min(turns.values()) + 0.5 * bound)
+            order = sorted((h for h in self.hand_samples if turns[h] <= bound + 1e-9),
+                           key=lambda h: turns[h])
+            if len(self._hand_orders) < 256:
                 self._hand_orders[key] = order
         return order
 
@@ -109,9 +128,15 @@ class ConfigurationGenerator:
             self._capsule_cache[body] = caps
         return caps
 
-    def solve(self, wrist, previous: Pose | None = None, body_rotation=None) -> Pose | None:
+    def solve(self, wrist, previous: Pose | None = None, body_rotation=None,
+              hand_scale: float | None = None) -> Pose | None:
         """The strongest legal, collision-free pose with the wrist at ``wrist`` that is
         within the smoothness bound of ``previous`` (if given); None if there is none.
+        ``hand_scale``: if given, the hand is kept continuous with ``previous``: it may turn
+        by at most ``Settings.hand_step_turn`` × ``hand_scale``, and only through clear
+        directions (:meth:`_place_hand`). The search leaves it out (bounding the hand there
+        traps the search in narrow gaps); the smoothing, the timing and the hand pass,
+        which turn the search's path into frames, ask for it.
 
         Candidates are tried in strength order: the arm (clavicle, upper arm, forearm)
         against the obstacles and the body, then the hand at each wrist angle, the previous
@@ -197,20 +222,26 @@ class ConfigurationGenerator:
                 hand = (0.0, 0.0)
             else:
                 if hands is None:
-                    hands = self.hand_order(previous.hand if previous is not None else (0.0, 0.0))
-                tip, hand = self._place_hand(s_c, e_c, w_c, w_w, d_w, bend, caps_hand, hands)
+                    hands = self.hand_order((0.0, 0.0), 180.0) \
+                        if previous is None or hand_scale is None else \
+                        self.hand_order(previous.hand, hand_scale)
+                tip, hand = self._place_hand(s_c, e_c, w_c, w_w, d_w, bend, caps_hand, hands,
+                                             None if previous is None or hand_scale is None
+                                             else previous.hand)
                 if tip is None:
                     continue
             joints = np.array(t_c + s_c + e_c + w_c + tip).reshape(5, 3)
             return Pose(sol.config(0, k), joints, np.array(bend), sol.category(0, k), hand)
         return None
 
-    def _place_hand(self, s_c, e_c, w_c, w_w, d_w, b, caps, hands):
+    def _place_hand(self, s_c, e_c, w_c, w_w, d_w, b, caps, hands, previous_hand=None):
         """(hand end, wrist angles) of the first hand direction in ``hands`` that is clear
         of the body and the obstacles, or (None, None). ``b``: the bend direction.
 
-        The hand's sweep from the previous pose's direction is not checked, nor is the
-        change of its angles bounded: see the note in the README's Limitations."""
+        With ``previous_hand`` (the wrist angles at the previous position), the hand's turn
+        from there is checked too: the directions between, every ``Settings.hand_grid_step``
+        × 3 degrees, at this arm pose, must be clear, so that the hand never turns through
+        an obstacle between two positions of a path."""
         arm, checker, seg = self.arm, self.checker, self._seg_hand
         l1, l2, lh = arm.upper_arm_length, arm.forearm_length, arm.hand_length
         u = [(e_c[i] - s_c[i]) / l1 for i in range(3)]
@@ -239,14 +270,78 @@ class ConfigurationGenerator:
                     return False
             return True
 
+        sweep_step = 3.0 * self.settings.hand_grid_step
         for hand in hands:
             tip = tip_of(self._hand_coefficients[hand])
-            if clear(tip):
-                return tip, hand
+            if not clear(tip):
+                continue
+            if previous_hand is not None and not clear_far and hand != previous_hand:
+                db, ds = hand[0] - previous_hand[0], hand[1] - previous_hand[1]
+                n = max(1, int(math.ceil(max(abs(db), abs(ds)) / sweep_step)))
+                if not all(clear(tip_of(hand_coefficients(previous_hand[0] + db * t / n,
+                                                          previous_hand[1] + ds * t / n)))
+                           for t in range(0, n)):
+                    continue
+            return tip, hand
         return None, None
+
+    def hand_axes(self, joints, bend):
+        """The hand's frame at a pose, rows (f, p, h) (canonical): the forearm direction,
+        the in-plane direction the hand bends toward and the elbow's hinge axis
+        (:func:`~reach_addon.core.arm.hand_direction`). ``joints`` (≥ 4, 3), ``bend`` (3,)."""
+        s, e, w = (np.asarray(joints[i], dtype=float) for i in (1, 2, 3))
+        u = (e - s) / np.linalg.norm(e - s)
+        f = (w - e) / np.linalg.norm(w - e)
+        h = np.cross(u, np.asarray(bend, dtype=float))
+        h /= max(float(np.linalg.norm(h)), 1e-12)
+        return np.array([f, np.cross(h, f), h])
+
+    def hands_clear(self, joints, bend, body_rotation: float, coefficients) -> np.ndarray:
+        """For each hand direction (rows of ``coefficients``, components along the rows of
+        :meth:`hand_axes`): is the hand, wrist to its far end, clear of the body and the
+        obstacles at this arm pose? One obstacle query at the wrist settles every direction
+        when nothing is within a hand's length of it."""
+        coefficients = np.asarray(coefficients, dtype=float)
+        out = np.ones(len(coefficients), dtype=bool)
+        if not self._check_hand:
+            return out
+        arm, checker, seg = self.arm, self.checker, self._seg_hand
+        w_c = np.asarray(joints[3], dtype=float)
+        tips = w_c + arm.hand_length * coefficients @ self.hand_axes(joints, bend)
+        reach = arm.hand_length + arm.hand_radius
+        wl = w_c.tolist()
+        caps = [c for c in self._capsules(float(body_rotation))
+                if point_segment_distance(wl, c[0], c[1]) - c[4] < reach]
+        tips_l = tips.tolist()
+        if caps:
+            for i, tip in enumerate(tips_l):
+                if ik.segment_hits_body(wl, tip, arm.hand_radius, caps):
+                    out[i] = False
+        w_w = self._world(wl)
+        d_w = checker.distance(w_w, checker.bound_wrist)
+        if d_w < seg[3]:
+            out[:] = False
+        elif d_w - arm.hand_length < seg[3]:
+            for i, tip in enumerate(self.arm.to_world_points(tips).tolist()):
+                if out[i] and not checker.segment_clear(
+                        w_w, tip, d_w, checker.distance(tip, checker.bound_hand), seg):
+                    out[i] = False
+        return out
+
+    def arm_clear(self, joints, body_rotation: float) -> bool:
+        """Is the arm (sternum to wrist, without the hand) of a pose clear of the obstacles
+        and of the body? ``joints`` (≥ 4, 3), canonical."""
+        j = np.asarray(joints, dtype=float)
+        full = np.vstack([j[:4], j[3:4]])
+        if ik.self_collision(self.arm, float(body_rotation), full[None], include_hand=False)[0]:
+            return False
+        return not self.checker.collides(self.arm.to_world_points(full), include_hand=False)
 
     def smooth_between(self, a: Pose, b: Pose) -> bool:
         """Is ``b`` within the smoothness bound of ``a``?"""
+        if self._check_hand and b.hand not in self.hand_order(a.hand,
+                                                              self.move_scale(a, b.wrist)):
+            return False
         c = b.config
         ok = ik.smooth(a.config, np.array([c.body_rotation]), np.array([[c.alpha]]),
                        np.array([[c.beta]]), np.array([[c.gamma]]), np.array([c.elbow]),
@@ -287,8 +382,9 @@ class ConfigurationGenerator:
             return "sternum", self.obstacles.enclosing_owner(root)
         return self.checker.first_hit(self.arm.to_world_points(pose.joints))
 
-    def config_pose(self, config: ArmConfig) -> Pose:
-        """The pose of a configuration (forward kinematics), with its strength category."""
+    def config_pose(self, config: ArmConfig, hand=(0.0, 0.0)) -> Pose:
+        """The pose of a configuration (forward kinematics) with the wrist's two angles
+        ``hand``, and its strength category."""
         level = f_r(config.alpha, config.beta, self.settings.preferred_level_h,
                     self.settings.preferred_level_v)
-        return pose_from_config(self.arm, config, int(level))
+        return pose_from_config(self.arm, config, int(level), tuple(hand))

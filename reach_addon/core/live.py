@@ -58,6 +58,7 @@ import numpy as np
 from .arm import ArmConfig, Pose
 from .collision import Obstacles
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
+from .hand import plan_hand
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
 from .tasks import Plan, Planner, Segment, Stats, Task, motion_stats
@@ -97,15 +98,18 @@ class LiveSession:
     """One arm following one target interactively (see the module docstring).
 
     ``start``: the arm's configuration (or pose) on screen when the session begins.
-    ``name``: what the user calls the target (for messages)."""
+    ``name``: what the user calls the target (for messages); ``start_hand``: the wrist's
+    two angles on screen."""
 
     def __init__(self, arm, obstacles: Obstacles | None, settings: Settings | None = None,
-                 start: ArmConfig | Pose | None = None, name: str = "target"):
+                 start: ArmConfig | Pose | None = None, name: str = "target",
+                 start_hand=(0.0, 0.0)):
         self.settings = settings if settings is not None else Settings()
         self.planner = Planner(arm, obstacles, self.settings)
         if start is None:
             raise ValueError("a live session needs the arm's start configuration")
-        self.pose = start if isinstance(start, Pose) else self.planner.generator.config_pose(start)
+        self.pose = start if isinstance(start, Pose) else \
+            self.planner.generator.config_pose(start, start_hand)
         require_finite("start pose", self.pose.joints)
         self.name = name
         self.target: np.ndarray | None = None      # world space
@@ -370,7 +374,7 @@ def chase_steps(planners, task: Task, chunk: int = 1):
                          f"{len(planners)} planners")
     first = planners[0]
     arm, s = first.arm, first.settings
-    start = first.generator.config_pose(task.start)
+    start = first.generator.config_pose(task.start, task.start_hand)
     require_finite("start pose", start.joints)
     problem = first.generator.start_problem(start)
     if problem is not None:
@@ -403,8 +407,10 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     stats.nodes_in_solution += 1  # the start, as in the reach tasks
     stats.path_length_arm_lengths = float(
         np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
+    hand = plan_hand([p.generator for p in planners], poses, task.fps, may_insert=False)
+    poses = hand.poses
     motion_stats(stats, planners[0].arm, poses, [p.generator.checker for p in planners],
-                 stats.path_length_arm_lengths)
+                 stats.path_length_arm_lengths, hand=hand)
     gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
     name = task.name(0)
     last = planners[-1]

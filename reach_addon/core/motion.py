@@ -61,7 +61,7 @@ def connect(generator: ConfigurationGenerator, a: Pose, b: Pose):
     out = []
     prev = a
     for k in range(1, n):
-        pose = generator.solve(a.wrist + delta * (k / n), prev)
+        pose = generator.solve(a.wrist + delta * (k / n), prev, hand_scale=1.0)
         if pose is None:
             return None
         out.append(pose)
@@ -140,9 +140,11 @@ def time_path(generator: ConfigurationGenerator, dense: list, frames: int):
         pose = None
         if s.chest_rotation:
             chest = chest0 + (chest1 - chest0) * phased(tau, s.chest_phase_delay)
-            pose = generator.solve(wrist, prev, body_rotation=chest)
+            pose = generator.solve(wrist, prev, body_rotation=chest, hand_scale=1.0)
         if pose is None:
-            pose = generator.solve(wrist, prev)
+            pose = generator.solve(wrist, prev, hand_scale=1.0)
+        if pose is None:
+            pose = generator.solve(wrist, prev, hand_scale=generator.move_scale(prev, wrist))
         if pose is None:
             pose = dense[k + 1] if frac >= 0.5 else dense[k]
             snapped += 1

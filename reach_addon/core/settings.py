@@ -112,6 +112,35 @@ class Settings:
         "wrist positions one search step apart (scaled up for longer moves)", "ik",
         1.0, 90.0, "deg")
 
+    # --- the hand over the finished motion (core.hand) --------------------------------------
+    hand_turn_speed: float = _f(
+        360.0, "Hand turn speed limit", "Fastest turn of the hand relative to the forearm: "
+        "360°/s is 15° a frame at 24 fps. Peak wrist angular speeds in brisk everyday "
+        "reaching and placing stay below about 300-400°/s, and animators read a turn of "
+        "20-30° in one frame as a pop", "motion", 30.0, 2000.0, "deg/s")
+    wrist_relax_weight: float = _f(
+        0.5, "Wrist relax weight", "How strongly the hand is drawn back toward neutral (in "
+        "line with the forearm) against how smoothly it turns: a frame bent 45° costs this "
+        "much, a turn at the speed limit costs 1", "motion", 0.0, 100.0)
+    hand_grid_step: float = _f(
+        5.0, "Hand angle step", "Spacing of the wrist-bend angles the hand pass chooses "
+        "from (side bends are spaced 2.5 times wider, their range being a third as large)",
+        "motion", 1.0, 15.0, "deg")
+    instants_per_frame: int = _f(
+        4, "Checks per frame", "Instants per frame at which the arm and the hand are "
+        "checked against obstacles as the keys interpolate (frame, then evenly between)",
+        "motion", 1, 16)
+    slowdown_budget: float = _f(
+        1.0, "Slow-down budget", "Most frames the hand pass may add to a reach to slow "
+        "it through a tight spot, as a fraction of its frames", "motion", 0.0, 4.0)
+
+    hand_step_turn: float = _f(
+        40.0, "Hand turn per step", "Greatest turn of the hand relative to the forearm "
+        "between neighbouring positions of the smoothed path and between frames, where the "
+        "hand is kept continuous. Just over one step of the search's hand samples (35° of "
+        "bend): the hand may move to the next sample but never flips across the wrist's "
+        "range, which no timing could make smooth", "motion", 5.0, 180.0, "deg")
+
     # --- collisions -------------------------------------------------------------------------
     clearance: float = _f(0.02, "Clearance", "Margin kept between arm and obstacles",
                           "collision", 0.0, 0.5, "arm lengths")

@@ -33,6 +33,7 @@ from .collision import Obstacles
 from .errors import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
                      ReachError, require_finite)
 from .generator import ConfigurationGenerator
+from .hand import HandReport, plan_hand
 from .motion import auto_duration, shortcut, time_path, wrist_path_length
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
@@ -47,7 +48,9 @@ class Task:
     order for ``sequence`` and ``guided``, one per frame for ``chase`` (frame 0 first).
     ``start``: the arm's configuration at the first frame. ``duration_s``: seconds per
     reach (None = from the path length, :func:`~reach_addon.core.motion.auto_duration`).
-    ``names``: what the user calls each target (for messages)."""
+    ``names``: what the user calls each target (for messages). ``start_hand``: the wrist's
+    two angles at the first frame (:func:`~reach_addon.core.arm.hand_angles`; the rig's
+    own hand), which the motion starts from."""
 
     kind: str
     targets: np.ndarray
@@ -55,6 +58,7 @@ class Task:
     fps: float = 24.0
     duration_s: float | None = None
     names: tuple = ()
+    start_hand: tuple = (0.0, 0.0)
 
     def __post_init__(self):
         if self.kind not in TASK_KINDS:
@@ -93,6 +97,16 @@ class Stats:
     strength_categories: list = field(default_factory=lambda: [0, 0, 0])
     min_clearance_arm_lengths: float = math.inf
     planning_time_s: float = 0.0
+    # the hand (core.hand): turns per frame relative to the forearm and in space, the
+    # wrist's bend from neutral, frames added to slow through tight spots, and what the
+    # pass could not bring within its bounds
+    max_wrist_turn_deg_per_frame: float = 0.0
+    max_hand_turn_deg_per_frame: float = 0.0
+    mean_wrist_bend_deg: float = 0.0
+    max_wrist_bend_deg: float = 0.0
+    inserted_frames: int = 0
+    unbounded_hand_turns: int = 0
+    touching_transitions: int = 0
 
     @property
     def mean_f_r(self) -> float:
@@ -100,7 +114,15 @@ class Stats:
         return (self.strength_categories[1] + 2 * self.strength_categories[2]) / n if n else 0.0
 
     def add(self, other: Stats) -> None:
-        for name in ("search_time_s", "preprocess_time_s", "nodes_searched",
+        n = self.frames + other.frames
+        if n:
+            self.mean_wrist_bend_deg = (self.mean_wrist_bend_deg * self.frames
+                                        + other.mean_wrist_bend_deg * other.frames) / n
+        for name in ("max_wrist_turn_deg_per_frame", "max_hand_turn_deg_per_frame",
+                     "max_wrist_bend_deg"):
+            setattr(self, name, max(getattr(self, name), getattr(other, name)))
+        for name in ("inserted_frames", "unbounded_hand_turns", "touching_transitions",
+                     "search_time_s", "preprocess_time_s", "nodes_searched",
                      "nodes_in_solution", "path_length_arm_lengths",
                      "motion_path_length_arm_lengths", "frames", "snapped_frames",
                      "planning_time_s"):
@@ -236,7 +258,7 @@ class Planner:
         ``chunk`` searched nodes and between stages, and returns the :class:`Plan`. The
         plan is the same however it is consumed."""
         t0 = time.perf_counter()
-        start = self.generator.config_pose(task.start)
+        start = self.generator.config_pose(task.start, task.start_hand)
         require_finite("start pose", start.joints)
         if task.kind == "chase":
             plan = yield from self._chase(task, start, chunk)
@@ -316,7 +338,9 @@ class Planner:
             duration = task.duration_s or auto_duration(motion_length, s)
             frames = max(2, int(round(duration * task.fps)) + 1)
             seg_poses, snapped = time_path(gen, dense, frames)
-        self._motion_stats(stats, seg_poses, motion_length, snapped)
+        hand = plan_hand(gen, seg_poses, task.fps)
+        seg_poses = hand.poses
+        self._motion_stats(stats, seg_poses, motion_length, snapped, hand)
         seg = Segment(i, name, np.asarray(target_w, float), result.success, reason, message,
                       frame_start, frame_start + len(seg_poses) - 1, stats,
                       arm.to_world_points(np.array([p.wrist for p in result.path])),
@@ -341,9 +365,10 @@ class Planner:
             f"tested positions (closest approach {gap:.2f} arm lengths); try the guided "
             "task, a larger node budget or a smaller clearance")
 
-    def _motion_stats(self, stats: Stats, poses, motion_length: float, snapped: int):
+    def _motion_stats(self, stats: Stats, poses, motion_length: float, snapped: int,
+                      hand: HandReport | None = None):
         motion_stats(stats, self.arm, poses, [self.generator.checker] * len(poses),
-                     motion_length, snapped)
+                     motion_length, snapped, hand)
 
     def _chase(self, task: Task, start: Pose, chunk: int):
         s, arm, gen = self.settings, self.arm, self.generator
@@ -378,7 +403,9 @@ class Planner:
         stats.nodes_in_solution += 1  # the start, as in the reach tasks
         stats.path_length_arm_lengths = float(
             np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
-        self._motion_stats(stats, poses, stats.path_length_arm_lengths, 0)
+        hand = plan_hand(gen, poses, task.fps, may_insert=False)
+        poses = hand.poses
+        self._motion_stats(stats, poses, stats.path_length_arm_lengths, 0, hand)
         gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
         success = gap <= s.goal_tolerance
         name = task.name(0)
@@ -429,11 +456,20 @@ def plan(task: Task, arm: ArmModel, obstacles: Obstacles | None, settings: Setti
 
 
 def motion_stats(stats: Stats, arm: ArmModel, poses, checkers, motion_length: float,
-                 snapped: int = 0) -> None:
+                 snapped: int = 0, hand: HandReport | None = None) -> None:
     """Fill the motion part of ``stats``: frames, strength categories, snapped frames and
     the least clearance, each pose measured by its own checker (one per pose: a chase
-    against moving obstacles has one obstacle set per frame)."""
+    against moving obstacles has one obstacle set per frame), and what the hand pass
+    reported."""
     length = arm.arm_length
+    if hand is not None:
+        stats.max_wrist_turn_deg_per_frame = hand.max_wrist_turn_deg
+        stats.max_hand_turn_deg_per_frame = hand.max_hand_turn_deg
+        stats.mean_wrist_bend_deg = hand.mean_wrist_bend_deg
+        stats.max_wrist_bend_deg = hand.max_wrist_bend_deg
+        stats.inserted_frames = hand.inserted_frames
+        stats.unbounded_hand_turns = hand.unbounded_turns
+        stats.touching_transitions = len(hand.unclear_transitions)
     stats.motion_path_length_arm_lengths = motion_length
     stats.frames = len(poses)
     stats.snapped_frames = snapped

@@ -1,0 +1,85 @@
+"""The hand over the finished motion (core.hand): the wrist angles read back, the start
+hand kept, turns within the bound unless the plan says otherwise, and what the plan says
+about the instants between keys checked by geometry that shares nothing with the planner."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from geometry import HANGING, arm_penetration, obstacles, standard_arm, triangles_of
+from reach_addon.core import Planner, Settings, Task
+from reach_addon.core.arm import forward_kinematics, hand_angles, hand_direction
+from reach_addon.demo import WORKPLACE, demo_tasks
+
+FPS = 24.0
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(-89, 89), st.floats(-80, 80), st.floats(0, 140), st.floats(-60, 60),
+       st.floats(-85, 85), st.floats(-85, 85))
+def test_hand_angles_invert_hand_direction(alpha, beta, elbow, gamma, bend, side):
+    arm = standard_arm()
+    joints, b = forward_kinematics(arm, np.array([0.0, alpha, beta, gamma, elbow]))
+    u, f = joints[2] - joints[1], joints[3] - joints[2]
+    u, f = u / np.linalg.norm(u), f / np.linalg.norm(f)
+    d = hand_direction(u, b, f, bend, side)
+    got = hand_angles(u, b, f, d)
+    assert np.allclose(hand_direction(u, b, f, *got), d, atol=1e-9)
+
+
+def _instant_poses(plan, n=4):
+    """World joints at n instants per frame: the keys, and the arm's angles and the wrist's
+    two angles interpolated between them (computed here, from the plan's angles)."""
+    arm = plan.arm
+    out = []
+    for a, b in zip(plan.poses[:-1], plan.poses[1:]):
+        for t in np.arange(n) / n:
+            c = (1 - t) * a.config.as_array() + t * b.config.as_array()
+            joints, bend = forward_kinematics(arm, c)
+            hand = (1 - t) * np.array(a.hand) + t * np.array(b.hand)
+            s, e, w = joints[1], joints[2], joints[3]
+            d = hand_direction((e - s) / np.linalg.norm(e - s), bend,
+                               (w - e) / np.linalg.norm(w - e), *hand)
+            joints[4] = w + arm.hand_length * d
+            out.append(arm.to_world_points(joints))
+    out.append(plan.world_joints()[-1])
+    return out
+
+
+@pytest.fixture(scope="module")
+def demo_plans():
+    arm = standard_arm()
+    planner = Planner(arm, obstacles(WORKPLACE), Settings())
+    return {name: planner.plan(task) for name, task in demo_tasks(FPS)}
+
+
+@pytest.mark.parametrize("name", ["collision_free", "rotation", "guided", "chase"])
+def test_the_hand_report_is_truthful(demo_plans, name):
+    """Turns above the bound only where the plan reports lifting it; contact between keys,
+    by an independent exact distance check at 4 instants a frame, only where the plan
+    reports touching transitions."""
+    plan = demo_plans[name]
+    s = plan.stats
+    bound = plan.settings.hand_turn_speed / FPS
+    assert 0.0 <= s.mean_wrist_bend_deg <= s.max_wrist_bend_deg
+    if s.unbounded_hand_turns == 0:
+        assert s.max_wrist_turn_deg_per_frame <= bound + 1e-6
+    tris = triangles_of(WORKPLACE)
+    depth = min(arm_penetration(plan.arm, j, tris) for j in _instant_poses(plan))
+    if s.touching_transitions == 0:
+        assert depth >= -1e-3, f"{name}: {-depth:.4f} m into an obstacle between keys"
+
+
+def test_the_motion_starts_from_the_rigs_own_hand():
+    arm = standard_arm()
+    start_hand = (55.0, -20.0)
+    task = Task("reach", np.array([[-0.30, -0.30, 1.10]]), HANGING, FPS, start_hand=start_hand)
+    plan = Planner(arm, None, Settings()).plan(task)
+    assert plan.success, plan.message
+    assert plan.poses[0].hand == pytest.approx(start_hand)
+    s = plan.stats
+    assert s.unbounded_hand_turns == 0 and s.touching_transitions == 0
+    assert s.max_wrist_turn_deg_per_frame <= 360.0 / FPS + 1e-6
+    # free space: the hand relaxes back to neutral by the end of the reach
+    assert abs(plan.poses[-1].hand[0]) <= 5.0 + 1e-6 and abs(plan.poses[-1].hand[1]) <= 12.5
