@@ -194,7 +194,8 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
     exclude = character_objects(armature, scene) | {t.name for t in targets}
     cache = ObstacleCache(exclude, collection.name if collection is not None else None)
     obstacles, _ = cache.get(context, geometry=True)
-    session = LiveSession(info.arm, obstacles, request.settings, info.start, target.name)
+    session = LiveSession(info.arm, obstacles, request.settings, info.start, target.name,
+                          info.start_hand)
 
     bmap = info.bones
     arm_bones = bmap.arms[info.side]
@@ -213,7 +214,7 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
     start_world = {role: mw @ start_pose[ref] for role, ref in reference.items()}
     chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
     return LiveState(scene.name, request, armature.name, target.name, info, session, cache,
-                     mw, np.linalg.inv(mw), session.planner.generator.config_pose(info.start),
+                     mw, np.linalg.inv(mw), session.pose,
                      start_pose, start_world, chest_head, keyed, budget_s)
 
 

@@ -204,15 +204,17 @@ def steps(context, request: Request, bake: bool = True):
             path, frame_obstacles = _sample_chase(context, targets[0], exclude, collection,
                                                   obstacles, f0, f1)
             scene.frame_set(frame_start)
-            tasks = [Task("chase", np.array(path), info.start, fps, names=names[:1])]
+            tasks = [Task("chase", np.array(path), info.start, fps, names=names[:1],
+                          start_hand=info.start_hand)]
         else:
             positions = np.array([np.array(t.matrix_world.translation) for t in targets])
             if request.task == "reach":
                 tasks = [Task("reach", positions[i:i + 1], info.start, fps, request.duration_s,
-                              names=names[i:i + 1]) for i in range(len(targets))]
+                              names=names[i:i + 1], start_hand=info.start_hand)
+                         for i in range(len(targets))]
             else:
                 tasks = [Task(request.task, positions, info.start, fps, request.duration_s,
-                              names=names)]
+                              names=names, start_hand=info.start_hand)]
 
         planner = Planner(info.arm, obstacles, request.settings)
         plans = []

@@ -46,6 +46,7 @@ import bpy
 import numpy as np
 
 from ..core import ArmConfig, ArmModel, Capsule, ReachError, config_from_joints
+from ..core.arm import forward_kinematics, hand_angles
 
 ROLES = ("clavicle", "upper_arm", "forearm", "hand")
 SIDES = ("right", "left")
@@ -575,20 +576,36 @@ class RigInfo:
     side: str
     start: ArmConfig
     joints_world: dict       # role -> world position at the start (shoulder, elbow, wrist)
+    start_hand: tuple = (0.0, 0.0)   # the wrist's two angles at the start (core.arm.hand_angles)
 
 
-def hand_length(armature, hand_name, forearm_len):
-    """Wrist to the farthest fingertip (bone heads and tails below the hand, without helper
-    bones such as FBX "_end" leaves or Rigify tweaks), between 0.4 and 1.0 forearm; 0.74
-    forearm (Drillis & Contini) when the hand has no fingers."""
-    bone = armature.data.bones[hand_name]
-    kids = [b for b in bone.children_recursive if not set(tokens(b.name)) & _HELPER]
-    wrist = np.array(bone.head_local)
+def hand_shape(armature, hand_name, forearm_len):
+    """The hand as the planner models it, read from the pose on screen: (axis, length,
+    spread) in world space — the unit direction from the wrist to the mean of the finger
+    joints (bone heads and tails below the hand, without helper bones such as FBX "_end"
+    leaves or Rigify tweaks), the farthest joint along it (between 0.4 and 1.0 forearm),
+    and the farthest joint from the axis. A hand with no fingers points along its bone and
+    is 0.74 forearm long (Drillis & Contini), its spread 0.
+
+    So the capsule the planner keeps clear holds every finger joint, and the direction it
+    plans for is the one the bake turns: the keyed fingers are where the plan put them."""
+    mw = np.array(armature.matrix_world)
+    pb = armature.pose.bones[hand_name]
+    kids = [b for b in pb.children_recursive if not set(tokens(b.name)) & _HELPER]
+    wrist = mw[:3, :3] @ np.array(pb.head) + mw[:3, 3]
     if not kids:
-        return 0.74 * forearm_len
-    reach = max(max(world_length(armature, np.array(b.head_local) - wrist),
-                    world_length(armature, np.array(b.tail_local) - wrist)) for b in kids)
-    return float(np.clip(reach, 0.4 * forearm_len, 1.0 * forearm_len))
+        axis = mw[:3, :3] @ (np.array(pb.tail) - np.array(pb.head))
+        return axis / max(float(np.linalg.norm(axis)), 1e-12), 0.74 * forearm_len, 0.0
+    pts = np.array([p for b in kids for p in (b.head, b.tail)]) @ mw[:3, :3].T + mw[:3, 3]
+    rel = pts - wrist
+    axis = rel.mean(0)
+    if np.linalg.norm(axis) < 1e-9:
+        axis = mw[:3, :3] @ (np.array(pb.tail) - np.array(pb.head))
+    axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
+    along = rel @ axis
+    length = float(np.clip(along.max(), 0.4 * forearm_len, 1.0 * forearm_len))
+    spread = float(np.linalg.norm(rel - along[:, None] * axis, axis=1).max())
+    return axis, length, spread
 
 
 def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
@@ -625,19 +642,20 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
         return inv[:3, :3] @ p + inv[:3, 3]
 
     half = frame.shoulder_half_width
-    lh = hand_length(armature, arm_bones.hand, l2)
+    hand_axis, lh, spread = hand_shape(armature, arm_bones.hand, l2)
     sternum = canon(pos[arm_bones.clavicle]) if arm_bones.clavicle else \
         np.array([0.0, 0.35 * half, canon(shoulder)[2]])
     if np.linalg.norm(sternum - canon(shoulder)) < 0.05 * half:
         sternum = np.array([0.0, 0.35 * half, canon(shoulder)[2]])
-    hand_dir = (wrist - elbow) / l2
     radii = (
         _skin_radius(armature, {arm_bones.upper_arm}, shoulder, elbow, 0.15 * l1),
         _skin_radius(armature, {arm_bones.forearm}, elbow, wrist, 0.14 * l2),
-        _skin_radius(armature, {arm_bones.hand}, wrist, wrist + hand_dir * lh, 0.18 * lh),
+        _skin_radius(armature, {arm_bones.hand}, wrist, wrist + hand_axis * lh, 0.18 * lh),
     )
+    # the hand's capsule: its palm skin, or half the fingers' spread about its axis if more
+    # (a capsule round a spread thumb would make the hand a ball)
     radii = (float(np.clip(radii[0], 0.08 * l1, 0.3 * l1)), float(np.clip(radii[1], 0.08 * l2, 0.3 * l2)),
-             float(np.clip(radii[2], 0.1 * lh, 0.35 * lh)))
+             float(np.clip(max(radii[2], 0.5 * spread), 0.1 * lh, 0.35 * lh)))
     h = half
     capsules = (
         Capsule("chest", (0, 0, -1.6 * h), (0, 0, 0), 0.68 * h, True),
@@ -651,8 +669,11 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
         to_world=to_world, body_capsules=capsules, side=side,
         name=f"{armature.name} {side} arm")
     start = config_from_joints(arm, canon(elbow), canon(wrist), 0.0)
+    joints, bend = forward_kinematics(arm, start.as_array())
+    start_hand = hand_angles(joints[2] - joints[1], bend, joints[3] - joints[2],
+                             inv[:3, :3] @ hand_axis)
     return RigInfo(armature.name, bmap, frame, arm, side, start,
-                   {"shoulder": shoulder, "elbow": elbow, "wrist": wrist})
+                   {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}, start_hand)
 
 
 def _check_armature(armature):
