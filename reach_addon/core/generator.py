@@ -17,11 +17,13 @@ import math
 import numpy as np
 
 from . import ik
-from .arm import ArmConfig, ArmModel, Pose, pose_from_config
+from .arm import ArmConfig, ArmModel, Pose, forward_kinematics, pose_from_config
 from .collision import CollisionChecker, Obstacles, point_segment_distance
 from .errors import OUT_OF_REACH, TARGET_IN_OBSTACLE
 from .strength import f_r
 from .torso import ChestPath
+
+
 
 
 def hand_coefficients(bend_deg: float, side_deg: float) -> tuple:
@@ -54,6 +56,9 @@ class ConfigurationGenerator:
         # (cos bend · cos side, sin bend · cos side, sin side) of each sample: the hand
         # direction's components along f, p and h (arm.hand_direction).
         self._hand_coefficients = {h: hand_coefficients(*h) for h in self.hand_samples}
+        # each sample's bend from neutral (degrees): the most relaxed hand is tried first
+        self._relax = {h: math.degrees(math.acos(max(-1.0, min(1.0, c[0]))))
+                       for h, c in self._hand_coefficients.items()}
         self._hand_orders = {}
         self._capsule_cache = {}
         self._rotation = arm.to_world[:3, :3].tolist()
@@ -64,6 +69,20 @@ class ConfigurationGenerator:
         self._seg_fore, self._seg_hand = c.by_name["forearm"], c.by_name["hand"]
         self._r_fore = self._seg_fore[3]
         self.chest = None
+        self.hand_blocked = False
+
+    def between_keys(self) -> ConfigurationGenerator:
+        """This generator with half the clearance, for the instants between two keyed
+        poses: the keys keep the whole margin, the arm and hand as the keys interpolate
+        may use up to half of it (a pose planned right at the margin dips into it by a
+        hair when interpolated toward its neighbour). Made once and kept."""
+        loose = getattr(self, "_between_keys", None)
+        if loose is None:
+            loose = ConfigurationGenerator(
+                self.arm, self.obstacles,
+                self.settings.replace(clearance=0.5 * self.settings.clearance))
+            self._between_keys = loose
+        return loose
 
     def for_reach(self, start: Pose, target) -> ConfigurationGenerator:
         """A view of this generator for one reach from ``start`` to ``target``: the chest
@@ -88,9 +107,13 @@ class ConfigurationGenerator:
 
     def hand_order(self, previous_hand, scale: float = 1.0) -> list:
         """The hand samples within ``Settings.hand_step_turn`` × ``scale`` of the previous
-        wrist angles (turn of the hand's direction relative to the forearm), nearest first
-        (stable). A previous hand farther than that from every sample (a rig's own start
-        pose) may go to the nearest samples, within half the bound beyond the nearest."""
+        wrist angles (turn of the hand's direction relative to the forearm), in the order
+        they are tried: the previous hand itself, then those that bend less than it
+        (nearest first), then those that bend more (nearest first). So the hand stays as
+        it is while it can, relaxes when it may, and bends only as far as it must; keeping
+        it (rather than relaxing at every chance) spares the path a zig-zag of turns. A
+        previous hand farther than the bound from every sample (a rig's own start pose) may
+        go to the nearest samples, within half the bound beyond the nearest."""
         key = (tuple(previous_hand), scale)
         order = self._hand_orders.get(key)
         if order is None:
@@ -102,10 +125,12 @@ class ConfigurationGenerator:
                 return math.degrees(math.acos(max(-1.0, min(1.0, dot))))
 
             turns = {h: turn(h) for h in self.hand_samples}
+            bend0 = math.degrees(math.acos(max(-1.0, min(1.0, c0[0]))))
             bound = self.settings.hand_step_turn * scale
             bound = max(bound, min(turns.values()) + 0.5 * bound)
             order = sorted((h for h in self.hand_samples if turns[h] <= bound + 1e-9),
-                           key=lambda h: turns[h])
+                           key=lambda h: (turns[h] > 1e-9, self._relax[h] > bend0 + 1e-9,
+                                          turns[h]))
             if len(self._hand_orders) < 256:
                 self._hand_orders[key] = order
         return order
@@ -132,6 +157,9 @@ class ConfigurationGenerator:
               hand_scale: float | None = None) -> Pose | None:
         """The strongest legal, collision-free pose with the wrist at ``wrist`` that is
         within the smoothness bound of ``previous`` (if given); None if there is none.
+        After a None, :attr:`hand_blocked` says whether some arm pose there was clear and
+        only the hand found no way (another hand might get there).
+
         ``hand_scale``: if given, the hand is kept continuous with ``previous``: it may turn
         by at most ``Settings.hand_step_turn`` × ``hand_scale``, and only through clear
         directions (:meth:`_place_hand`). The search leaves it out (bounding the hand there
@@ -152,6 +180,7 @@ class ConfigurationGenerator:
         measured)."""
         wrist = np.asarray(wrist, dtype=float)
         arm, settings, checker = self.arm, self.settings, self.checker
+        self.hand_blocked = False
         w_c = wrist.tolist()
         w_w = self._world(w_c)
         d_w = checker.distance(w_w, checker.bound_wrist)
@@ -226,22 +255,39 @@ class ConfigurationGenerator:
                         if previous is None or hand_scale is None else \
                         self.hand_order(previous.hand, hand_scale)
                 tip, hand = self._place_hand(s_c, e_c, w_c, w_w, d_w, bend, caps_hand, hands,
-                                             None if previous is None or hand_scale is None
-                                             else previous.hand)
+                                             None if hand_scale is None else previous)
                 if tip is None:
+                    self.hand_blocked = True
                     continue
+            config = sol.config(0, k)
+            if previous is not None and not self._swing_clear(previous, config, e_c):
+                continue
             joints = np.array(t_c + s_c + e_c + w_c + tip).reshape(5, 3)
-            return Pose(sol.config(0, k), joints, np.array(bend), sol.category(0, k), hand)
+            return Pose(config, joints, np.array(bend), sol.category(0, k), hand)
         return None
 
-    def _place_hand(self, s_c, e_c, w_c, w_w, d_w, b, caps, hands, previous_hand=None):
+    def _swing_clear(self, previous: Pose, config: ArmConfig, elbow) -> bool:
+        """Is the arm clear halfway between ``previous`` and a candidate (their angles
+        interpolated)? Checked only when the elbow swings farther than the upper arm's
+        radius between them: a step of the wrist is short, but a turn of the swivel angle
+        within the smoothness bound can carry the elbow several centimetres, round an
+        obstacle's edge that neither end touches."""
+        if math.dist(previous.elbow.tolist(), elbow) <= self.arm.upper_arm_radius:
+            return True
+        mid = 0.5 * (previous.config.as_array() + config.as_array())
+        joints, _bend = forward_kinematics(self.arm, mid)
+        return self.arm_clear(joints, float(mid[0]))
+
+    def _place_hand(self, s_c, e_c, w_c, w_w, d_w, b, caps, hands, previous=None):
         """(hand end, wrist angles) of the first hand direction in ``hands`` that is clear
         of the body and the obstacles, or (None, None). ``b``: the bend direction.
 
-        With ``previous_hand`` (the wrist angles at the previous position), the hand's turn
-        from there is checked too: the directions between, every ``Settings.hand_grid_step``
-        × 3 degrees, at this arm pose, must be clear, so that the hand never turns through
-        an obstacle between two positions of a path."""
+        With ``previous`` (the pose at the previous position), the hand must also get from
+        its angles there to the new ones without passing through anything: its old
+        direction clear at the new pose, and every direction between, ``hand_grid_step`` ×
+        3 degrees apart, clear there too (the step itself, at most one search step, moves
+        it with its angles fixed and clear at both ends). A hand that must turn *before*
+        a step turns in place first: :meth:`turn_hand`, a move of the search."""
         arm, checker, seg = self.arm, self.checker, self._seg_hand
         l1, l2, lh = arm.upper_arm_length, arm.forearm_length, arm.hand_length
         u = [(e_c[i] - s_c[i]) / l1 for i in range(3)]
@@ -271,19 +317,36 @@ class ConfigurationGenerator:
             return True
 
         sweep_step = 3.0 * self.settings.hand_grid_step
+        previous_hand = None if previous is None else previous.hand
         for hand in hands:
             tip = tip_of(self._hand_coefficients[hand])
             if not clear(tip):
                 continue
-            if previous_hand is not None and not clear_far and hand != previous_hand:
+            if previous_hand is not None and hand != previous_hand:
                 db, ds = hand[0] - previous_hand[0], hand[1] - previous_hand[1]
                 n = max(1, int(math.ceil(max(abs(db), abs(ds)) / sweep_step)))
-                if not all(clear(tip_of(hand_coefficients(previous_hand[0] + db * t / n,
-                                                          previous_hand[1] + ds * t / n)))
-                           for t in range(0, n)):
+                between = [hand_coefficients(previous_hand[0] + db * t / n,
+                                             previous_hand[1] + ds * t / n) for t in range(n)]
+                if not clear_far and not all(clear(tip_of(c)) for c in between):
                     continue
             return tip, hand
         return None, None
+
+    def turn_hand(self, pose: Pose, hand) -> Pose | None:
+        """``pose`` with the hand turned in place to the sample ``hand`` (its arm
+        unchanged), or None if a direction on the way, ``hand_grid_step`` × 3 degrees
+        apart, touches the body or an obstacle. Used by the search when the hand must turn
+        before the arm can move on."""
+        a = pose.hand
+        db, ds = hand[0] - a[0], hand[1] - a[1]
+        n = max(1, int(math.ceil(max(abs(db), abs(ds)) / (3.0 * self.settings.hand_grid_step))))
+        coef = [hand_coefficients(a[0] + db * t / n, a[1] + ds * t / n) for t in range(1, n + 1)]
+        if not self.hands_clear(pose.joints, pose.bend, pose.config.body_rotation, coef).all():
+            return None
+        joints = pose.joints.copy()
+        joints[4] = joints[3] + self.arm.hand_length * (np.array(coef[-1]) @
+                                                        self.hand_axes(pose.joints, pose.bend))
+        return Pose(pose.config, joints, pose.bend, pose.f_r, tuple(hand))
 
     def hand_axes(self, joints, bend):
         """The hand's frame at a pose, rows (f, p, h) (canonical): the forearm direction,
@@ -327,6 +390,30 @@ class ConfigurationGenerator:
                         w_w, tip, d_w, checker.distance(tip, checker.bound_hand), seg):
                     out[i] = False
         return out
+
+    def transition_problem(self, a: Pose, b: Pose, hand_a=None, hand_b=None,
+                           instants: int | None = None, arm: bool = True):
+        """What touches between two keyed poses as they interpolate — None, 'arm' or
+        'hand' — at ``instants`` − 1 (default ``Settings.instants_per_frame`` − 1) evenly
+        spaced instants, the arm's five angles and the wrist's two (``hand_a`` → ``hand_b``,
+        default the poses' own) interpolated linearly, against half the clearance
+        (:meth:`between_keys`). ``arm=False`` skips the arm (already found clear)."""
+        n = self.settings.instants_per_frame if instants is None else instants
+        if n <= 1:
+            return None
+        loose = self.between_keys()
+        t = np.arange(1, n) / n
+        configs = (1.0 - t)[:, None] * a.config.as_array() + t[:, None] * b.config.as_array()
+        joints, bends = forward_kinematics(self.arm, configs)
+        if arm and not all(loose.arm_clear(j, c[0]) for j, c in zip(joints, configs)):
+            return "arm"
+        ha = np.asarray(a.hand if hand_a is None else hand_a, dtype=float)
+        hb = np.asarray(b.hand if hand_b is None else hand_b, dtype=float)
+        for f, j, bend, c in zip(t, joints, bends, configs):
+            coef = [hand_coefficients(*((1.0 - f) * ha + f * hb))]
+            if not loose.hands_clear(j, bend, c[0], coef)[0]:
+                return "hand"
+        return None
 
     def arm_clear(self, joints, body_rotation: float) -> bool:
         """Is the arm (sternum to wrist, without the hand) of a pose clear of the obstacles

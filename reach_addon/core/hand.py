@@ -1,43 +1,56 @@
-"""The hand over a finished arm motion: continuous, relaxed, and clear at every instant.
+"""The hand: continuous, relaxed, and clear at every instant of the baked motion.
 
 The paper leaves the hand free ("the position of the palm center is just a further search
-for a point on a sphere"). The search places a hand at every node it tries (the first clear
-direction of a few samples, :meth:`ConfigurationGenerator._place_hand`), which is enough to
-know a wrist position is usable but says nothing about how the hand moves from one frame
-to the next: chosen frame by frame, it flipped from bent down to bent up between two keys
-and swept through what it had turned away from.
+for a point on a sphere"). Placed pose by pose it flipped from bent down to bent up between
+two keys and swept through what it had turned away from. Reach makes it continuous in two
+places:
 
-Design: the wrist's two angles (bend in the elbow's plane, side bend across it,
-:func:`~reach_addon.core.arm.hand_direction`) are chosen in one pass over the finished,
-timed arm motion, by dynamic programming over frames × a grid of wrist angles:
+1. **In the search** (:mod:`~reach_addon.core.search`, :mod:`~reach_addon.core.generator`):
+   the hand is part of the state. A step may turn it by at most
+   ``Settings.hand_step_turn``, its old direction must still be clear at the new pose and
+   so must every direction it turns through; a hand that must turn *before* the arm can
+   move turns in place (a move of its own). Positions are visited per hand. So the
+   searched path never carries the hand into a pocket of clear directions that closes
+   round it (an obstacle's edge passing over the hand as the wrist goes by), which no
+   timing can undo. Where this finds no way (or a worse closest approach), the search is
+   run once more with the hand free, and this pass reports what it cannot mend.
+2. **Over the frames** (this module): after the timing
+   (:func:`~reach_addon.core.motion.time_path`, frames sampled along the validated path),
+   the wrist's two angles (bend in the elbow's plane, side bend across it,
+   :func:`~reach_addon.core.arm.hand_direction`) are chosen again by dynamic programming
+   over frames × a grid of wrist angles:
 
-* **States.** The grid spans the wrist's range (``Settings.wrist_bend_max``,
-  ``wrist_side_max``) every ``Settings.hand_grid_step`` degrees of bend (side bends 2.5
-  times wider); it holds the search's own hand samples, so every frame the search or the
-  timing produced has at least one clear state. The start state is the rig's own hand
-  (anywhere, even outside the range), joined to the grid by a chain of states.
-* **Constraints.** A state must be clear of the obstacles and the body at its frame
-  (:meth:`ConfigurationGenerator.hands_clear`). A transition may turn the hand, relative to
-  the forearm, by at most ``Settings.hand_turn_speed`` / fps degrees.
-* **Cost.** Σ (turn / bound)² + ``wrist_relax_weight`` · (bend from neutral / 45°)²: the
-  hand turns no faster and no farther than it must, and drifts back toward neutral when
-  it is free.
-* **Between keys** (lazy, as in lazy PRM: only the chosen path is checked). Each
-  transition is checked at ``Settings.instants_per_frame`` − 1 instants between the two
-  keys, the arm's five angles and the wrist's two interpolated linearly (what Blender's
-  interpolation of the keyed rotations does, to within the clearance, for moves this
-  small). A hand that touches between keys bans that transition and the pass runs again.
-* **Slowing down.** Where no bounded, clear choice exists (the hand would have to turn
-  faster than the bound), or the arm itself touches something between two keys, a frame
-  is inserted between them (the arm's angles halfway, or, if that pose is not clear, a
-  solved pose halfway along the wrist path): the motion slows through the tight spot
-  instead of sweeping through it. At most ``Settings.slowdown_budget`` × frames are
-  added; past that (or where frames are tied to the clock, as in a chase) the bound is
-  lifted for that transition and the excess is reported.
+   * **States.** The grid spans the wrist's range (``Settings.wrist_bend_max``,
+     ``wrist_side_max``) every ``Settings.hand_grid_step`` degrees of bend (side bends 2.5
+     times wider); it holds the search's hand samples. The start state is the rig's own
+     hand (anywhere, even outside the range), joined to the grid by a chain of states.
+   * **Constraints.** A state must be clear of the obstacles and the body at its frame
+     (:meth:`ConfigurationGenerator.hands_clear`); a transition may turn the hand, relative
+     to the forearm, by at most ``Settings.hand_turn_speed`` / fps degrees.
+   * **Cost.** Σ (turn / bound)² + ``wrist_relax_weight`` · (bend from neutral / 45°)²:
+     the hand turns no faster and no farther than it must, and drifts back toward neutral
+     when it is free.
+   * **Between keys** (lazy, as in lazy PRM: only the chosen path is checked). Each
+     transition is checked at ``Settings.instants_per_frame`` − 1 instants between its
+     keys, the arm's five angles and the wrist's two interpolated linearly (what
+     Blender's interpolation of the keyed rotations does, to within the margin, for moves
+     this small), against half the clearance
+     (:meth:`ConfigurationGenerator.between_keys`): keys keep the whole margin. A hand
+     that touches bans that transition and the DP runs again; after
+     :attr:`HandPass.BANS_BEFORE_REFINING` bans the transition is refined instead.
+   * **Slowing down.** Where no bounded, clear choice exists, or the arm touches between
+     two keys, frames are inserted between them: on the validated path at the arc
+     lengths between (so the arm slows through the tight spot instead of sweeping
+     through it), or, where that did not help, holds of both keys (the arm waits while
+     the hand turns). At most ``Settings.slowdown_budget`` × frames are added; past that
+     (or where frames are tied to the clock, as in a chase) the bound is lifted for that
+     transition, and ``unbounded_hand_turns`` / ``touching_transitions`` report it.
 
-Measured before committing to it: bounding the hand inside the search (as a per-step
-limit) trapped the search in narrow gaps and searched ~7× more nodes; as a pass over the
-finished path it leaves the search alone and costs one grid test per frame near obstacles.
+Measured: a pass over the frames alone (a free hand in the search) could not mend the
+pockets (the demo kept 130–140° flips); the hand bounded inside the search without turns
+in place and per-hand visits trapped the search (3–30× the nodes, demo tasks lost on a
+real character). Together they leave the search 1.3–3× the nodes of a free hand on the
+demo tasks and every reach clear and bounded (``make bench``).
 """
 
 from __future__ import annotations
@@ -47,7 +60,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .arm import Pose, forward_kinematics
+from .arm import Pose
 from .generator import hand_coefficients
 
 
@@ -125,12 +138,20 @@ class HandPass:
     (a chase against moving obstacles has one per frame). ``fps``: frames per second.
     ``may_insert``: may frames be added (not in a chase, whose frames are the target's)."""
 
-    def __init__(self, generators, fps: float, may_insert: bool = True):
+    #: Hand choices banned on one transition (they touch between its keys) before the
+    #: transition is refined instead (a pose inserted between its two keys).
+    BANS_BEFORE_REFINING = 4
+
+    def __init__(self, generators, fps: float, may_insert: bool = True, arcs=None,
+                 sampler=None):
         self.generators = generators
         gen = generators[0] if isinstance(generators, list) else generators
         self.arm, self.settings = gen.arm, gen.settings
         self.bound = self.settings.hand_turn_speed / fps
         self.may_insert = may_insert
+        # where the frames lie on the validated path, and a way to put poses between them
+        self.arcs = None if arcs is None or sampler is None else list(arcs)
+        self.sampler = sampler
         self._clear: set = set()
 
     def _gen(self, k):
@@ -142,7 +163,7 @@ class HandPass:
         poses = list(poses)
         if len(poses) < 2 or not self._gen(0).checker.check_hand:
             return self._report(poses, [p.hand for p in poses], 0, 0, [])
-        grid = hand_grid(s, poses[0].hand, self.bound)
+        grid = self._grid = hand_grid(s, poses[0].hand, self.bound)
         budget = int(s.slowdown_budget * len(poses)) if self.may_insert else 0
         inserted = 0
         feasible = [None] + [self._feasible(k, p, grid) for k, p in enumerate(poses) if k]
@@ -151,14 +172,21 @@ class HandPass:
         accepted: set = set()      # transitions k -> k + 1 left touching (nothing helped)
         path = None
 
-        def slow_down(k, count=1) -> bool:
-            """Insert ``count`` frames between k and k + 1 (fewer if the budget is short)
-            and renumber what is kept by frame."""
+        refined: set = set()       # ids of poses inserted between two others
+
+        def slow_down(k, count=1, hold=False) -> bool:
+            """Insert ``count`` frames between k and k + 1 (fewer if the budget is short):
+            poses between the two, or with ``hold`` copies of both ends (the arm waits
+            while the hand turns, before and after the move); renumber what is kept."""
             nonlocal banned, lifted, accepted, inserted
             count = min(count, budget - inserted)
             if count <= 0:
                 return False
-            added = self._insert(poses, feasible, grid, k, count)
+            if hold:
+                added = self._hold(poses, feasible, k, count)
+            else:
+                added = self._insert(poses, feasible, grid, k, count)
+                refined.update(id(p) for p in poses[k + 1:k + 1 + added])
             if not added:
                 return False
             inserted += added
@@ -172,17 +200,20 @@ class HandPass:
             if path is None:
                 # no bounded, clear choice into frame `fail`: slow down there (as many
                 # frames as the least turn needed takes at the bound), else lift the bound
+                # (poses between first; where those did not help, the arm waits)
                 fail, reachable = fail
                 gap = grid.turn[np.ix_(reachable, feasible[fail])]
                 need = math.ceil(float(gap.min()) / self.bound - 1e-9) - 1 if gap.size else 1
-                if not slow_down(fail - 1, max(1, need)):
+                hold = id(poses[fail - 1]) in refined or id(poses[fail]) in refined
+                if not slow_down(fail - 1, max(1, need), hold):
                     lifted.add(fail)
                 continue
             problem = self._between(poses, grid, path, accepted)
             if problem is None:
                 break
             k, what = problem
-            if what == "hand" and (k + 1) not in lifted:
+            if what == "hand" and (k + 1) not in lifted and \
+                    len(banned.get(k + 1, ())) < self.BANS_BEFORE_REFINING:
                 banned.setdefault(k + 1, set()).add((path[k], path[k + 1]))
             elif not slow_down(k):
                 accepted.add(k)
@@ -243,7 +274,6 @@ class HandPass:
         n = self.settings.instants_per_frame
         if n <= 1:
             return None
-        fractions = np.arange(1, n) / n
         for k in range(len(poses) - 1):
             if k in skip:
                 continue
@@ -252,50 +282,74 @@ class HandPass:
             hand_key = key + (path[k], path[k + 1])
             if hand_key in self._clear:
                 continue
-            gen = self._gen(k + 1)
-            configs = (1.0 - fractions)[:, None] * a.config.as_array() + \
-                fractions[:, None] * b.config.as_array()
-            joints, bends = forward_kinematics(self.arm, configs)
-            if key not in self._clear:
-                if not all(gen.arm_clear(j, c[0]) for j, c in zip(joints, configs)):
-                    return k, "arm"
-                self._clear.add(key)
-            ha, hb = grid.angles[path[k]], grid.angles[path[k + 1]]
-            for t, j, bend, c in zip(fractions, joints, bends, configs):
-                coef = np.array([hand_coefficients(*((1.0 - t) * ha + t * hb))])
-                if not gen.hands_clear(j, bend, c[0], coef)[0]:
-                    return k, "hand"
+            problem = self._gen(k + 1).transition_problem(
+                a, b, grid.angles[path[k]], grid.angles[path[k + 1]], n,
+                arm=key not in self._clear)
+            if problem == "arm":
+                return k, "arm"
+            self._clear.add(key)
+            if problem == "hand":
+                return k, "hand"
             self._clear.add(hand_key)
         return None
 
+    def _hold(self, poses, feasible, k, count: int) -> int:
+        """Insert ``count`` copies of pose k after it and as many of pose k + 1 before it
+        (2 × ``count`` frames at most, within the budget the caller passes as ``count``):
+        the hand may turn while the arm waits at either end of the move."""
+        if k < 0 or k + 1 >= len(poses):
+            return 0
+        before = (count + 1) // 2
+        after = count - before
+        poses[k + 1:k + 1] = [poses[k]] * before + [poses[k + 1]] * after
+        if self.arcs is not None:
+            self.arcs[k + 1:k + 1] = [self.arcs[k]] * before + [self.arcs[k + 1]] * after
+        feasible[k + 1:k + 1] = [feasible[k] if k else
+                                 self._feasible(k, poses[k], self._grid)] * before + \
+            [feasible[k + 1]] * after
+        return count
+
     def _insert(self, poses, feasible, grid, k, count: int = 1) -> int:
-        """Insert ``count`` poses evenly between frames k and k + 1: the arm's angles
-        interpolated where that pose is clear, else a pose solved at the interpolated
-        wrist position. Returns how many were inserted (0 if some could not be)."""
+        """Insert ``count`` poses evenly between frames k and k + 1: on the validated path
+        at the arc lengths between theirs when the frames came from one
+        (:class:`~reach_addon.core.motion.PathSampler`); otherwise (a chase) the arm's
+        angles interpolated where that pose is clear, else a pose solved at the
+        interpolated wrist position. Returns how many were inserted (0 if some could not
+        be)."""
         if k < 0 or k + 1 >= len(poses):
             return 0
         a, b = poses[k], poses[k + 1]
         gen = self._gen(k + 1)
-        new, clears = [], []
+        new, clears, arcs = [], [], []
         prev = a
         for j in range(1, count + 1):
             t = j / (count + 1)
-            config = _interpolate(a, b, t)
-            mid = gen.config_pose(type(a.config).from_array(config))
-            clear = self._feasible(k + 1, mid, grid) if gen.arm_clear(mid.joints, config[0]) \
-                else None
-            if clear is None or not clear.any():
-                wrist = (1.0 - t) * a.wrist + t * b.wrist
-                mid = gen.solve(wrist, prev, body_rotation=float(config[0]), hand_scale=1.0) \
-                    or gen.solve(wrist, prev, hand_scale=1.0) or gen.solve(wrist, b, hand_scale=1.0)
-                if mid is None:
-                    return 0
+            if self.arcs is not None:
+                arc = (1.0 - t) * self.arcs[k] + t * self.arcs[k + 1]
+                mid = self.sampler(arc)
+                arcs.append(arc)
                 clear = self._feasible(k + 1, mid, grid)
+            else:
+                config = _interpolate(a, b, t)
+                mid = gen.config_pose(type(a.config).from_array(config))
+                clear = self._feasible(k + 1, mid, grid) \
+                    if gen.arm_clear(mid.joints, config[0]) else None
+                if clear is None or not clear.any():
+                    wrist = (1.0 - t) * a.wrist + t * b.wrist
+                    mid = gen.solve(wrist, prev, body_rotation=float(config[0]),
+                                    hand_scale=1.0) \
+                        or gen.solve(wrist, prev, hand_scale=1.0) \
+                        or gen.solve(wrist, b, hand_scale=1.0)
+                    if mid is None:
+                        return 0
+                    clear = self._feasible(k + 1, mid, grid)
             new.append(mid)
             clears.append(clear)
             prev = mid
         poses[k + 1:k + 1] = new
         feasible[k + 1:k + 1] = clears
+        if self.arcs is not None:
+            self.arcs[k + 1:k + 1] = arcs
         return count
 
     def _report(self, poses, hands, inserted, lifted, unclear):
@@ -321,6 +375,9 @@ class HandPass:
                           float(bends.max()), lifted, list(unclear))
 
 
-def plan_hand(generators, poses, fps: float, may_insert: bool = True) -> HandReport:
-    """Run the hand pass over ``poses`` (see the module docstring)."""
-    return HandPass(generators, fps, may_insert).run(poses)
+def plan_hand(generators, poses, fps: float, may_insert: bool = True, arcs=None,
+              sampler=None) -> HandReport:
+    """Run the hand pass over ``poses`` (see the module docstring); ``arcs`` and
+    ``sampler`` (from :func:`~reach_addon.core.motion.time_path`) let it slow down along
+    the validated path."""
+    return HandPass(generators, fps, may_insert, arcs, sampler).run(poses)

@@ -59,7 +59,7 @@ from .arm import ArmConfig, Pose
 from .collision import Obstacles
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .hand import plan_hand
-from .search import BestFirstSearch, SearchResult
+from .search import BestFirstSearch, SearchResult, chase_step
 from .settings import Settings
 from .tasks import Plan, Planner, Segment, Stats, Task, motion_stats
 from .workspace import workspace_steps  # noqa: F401  (re-exported)
@@ -316,6 +316,16 @@ class LiveSession:
             if retry.success or retry.closest_distance < result.closest_distance:
                 result = retry
             result.nodes_searched, result.search_time_s = nodes, elapsed
+        if not result.success:
+            # as the reach task does: once more with the hand free, kept if it does better
+            free = yield from self._search(start, target_c, hand_continuity=False,
+                                           **({} if diagnosis in (None, _UNKNOWN) else
+                                              {"stall_budget": max(20, s.stall_budget // 4)}))
+            nodes = result.nodes_searched + free.nodes_searched
+            elapsed = result.search_time_s + free.search_time_s
+            if free.success or free.closest_distance < result.closest_distance - gen.step_length:
+                result = free
+            result.nodes_searched, result.search_time_s = nodes, elapsed
         if prefix:
             result.path = prefix + list(result.path)
         self._searcher = None
@@ -351,13 +361,7 @@ def chase_frame(generator, previous: Pose, target_c, steps: int):
     """One frame of a chase: a best-first search from ``previous`` toward ``target_c``
     (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
     along; returns (the pose committed, the search result)."""
-    s = generator.settings
-    searcher = BestFirstSearch(generator.for_reach(previous, target_c), previous, target_c,
-                               node_budget=s.chase_nodes_per_frame,
-                               stall_budget=s.chase_nodes_per_frame, depth_limit=steps)
-    searcher.run()
-    result = searcher.result()
-    return result.path[min(steps, len(result.path) - 1)], result
+    return chase_step(generator, previous, target_c, steps)
 
 
 def chase_steps(planners, task: Task, chunk: int = 1):

@@ -10,15 +10,12 @@ validated pose sequence along the smoothed path.
 
 .. math:: s(τ) = 10τ^3 - 15τ^4 + 6τ^5,\\quad τ = t / T
 
-Every frame is solved again from the previous frame (smoothness bound scaled to the frame's
-move) and collision-checked; if that fails, the frame takes the nearest validated pose of
-the dense sequence. So every output pose is legal and collision-free.
-
-Phasing (paper: "the joint recruitments are phased; they do not all change
-simultaneously"): the arm leads and the chest follows. The chest rotation of frame τ is
-interpolated from its start to its end value with the minimum-jerk profile delayed by
-``Settings.chest_phase_delay`` of the duration, s((τ - δ)/(1 - δ)); the arm's IK is solved
-around that chest. Where that pose fails, the frame falls back to Table 1's chest.
+over the path's arc length, measured by the arm's farthest-moving point (elbow, wrist or
+hand end, :func:`path_steps`), so a hand that turns in place takes time. Each frame is the dense
+sequence interpolated at its arc length (:class:`PathSampler`): the frames follow the
+validated path instead of being solved again, so what the search checked, the hand's turns
+included, is what is keyed. The chest's phasing (the arm leads, the chest follows) is part
+of the path: :class:`~reach_addon.core.torso.ChestPath`.
 """
 
 from __future__ import annotations
@@ -27,29 +24,26 @@ import math
 
 import numpy as np
 
-from .arm import Pose
+from .arm import ArmConfig, Pose
 from .generator import ConfigurationGenerator
-
-
-def minimum_jerk(tau):
-    """s(τ) = 10τ³ - 15τ⁴ + 6τ⁵ on [0, 1] (clipped outside): position fraction of a
-    minimum-jerk move at time fraction τ."""
-    t = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0)
-    out = t * t * t * (10.0 + t * (-15.0 + 6.0 * t))
-    return out if out.ndim else float(out)
-
-
-def phased(tau, delay):
-    """Minimum-jerk progress of a joint recruited after ``delay`` of the move:
-    s((τ - δ) / (1 - δ))."""
-    if delay >= 1.0:
-        return minimum_jerk(np.asarray(tau) >= 1.0)
-    return minimum_jerk((np.asarray(tau, dtype=float) - delay) / (1.0 - delay))
+from .torso import minimum_jerk, phased  # noqa: F401  (the timing profile; re-exported)
 
 
 def wrist_path_length(poses) -> float:
     pts = np.array([p.wrist for p in poses])
     return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()) if len(pts) > 1 else 0.0
+
+
+def path_steps(poses) -> np.ndarray:
+    """Length of each step of a pose sequence: how far the arm's farthest-moving point
+    goes — the elbow, the wrist or the hand's end (its joints in :attr:`Pose.joints`).
+    A hand that turns in place, or an elbow that swings round while the wrist hardly
+    moves, takes the time that move takes; the timing then never drives any part of the
+    arm faster than the speed profile."""
+    if len(poses) < 2:
+        return np.zeros(0)
+    j = np.array([p.joints[2:5] for p in poses])            # elbow, wrist, hand end
+    return np.linalg.norm(np.diff(j, axis=0), axis=2).max(axis=1)
 
 
 def connect(generator: ConfigurationGenerator, a: Pose, b: Pose):
@@ -116,37 +110,49 @@ def auto_duration(path_length_arm_lengths: float, settings) -> float:
     return max(settings.min_duration, path_length_arm_lengths / settings.mean_speed)
 
 
+class PathSampler:
+    """Poses anywhere along a dense validated pose sequence, by arc length
+    (:func:`path_steps`): between two neighbouring poses
+    the arm's five angles and the wrist's two are interpolated linearly. Neighbours are at
+    most one search step apart (or one hand turn in place), each clear, and the hand's turn
+    between them checked (:meth:`ConfigurationGenerator._place_hand`), so the pose between
+    is the one the search vouched for, to within the clearance."""
+
+    def __init__(self, generator: ConfigurationGenerator, dense: list):
+        self.generator = generator
+        self.dense = dense
+        self.steps = path_steps(dense)
+        self.cum = np.concatenate([[0.0], np.cumsum(self.steps)])
+        self.total = float(self.cum[-1])
+        self.configs = np.array([p.config.as_array() for p in dense])
+        self.hands = np.array([p.hand for p in dense], dtype=float)
+
+    def __call__(self, arc: float):
+        if len(self.dense) < 2 or arc <= 0.0:
+            return self.dense[0]
+        if arc >= self.total:
+            return self.dense[-1]
+        k = int(np.clip(np.searchsorted(self.cum, arc, side="right") - 1, 0, len(self.dense) - 2))
+        step = self.steps[k]
+        t = 0.0 if step <= 0 else (arc - self.cum[k]) / step
+        if t <= 1e-9:
+            return self.dense[k]
+        if t >= 1.0 - 1e-9:
+            return self.dense[k + 1]
+        config = (1.0 - t) * self.configs[k] + t * self.configs[k + 1]
+        hand = (1.0 - t) * self.hands[k] + t * self.hands[k + 1]
+        return self.generator.config_pose(ArmConfig.from_array(config),
+                                          (float(hand[0]), float(hand[1])))
+
+
 def time_path(generator: ConfigurationGenerator, dense: list, frames: int):
-    """``frames`` poses (the first is ``dense[0]``, the last sits at ``dense[-1]``'s wrist)
-    spaced in time by the minimum-jerk profile, with phased chest rotation. Returns
-    (poses, number of frames that fell back to a validated pose)."""
+    """``frames`` poses along ``dense`` (the first is ``dense[0]``, the last ``dense[-1]``)
+    spaced in time by the minimum-jerk profile over the path's arc length
+    (:class:`PathSampler`; the chest's phasing is in the path itself,
+    :class:`~reach_addon.core.torso.ChestPath`). Returns (poses, their arc lengths, the
+    sampler), so that a later pass can put more frames where it must slow down."""
+    sampler = PathSampler(generator, dense)
     if frames < 2 or len(dense) < 2:
-        return [dense[0]] * max(frames, 1), 0
-    s = generator.settings
-    pts = np.array([p.wrist for p in dense])
-    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    cum = np.concatenate([[0.0], np.cumsum(seg)])
-    total = cum[-1]
-    chest0, chest1 = dense[0].config.body_rotation, dense[-1].config.body_rotation
-    out = [dense[0]]
-    snapped = 0
-    for f in range(1, frames):
-        tau = f / (frames - 1)
-        arc = minimum_jerk(tau) * total
-        k = int(np.clip(np.searchsorted(cum, arc, side="right") - 1, 0, len(dense) - 2))
-        frac = 0.0 if seg[k] <= 0 else (arc - cum[k]) / seg[k]
-        wrist = pts[k] + (pts[k + 1] - pts[k]) * frac
-        prev = out[-1]
-        pose = None
-        if s.chest_rotation:
-            chest = chest0 + (chest1 - chest0) * phased(tau, s.chest_phase_delay)
-            pose = generator.solve(wrist, prev, body_rotation=chest, hand_scale=1.0)
-        if pose is None:
-            pose = generator.solve(wrist, prev, hand_scale=1.0)
-        if pose is None:
-            pose = generator.solve(wrist, prev, hand_scale=generator.move_scale(prev, wrist))
-        if pose is None:
-            pose = dense[k + 1] if frac >= 0.5 else dense[k]
-            snapped += 1
-        out.append(pose)
-    return out, snapped
+        return [dense[0]] * max(frames, 1), [0.0] * max(frames, 1), sampler
+    arcs = [float(minimum_jerk(f / (frames - 1))) * sampler.total for f in range(frames)]
+    return [sampler(a) for a in arcs], arcs, sampler

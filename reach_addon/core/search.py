@@ -113,7 +113,8 @@ class BestFirstSearch:
 
     def __init__(self, generator: ConfigurationGenerator, start: Pose, target, guides=None,
                  guide_radius: float = 0.0, node_budget: int | None = None,
-                 stall_budget: int | None = None, depth_limit: int | None = None):
+                 stall_budget: int | None = None, depth_limit: int | None = None,
+                 hand_continuity: bool = True):
         s = generator.settings
         self.generator = generator
         self.target = np.asarray(target, dtype=float)
@@ -126,6 +127,7 @@ class BestFirstSearch:
         self.node_budget = s.node_budget if node_budget is None else node_budget
         self.stall_budget = s.stall_budget if stall_budget is None else stall_budget
         self.depth_limit = depth_limit
+        self.hand_continuity = hand_continuity
         self.offsets = self.step * self.directions
         self.target_list = self.target.tolist()
         self.blocked_radius = float(s.blocked_radius)
@@ -133,7 +135,11 @@ class BestFirstSearch:
         self.blocked_sq = (self.blocked_radius * self.step) ** 2 * (1.0 + 1e-9)
         self.nodes: list[_Node] = [_Node(start, -1, self._advance_guide(0, start.wrist), 0)]
         self.stack = [0]
-        self.visited = {self._key(start.wrist)}
+        # Visited positions are keyed with the hand they were tried from (another hand
+        # may get where this one could not); positions where no arm pose is clear are
+        # blocked for every hand.
+        self.visited = {self._key(start.wrist) + (start.hand if hand_continuity else ())}
+        self.blocked: set = set()
         self.nodes_searched = 0
         self.closest = 0
         self.closest_distance = float(np.linalg.norm(start.wrist - self.target))
@@ -196,6 +202,18 @@ class BestFirstSearch:
         if math.dist(self.target_list, w.tolist()) <= self.step:
             out.append(list(self.target_list))
             node.exact = 1
+        # the hand turned in place (to the samples within a step's bound, the most relaxed
+        # popped first): after every step that gets nearer the goal, before those that do
+        # not, so that a hand in the way turns rather than the search wander sideways
+        turns = [h for h in self.generator.hand_order(node.pose.hand) if h != node.pose.hand] \
+            if self.hand_continuity else []
+        if turns:
+            g = goal.tolist()
+            near = dist - 1e-12
+            k = len(out)
+            while k > 0 and math.dist(out[k - 1], g) < near:
+                k -= 1
+            out[k:k] = turns[::-1]
         return out
 
     # --- the search ------------------------------------------------------------------
@@ -222,16 +240,33 @@ class BestFirstSearch:
                 point = node.candidates.pop()
                 if exact:
                     node.exact -= 1
+                    key = None
+                elif isinstance(point, tuple):     # the hand turned in place
+                    key = self._key(node.pose.wrist.tolist()) + point
                 else:
-                    key = self._key(point)
+                    cell = self._key(point)
+                    if cell in self.blocked:
+                        continue
+                    key = cell + node.pose.hand if self.hand_continuity else cell
+                if key is not None:
                     if key in self.visited:
                         continue
                     self.visited.add(key)
                 tested += 1
                 self.nodes_searched += 1
-                pose = self.generator.solve(np.array(point), node.pose)
+                if isinstance(point, tuple):
+                    pose = self.generator.turn_hand(node.pose, point)
+                elif self.hand_continuity:
+                    pose = self.generator.solve(np.array(point), node.pose,
+                                                hand_scale=self.generator.move_scale(
+                                                    node.pose, point))
+                else:
+                    pose = self.generator.solve(np.array(point), node.pose)
                 if pose is None:
-                    node.failed.append(point)
+                    if not isinstance(point, tuple):
+                        node.failed.append(point)
+                        if not self.generator.hand_blocked:
+                            self.blocked.add(self._key(point))  # no hand can get there
                 else:
                     self.nodes.append(_Node(pose, node_index,
                                             self._advance_guide(node.guide, pose.wrist),
@@ -277,3 +312,44 @@ class BestFirstSearch:
         return SearchResult(self.success, None if self.success else self.reason,
                             self.path_to(end), self.nodes_searched, self.elapsed,
                             self.closest_distance, self.target, self.guides)
+
+
+def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int):
+    """One frame of a chase: a best-first search from ``previous`` toward ``target``
+    (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
+    along. The hand is kept continuous; where that does not reach the target and a search
+    with the hand free does, or where it is stuck (not half a step nearer) and the free one
+    gets a step nearer, the free one is taken. The pose committed is the farthest along
+    the path (at most ``steps``) that the arm and hand reach clear as the keys interpolate
+    (:meth:`ConfigurationGenerator.transition_problem`). (The hand pass
+    then smooths the hand and reports what it could not). Returns (the pose committed,
+    the search result, with the nodes of both searches counted)."""
+    s = generator.settings
+    view = generator.for_reach(previous, target)
+    results = []
+    for continuity in (True, False):
+        searcher = BestFirstSearch(view, previous, target,
+                                   node_budget=s.chase_nodes_per_frame,
+                                   stall_budget=s.chase_nodes_per_frame, depth_limit=steps,
+                                   hand_continuity=continuity)
+        searcher.run()
+        result = searcher.result()
+        # the frame's pose: as far along as the wrist may go, but no farther than the
+        # arm and hand can get to straight, as the keys interpolate (else the chase slows)
+        k = min(steps, len(result.path) - 1)
+        while k > 1 and view.transition_problem(previous, result.path[k]) is not None:
+            k -= 1
+        pose = result.path[k]
+        results.append((math.dist(pose.wrist.tolist(), result.target.tolist()), pose, result))
+        if result.success:
+            break
+    best = results[0]
+    before = math.dist(previous.wrist.tolist(), results[0][2].target.tolist())
+    stuck = best[0] >= before - 0.5 * generator.step_length
+    if len(results) > 1 and (results[1][2].success or
+                             (stuck and results[1][0] < best[0] - generator.step_length)):
+        best = results[1]
+    pose, result = best[1], best[2]
+    result.nodes_searched = sum(r[2].nodes_searched for r in results)
+    result.search_time_s = sum(r[2].search_time_s for r in results)
+    return pose, result

@@ -101,8 +101,8 @@ class Settings:
         "Below 75 cm Table 1 has no data: rotation fades linearly from the 75 cm row to zero "
         "at this distance", "body", 0.0, 0.75, "m")
     chest_phase_delay: float = _f(
-        0.25, "Chest phase delay", "Fraction of a reach's duration before the chest starts "
-        "to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)
+        0.25, "Chest phase delay", "Fraction of a reach's progress toward its target before "
+        "the chest starts to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)
 
     # --- analytic IK -------------------------------------------------------------------------
     swivel_step: float = _f(5.0, "Swivel step", "Sampling step of the elbow swivel circle",

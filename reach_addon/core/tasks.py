@@ -35,7 +35,7 @@ from .errors import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTAC
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
 from .motion import auto_duration, shortcut, time_path, wrist_path_length
-from .search import BestFirstSearch, SearchResult
+from .search import BestFirstSearch, SearchResult, chase_step
 from .settings import Settings
 from .workspace import Workspace, build_workspace
 
@@ -93,7 +93,6 @@ class Stats:
     path_length_arm_lengths: float = 0.0
     motion_path_length_arm_lengths: float = 0.0
     frames: int = 0
-    snapped_frames: int = 0
     strength_categories: list = field(default_factory=lambda: [0, 0, 0])
     min_clearance_arm_lengths: float = math.inf
     planning_time_s: float = 0.0
@@ -124,7 +123,7 @@ class Stats:
         for name in ("inserted_frames", "unbounded_hand_turns", "touching_transitions",
                      "search_time_s", "preprocess_time_s", "nodes_searched",
                      "nodes_in_solution", "path_length_arm_lengths",
-                     "motion_path_length_arm_lengths", "frames", "snapped_frames",
+                     "motion_path_length_arm_lengths", "frames",
                      "planning_time_s"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.strength_categories = [a + b for a, b in
@@ -317,6 +316,21 @@ class Planner:
             else:
                 result.nodes_searched = retry.nodes_searched
                 result.search_time_s = retry.search_time_s
+        left = s.node_budget - result.nodes_searched
+        if not result.success and left > 0:
+            # The hand kept continuous can shut the search out of a way the arm has (a hand
+            # caught in a pocket of clear directions): search once more with the hand free,
+            # with what is left of the node budget, and keep that if it does better; the
+            # hand pass then reports what it could not make smooth and clear.
+            free = yield from self.search_steps(start, target, guided, chunk,
+                                                hand_continuity=False,
+                                                **{**limits, "node_budget": left})
+            free.nodes_searched += result.nodes_searched
+            free.search_time_s += result.search_time_s
+            if free.success or free.closest_distance < result.closest_distance - gen.step_length:
+                result = free
+            else:
+                result.nodes_searched, result.search_time_s = free.nodes_searched, free.search_time_s
         if self.has_workspace and not had_workspace:
             stats.preprocess_time_s = self._workspace.build_time_s
 
@@ -331,16 +345,16 @@ class Planner:
 
         gen = gen.for_reach(start, target)
         dense = shortcut(gen, result.path) if s.smoothing else list(result.path)
-        motion_length = wrist_path_length(dense) / length
+        wrist_length = wrist_path_length(dense) / length
         if len(dense) < 2:
-            seg_poses, snapped = [start], 0
+            seg_poses, arcs, sampler = [start], [0.0], None
         else:
-            duration = task.duration_s or auto_duration(motion_length, s)
+            duration = task.duration_s or auto_duration(wrist_length, s)
             frames = max(2, int(round(duration * task.fps)) + 1)
-            seg_poses, snapped = time_path(gen, dense, frames)
-        hand = plan_hand(gen, seg_poses, task.fps)
+            seg_poses, arcs, sampler = time_path(gen, dense, frames)
+        hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler)
         seg_poses = hand.poses
-        self._motion_stats(stats, seg_poses, motion_length, snapped, hand)
+        self._motion_stats(stats, seg_poses, wrist_length, hand)
         seg = Segment(i, name, np.asarray(target_w, float), result.success, reason, message,
                       frame_start, frame_start + len(seg_poses) - 1, stats,
                       arm.to_world_points(np.array([p.wrist for p in result.path])),
@@ -365,10 +379,10 @@ class Planner:
             f"tested positions (closest approach {gap:.2f} arm lengths); try the guided "
             "task, a larger node budget or a smaller clearance")
 
-    def _motion_stats(self, stats: Stats, poses, motion_length: float, snapped: int,
+    def _motion_stats(self, stats: Stats, poses, motion_length: float,
                       hand: HandReport | None = None):
         motion_stats(stats, self.arm, poses, [self.generator.checker] * len(poses),
-                     motion_length, snapped, hand)
+                     motion_length, hand)
 
     def _chase(self, task: Task, start: Pose, chunk: int):
         s, arm, gen = self.settings, self.arm, self.generator
@@ -385,16 +399,9 @@ class Planner:
         for f in range(1, len(trajectory)):
             if chunk:
                 yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
-            searcher = BestFirstSearch(gen.for_reach(poses[-1], trajectory[f]), poses[-1],
-                                       trajectory[f],
-                                       node_budget=s.chase_nodes_per_frame,
-                                       stall_budget=s.chase_nodes_per_frame,
-                                       depth_limit=steps_per_frame)
-            searcher.run()
-            res = searcher.result()
+            nxt, res = chase_step(gen, poses[-1], trajectory[f], steps_per_frame)
             stats.nodes_searched += res.nodes_searched
             stats.search_time_s += res.search_time_s
-            nxt = res.path[min(steps_per_frame, len(res.path) - 1)]
             stats.nodes_in_solution += min(steps_per_frame, len(res.path) - 1)
             poses.append(nxt)
             path.append(nxt.wrist)
@@ -405,7 +412,7 @@ class Planner:
             np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
         hand = plan_hand(gen, poses, task.fps, may_insert=False)
         poses = hand.poses
-        self._motion_stats(stats, poses, stats.path_length_arm_lengths, 0, hand)
+        self._motion_stats(stats, poses, stats.path_length_arm_lengths, hand)
         gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
         success = gap <= s.goal_tolerance
         name = task.name(0)
@@ -456,9 +463,9 @@ def plan(task: Task, arm: ArmModel, obstacles: Obstacles | None, settings: Setti
 
 
 def motion_stats(stats: Stats, arm: ArmModel, poses, checkers, motion_length: float,
-                 snapped: int = 0, hand: HandReport | None = None) -> None:
-    """Fill the motion part of ``stats``: frames, strength categories, snapped frames and
-    the least clearance, each pose measured by its own checker (one per pose: a chase
+                 hand: HandReport | None = None) -> None:
+    """Fill the motion part of ``stats``: frames, strength categories and the least
+    clearance, each pose measured by its own checker (one per pose: a chase
     against moving obstacles has one obstacle set per frame), and what the hand pass
     reported."""
     length = arm.arm_length
@@ -472,7 +479,6 @@ def motion_stats(stats: Stats, arm: ArmModel, poses, checkers, motion_length: fl
         stats.touching_transitions = len(hand.unclear_transitions)
     stats.motion_path_length_arm_lengths = motion_length
     stats.frames = len(poses)
-    stats.snapped_frames = snapped
     for p in poses:
         stats.strength_categories[max(0, min(2, int(p.f_r)))] += 1
     for p, checker in zip(poses, checkers):

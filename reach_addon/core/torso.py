@@ -187,6 +187,22 @@ def rotate_about_spine(points, angle_deg):
     return out
 
 
+def minimum_jerk(tau):
+    """s(τ) = 10τ³ - 15τ⁴ + 6τ⁵ on [0, 1] (clipped outside): position fraction of a
+    minimum-jerk move at time fraction τ."""
+    t = np.clip(np.asarray(tau, dtype=float), 0.0, 1.0)
+    out = t * t * t * (10.0 + t * (-15.0 + 6.0 * t))
+    return out if out.ndim else float(out)
+
+
+def phased(tau, delay):
+    """Minimum-jerk progress of a joint recruited after ``delay`` of the move:
+    s((τ - δ) / (1 - δ))."""
+    if delay >= 1.0:
+        return minimum_jerk(np.asarray(tau) >= 1.0)
+    return minimum_jerk((np.asarray(tau, dtype=float) - delay) / (1.0 - delay))
+
+
 class ChestPath:
     """The chest rotation along one reach, as a function of the wrist position.
 
@@ -203,6 +219,16 @@ class ChestPath:
     to the start rotation at the start, to Table 1 at the target, continuous in between,
     and still a function of the wrist position alone (the paper's dimensionality
     reduction). Capped at ``Settings.chest_rotation_max`` either way.
+
+    Phasing (paper: "the joint recruitments are phased; they do not all change
+    simultaneously"): the arm leads and the chest follows. The turn from θ_0 toward θ(w)
+    is recruited by the reach's progress p = 1 - |w - t| / |w_0 - t| through the
+    minimum-jerk profile delayed by δ = ``Settings.chest_phase_delay``,
+
+    .. math:: θ_p(w) = θ_0 + (θ(w) - θ_0)\\, s\\left(\\frac{p - δ}{1 - δ}\\right)
+
+    so the chest starts turning once the wrist is δ of the way, and the whole motion,
+    searched and timed, carries it (the timing then needs no second IK solve).
     """
 
     def __init__(self, arm_length, settings, start_wrist, start_rotation, target):
@@ -213,14 +239,15 @@ class ChestPath:
         self.offset = float(start_rotation) - float(body_rotation_deg(start_wrist, arm_length,
                                                                         settings))
         self.span = float(np.linalg.norm(start_wrist - self.target))
+        self.start_rotation = float(start_rotation)
 
     def __call__(self, wrist) -> float:
         wrist = np.asarray(wrist, dtype=float)
         table = float(body_rotation_deg(wrist, self.arm_length, self.settings))
-        if self.offset == 0.0:
-            return table
         if self.span <= 1e-12:
             return table
         remaining = min(1.0, math.dist(wrist.tolist(), self.target.tolist()) / self.span)
         limit = self.settings.chest_rotation_max
-        return min(max(table + self.offset * remaining, -limit), limit)
+        handed = min(max(table + self.offset * remaining, -limit), limit)
+        recruited = phased(1.0 - remaining, self.settings.chest_phase_delay)
+        return self.start_rotation + (handed - self.start_rotation) * float(recruited)

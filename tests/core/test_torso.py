@@ -87,6 +87,16 @@ def test_chest_path_hands_over_from_the_start_rotation_to_table_1():
     line = start + np.linspace(0, 1, 201)[:, None] * (target - start)
     values = np.array([path(p) for p in line])
     assert np.abs(np.diff(values)).max() < 1.0                   # no jump along the way
-    # a start that already agrees with Table 1 is plain Table 1
-    agreeing = ChestPath(0.58, s, start, body_rotation_deg(start, 0.58, s), target)
-    assert agreeing(line[100]) == pytest.approx(body_rotation_deg(line[100], 0.58, s))
+    # phased: the chest keeps its start rotation until the wrist is chest_phase_delay of
+    # the way to the target, then follows the minimum-jerk profile of the rest
+    theta0 = body_rotation_deg(start, 0.58, s)
+    agreeing = ChestPath(0.58, s, start, theta0, target)
+    progress = 1.0 - np.linalg.norm(line - target, axis=1) / np.linalg.norm(start - target)
+    early = int(np.flatnonzero(progress < 0.9 * s.chest_phase_delay)[-1])
+    assert agreeing(line[early]) == pytest.approx(theta0)
+    mid = line[150]
+    p = (progress[150] - s.chest_phase_delay) / (1.0 - s.chest_phase_delay)
+    recruited = 10 * p**3 - 15 * p**4 + 6 * p**5
+    assert agreeing(mid) == pytest.approx(theta0 + (body_rotation_deg(mid, 0.58, s) - theta0)
+                                          * recruited)
+    assert agreeing(target) == pytest.approx(body_rotation_deg(target, 0.58, s))
