@@ -587,8 +587,8 @@ def hand_shape(armature, hand_name, forearm_len):
     and the farthest joint from the axis. A hand with no fingers points along its bone and
     is 0.74 forearm long (Drillis & Contini), its spread 0.
 
-    So the capsule the planner keeps clear holds every finger joint, and the direction it
-    plans for is the one the bake turns: the keyed fingers are where the plan put them."""
+    The direction the planner plans for is the one the bake turns, so the keyed hand is
+    where the plan put it."""
     mw = np.array(armature.matrix_world)
     pb = armature.pose.bones[hand_name]
     kids = [b for b in pb.children_recursive if not set(tokens(b.name)) & _HELPER]
@@ -653,7 +653,8 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
         _skin_radius(armature, {arm_bones.hand}, wrist, wrist + hand_axis * lh, 0.18 * lh),
     )
     # the hand's capsule: its palm skin, or half the fingers' spread about its axis if more
-    # (a capsule round a spread thumb would make the hand a ball)
+    # (one capsule round a spread thumb would make the hand a ball that fits nowhere: the
+    # thumb's tip may stand out of it; see the README's Limitations)
     radii = (float(np.clip(radii[0], 0.08 * l1, 0.3 * l1)), float(np.clip(radii[1], 0.08 * l2, 0.3 * l2)),
              float(np.clip(max(radii[2], 0.5 * spread), 0.1 * lh, 0.35 * lh)))
     h = half

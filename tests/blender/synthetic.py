@@ -31,8 +31,9 @@ Options:
 - ``lying=True``: the rest pose itself lies on its back: every bone is built rotated −90°
   about X, (x, y, z) → (x, z, −y), with the object unrotated. In world space (facing −Y) the
   body's up is +Y, its front (forward) +Z and its right −X.
-- ``skin``: a mesh of one small box around each skeleton bone, parented to the armature with
-  an Armature modifier and one vertex group per bone (weight 1).
+- ``skin``: a mesh of one box around each skeleton bone (half-width ``skin_radius``, 4 cm
+  by default; larger for a bulky character), parented to the armature with an Armature
+  modifier and one vertex group per bone (weight 1).
 - ``decoy``: a second arm chain lying exactly on each deform arm (upper arm to hand, both
   sides), parented where the upper arm is, no deform, no vertex groups:
 
@@ -270,7 +271,7 @@ def to_world(p, *, facing="-Y", lying=False) -> np.ndarray:
 # --- building ---------------------------------------------------------------------------------
 
 def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, decoy=None,
-             clavicle=True, twist=False, name="Humanoid"):
+             clavicle=True, twist=False, name="Humanoid", skin_radius=0.04):
     """Build the humanoid (see the module docstring) in the current scene; returns the
     armature object, active and in Object Mode."""
     if decoy not in (None, "ik", "twin", "driver"):
@@ -323,7 +324,8 @@ def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, dec
             c = arm.pose.bones[deform].constraints.new("COPY_TRANSFORMS")
             c.target, c.subtarget, c.influence = arm, control, 1.0
     if skin:
-        _add_skin(arm, [(bone_of[key], local(h), local(t)) for key, h, t, _p in segs], 0.04 / scale)
+        _add_skin(arm, [(bone_of[key], local(h), local(t)) for key, h, t, _p in segs],
+                  skin_radius / scale)
     bpy.context.view_layer.objects.active = arm
     bpy.context.view_layer.update()
     return arm

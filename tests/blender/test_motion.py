@@ -1,0 +1,161 @@
+"""The baked motion as an animator sees it, on real rigs and a bulky synthetic character:
+evaluated by Blender at 4 instants per frame (``frame_set(f, subframe=s)``) and checked with
+geometry that shares nothing with the planner.
+
+Each scene is built around the rig in its own body frame and scaled by its own arm: a plate
+across the straight path (``rigs.plate_scene``), and a ledge the hand must reach over. At
+every instant:
+
+* every bone of the arm and of the hand, finger bones included, stays clear of the
+  obstacles' triangles (exact distances, numpy);
+* the hand's direction relative to the forearm (the forearm bone's own matrix, as Blender
+  evaluates it) turns at most the hand turn speed limit per frame;
+* at every keyed frame the keyed hand is the planned hand: the wrist where the plan has it,
+  the hand's axis (wrist to the mean of its finger joints) along the plan's.
+"""
+
+import bpy
+import numpy as np
+import pytest
+import rigs
+import synthetic
+from geometry import angle_deg, point_triangle_distance
+from test_bake import triangles
+
+INSTANTS = (0.0, 0.25, 0.5, 0.75)
+HELPER = ("_end", "ik", "fk", "pole", "tweak", "mch", "org", "ctrl")
+
+
+def bulky():
+    """A synthetic character with thick limbs (skin 7.5 cm from every bone, an arm of 0.54 m:
+    the forearm's radius is about a seventh of the arm)."""
+    rigs.empty_file()
+    return synthetic.humanoid(synthetic.MIXAMO, skin_radius=0.075, name="Bulky")
+
+
+def load(kind):
+    if kind == "bulky":
+        return bulky()
+    arm = rigs.load(kind)
+    rigs.rest_still(arm)
+    return arm
+
+
+def ledge_scene(info):
+    """A ledge in front of the reaching side at wrist height of a forward reach: a box
+    from below the start wrist up to just under the shoulder, and the target behind its far
+    edge, so the hand must go up and over it."""
+    f, length = info.frame, info.arm.arm_length
+    side = f.right if info.side == "right" else -f.right
+    shoulder = info.joints_world["shoulder"]
+    top = shoulder - 0.25 * length * f.up
+    centre = top - 0.3 * length * f.up + 0.45 * length * f.forward + 0.1 * length * side
+    rot = np.column_stack([f.right, f.forward, f.up])
+    ledge = rigs.add_box("Ledge", centre, (0.6 * length, 0.12 * length, 0.6 * length), rot)
+    target = rigs.add_target("Cup", top + 0.15 * length * f.up + 0.62 * length * f.forward
+                             + 0.1 * length * side)
+    return target, ledge
+
+
+def hand_bones(armature, hand):
+    """The hand bone and every bone below it that is not a helper."""
+    out = [hand]
+    for b in armature.pose.bones[hand].children_recursive:
+        if not any(t in b.name.lower() for t in HELPER):
+            out.append(b.name)
+    return out
+
+
+def segments(armature, names):
+    """World (head, tail) of pose bones as Blender evaluates them now."""
+    mw = np.array(armature.matrix_world)
+    pts = []
+    for n in names:
+        pb = armature.pose.bones[n]
+        pts.append((mw[:3, :3] @ np.array(pb.head) + mw[:3, 3],
+                    mw[:3, :3] @ np.array(pb.tail) + mw[:3, 3]))
+    return pts
+
+
+def segment_distance(p, q, tris, spacing):
+    n = max(2, int(np.ceil(np.linalg.norm(q - p) / spacing)) + 1)
+    pts = p + np.linspace(0, 1, n)[:, None] * (q - p)
+    return float(point_triangle_distance(pts, tris).min())
+
+
+def hand_in_forearm(armature, forearm, bones):
+    """The hand's direction (wrist → mean of its finger joints) in the forearm bone's frame."""
+    mw = np.array(armature.matrix_world)
+    rot = mw[:3, :3] @ np.array(armature.pose.bones[forearm].matrix)[:3, :3]
+    rot /= np.linalg.norm(rot, axis=0)
+    segs = segments(armature, bones)
+    wrist = segs[0][0]
+    pts = np.array([p for s in segs[1:] for p in s]) if len(segs) > 1 else np.array([segs[0][1]])
+    d = pts.mean(0) - wrist
+    return rot.T @ (d / np.linalg.norm(d))
+
+
+@pytest.mark.parametrize("scene", ["plate", "ledge"])
+@pytest.mark.parametrize("kind", rigs.RIGS + ("bulky",))
+def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, scene):
+    armature = load(kind)
+    info = addon.blender.rig.build(armature, "right")
+    if scene == "plate":
+        target, obstacle = rigs.plate_scene(info, armature)
+    else:
+        target, obstacle = ledge_scene(info)
+    tris = triangles(obstacle)
+    request = addon.blender.pipeline.Request(armature=armature.name, targets=[target.name],
+                                             side="right", frame_start=1)
+    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
+    res = outcome.results[0]
+    assert res.success, res.message
+    plan, first = outcome.plans[0]
+    length = info.arm.arm_length
+    s = request.settings
+    fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
+    bones = info.bones.arms["right"]
+    chain = [bones.upper_arm, bones.forearm]
+    hand = hand_bones(armature, bones.hand)
+    planned = plan.world_joints()
+    spacing = 0.005 * length
+    # Rigify's chest control spreads its turn over the spine's own pivots, not the spine
+    # axis the plan turns the shoulders about: with the chest turned the arm is off the
+    # plan by about a centimetre per degree (README, Limitations), so there it is compared
+    # only where the chest has not turned, to a percent (the FK controls' own offsets);
+    # every other rig follows the plan to half a percent everywhere
+    chest_free = kind == "rigify"
+
+    scene_ = bpy.context.scene
+    worst, worst_at, prev_dir, turns = np.inf, None, None, []
+    for f in range(res.frame_start, res.frame_end + 1):
+        for sub in INSTANTS if f < res.frame_end else (0.0,):
+            scene_.frame_set(f, subframe=sub)
+            for name, (p, q) in zip(chain + hand, segments(armature, chain + hand)):
+                d = segment_distance(p, q, tris, spacing)
+                if d < worst:
+                    worst, worst_at = d, (f, sub, name)
+            chest = abs(plan.poses[f - first].config.body_rotation)
+            if sub == 0.0 and (not chest_free or chest < 0.1):
+                # the keyed hand is the planned hand: the wrist where the plan has it, and
+                # the hand's axis (wrist → mean of its finger joints) along the plan's hand
+                j = planned[f - first]
+                segs = segments(armature, hand)
+                wrist = segs[0][0]
+                pts = np.array([x for seg in segs[1:] for x in seg]) if len(segs) > 1 \
+                    else np.array([segs[0][1]])
+                assert np.linalg.norm(wrist - j[3]) <= (0.01 if chest_free else 0.005) * length, \
+                    f"frame {f}: the keyed wrist is off the plan's"
+                off = angle_deg(pts.mean(0) - wrist, j[4] - j[3])
+                assert off <= 2.0, f"frame {f}: the keyed hand is {off:.1f}° off the plan's"
+            if sub == 0.0:
+                now = hand_in_forearm(armature, bones.forearm, hand)
+                if prev_dir is not None:
+                    turns.append(angle_deg(prev_dir, now))
+                prev_dir = now
+    assert worst > 0.0, f"{worst_at}: a bone passes through the {obstacle.name}"
+    assert max(turns) <= s.hand_turn_speed / fps + 2.0, \
+        f"the hand turns {max(turns):.1f}° relative to the forearm in one frame"
+    st = res.stats
+    assert st["touching_transitions"] == 0 and st["unbounded_hand_turns"] == 0
+    assert 0.0 <= st["mean_wrist_bend_deg"] <= st["max_wrist_bend_deg"]
