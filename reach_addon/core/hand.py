@@ -143,7 +143,7 @@ class HandPass:
     BANS_BEFORE_REFINING = 4
 
     def __init__(self, generators, fps: float, may_insert: bool = True, arcs=None,
-                 sampler=None):
+                 sampler=None, escape=None):
         self.generators = generators
         gen = generators[0] if isinstance(generators, list) else generators
         self.arm, self.settings = gen.arm, gen.settings
@@ -152,9 +152,14 @@ class HandPass:
         # where the frames lie on the validated path, and a way to put poses between them
         self.arcs = None if arcs is None or sampler is None else list(arcs)
         self.sampler = sampler
+        # (generator, arc length): frames before that arc are the way out of a start in
+        # contact, checked with that (thinner arm's) generator (core.contact)
+        self.escape = escape if self.arcs is not None else None
         self._clear: set = set()
 
     def _gen(self, k):
+        if self.escape is not None and self.arcs[min(k, len(self.arcs) - 1)] < self.escape[1]:
+            return self.escape[0]
         g = self.generators
         return g[min(k, len(g) - 1)] if isinstance(g, list) else g
 
@@ -233,8 +238,14 @@ class HandPass:
 
     # --- the pieces -------------------------------------------------------------------
     def _feasible(self, k, pose: Pose, grid: HandGrid) -> np.ndarray:
-        return self._gen(k).hands_clear(pose.joints, pose.bend, pose.config.body_rotation,
-                                        grid.coefficients)
+        clear = self._gen(k).hands_clear(pose.joints, pose.bend, pose.config.body_rotation,
+                                         grid.coefficients)
+        if self.escape is not None and self.arcs[min(k, len(self.arcs) - 1)] < self.escape[1]:
+            # on the way out of a start in contact the hand keeps the escape's own, which
+            # only ever gets farther from what it touched: the states nearest it
+            turn = wrist_turn(grid.coefficients, np.array(hand_coefficients(*pose.hand)))
+            clear &= turn <= max(float(turn.min()), 0.5 * self.settings.hand_grid_step) + 1e-9
+        return clear
 
     def _dp(self, poses, grid: HandGrid, feasible, banned, lifted):
         """(least-cost state path (a state index per frame), None), or (None, (k,
@@ -376,8 +387,8 @@ class HandPass:
 
 
 def plan_hand(generators, poses, fps: float, may_insert: bool = True, arcs=None,
-              sampler=None) -> HandReport:
+              sampler=None, escape=None) -> HandReport:
     """Run the hand pass over ``poses`` (see the module docstring); ``arcs`` and
     ``sampler`` (from :func:`~reach_addon.core.motion.time_path`) let it slow down along
     the validated path."""
-    return HandPass(generators, fps, may_insert, arcs, sampler).run(poses)
+    return HandPass(generators, fps, may_insert, arcs, sampler, escape).run(poses)

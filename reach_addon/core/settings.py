@@ -141,6 +141,15 @@ class Settings:
         "bend): the hand may move to the next sample but never flips across the wrist's "
         "range, which no timing could make smooth", "motion", 5.0, 180.0, "deg")
 
+    start_contact_depth: float = _f(
+        0.1, "Start contact tolerance", "A start pose closer to an obstacle than the "
+        "clearance (a hand resting on a table) first moves out of contact, every step "
+        "farther from it; it is refused only when the arm's or hand's capsule starts deeper "
+        "inside an obstacle than this. About 6 cm on an adult, a hand's thickness: the "
+        "capsules stand out of the skin by up to that (a hand's capsule is round, the hand "
+        "flat), so a hand lying on a table sinks its capsule that far; a joint inside a "
+        "closed obstacle is refused whatever this is", "collision", 0.0, 0.5, "arm lengths")
+
     # --- collisions -------------------------------------------------------------------------
     clearance: float = _f(0.02, "Clearance", "Margin kept between arm and obstacles",
                           "collision", 0.0, 0.5, "arm lengths")

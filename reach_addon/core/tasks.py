@@ -30,6 +30,7 @@ import numpy as np
 
 from .arm import ArmConfig, ArmModel, Pose
 from .collision import Obstacles
+from .contact import depth_message, escape, start_clearance
 from .errors import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
                      ReachError, require_finite)
 from .generator import ConfigurationGenerator
@@ -266,26 +267,54 @@ class Planner:
         plan.stats.planning_time_s = time.perf_counter() - t0
         return plan
 
-    def _start_failure(self, task: Task, start: Pose, problem) -> Plan:
+    def _start_failure(self, task: Task, start: Pose, problem, msg: str | None = None) -> Plan:
         part, obstacle = problem
-        msg = (f"the start pose already touches '{obstacle}' (at the {part}); move the arm "
-               "or the obstacle apart, or lower the clearance, before planning")
+        msg = msg or (f"the start pose already touches '{obstacle}' (at the {part}); move the "
+                      "arm or the obstacle apart, or lower the clearance, before planning")
         segs = [Segment(i, task.name(i), task.targets[i], False, START_IN_COLLISION, msg, 0, 0,
                         Stats(), np.zeros((0, 3)), np.zeros((0, 3)))
                 for i in range(1 if task.kind == "chase" else len(task.targets))]
         return Plan(task, self.arm, self.settings, [start], segs, Stats(frames=1))
 
+    def _start_escape(self, task: Task, start: Pose):
+        """(None, None) if the start is clear; (Escape, None) for a start in contact that
+        moves out of it (:mod:`~reach_addon.core.contact`); (None, failed Plan) if the
+        start is too deep or finds no way out."""
+        gen = self.generator
+        problem = gen.start_problem(start)
+        if problem is None:
+            return None, None
+        part, obstacle = problem
+        if part == "sternum":
+            return None, self._start_failure(task, start, problem)
+        length = self.arm.arm_length
+        depth = -start_clearance(gen, start) / length
+        limit = self.settings.start_contact_depth
+        world = self.arm.to_world_points(start.joints)
+        axis = [world[a] + t * (world[b] - world[a]) for a, b in ((1, 2), (2, 3), (3, 4))
+                for t in (0.0, 0.5, 1.0)]
+        if any(self.obstacles.point_inside(p) for p in axis):
+            depth = math.inf                     # a joint inside a closed obstacle
+        if depth > limit:
+            return None, self._start_failure(task, start, problem,
+                                             depth_message(obstacle, part, depth, limit))
+        way_out = escape(gen, start, obstacle)
+        if way_out is None:
+            return None, self._start_failure(task, start, problem)
+        return way_out, None
+
     def _reaches(self, task: Task, start: Pose, guided: bool, chunk: int):
-        problem = self.generator.start_problem(start)
-        if problem is not None:
-            return self._start_failure(task, start, problem)
+        way_out, failed = self._start_escape(task, start)
+        if failed is not None:
+            return failed
         poses = [start]
         segments = []
         total = Stats()
         n = len(task.targets)
         for i, target in enumerate(task.targets):
             steps = self._reach_segment(task, i, poses[-1], target, guided,
-                                        frame_start=len(poses) - 1, chunk=chunk)
+                                        frame_start=len(poses) - 1, chunk=chunk,
+                                        way_out=way_out if i == 0 else None)
             seg, seg_poses = yield from _progress(steps, i, n, task.name(i))
             poses += seg_poses[1:]
             segments.append(seg)
@@ -295,8 +324,14 @@ class Planner:
                     self._workspace)
 
     def _reach_segment(self, task: Task, i: int, start: Pose, target_w, guided: bool,
-                       frame_start: int, chunk: int = 0):
+                       frame_start: int, chunk: int = 0, way_out=None):
+        """One target's reach from ``start``; with ``way_out`` (an
+        :class:`~reach_addon.core.contact.Escape` from ``start``) the search starts where
+        the escape ends and the motion leads with it."""
         s, arm, gen = self.settings, self.arm, self.generator
+        first = start
+        if way_out is not None:
+            start = way_out.poses[-1]
         length = arm.arm_length
         name = task.name(i)
         target = arm.to_canonical_points(target_w)
@@ -345,14 +380,18 @@ class Planner:
 
         gen = gen.for_reach(start, target)
         dense = shortcut(gen, result.path) if s.smoothing else list(result.path)
+        lead = [] if way_out is None else way_out.poses[:-1]
+        dense = lead + dense
         wrist_length = wrist_path_length(dense) / length
         if len(dense) < 2:
-            seg_poses, arcs, sampler = [start], [0.0], None
+            seg_poses, arcs, sampler = [first], [0.0], None
         else:
             duration = task.duration_s or auto_duration(wrist_length, s)
             frames = max(2, int(round(duration * task.fps)) + 1)
             seg_poses, arcs, sampler = time_path(gen, dense, frames)
-        hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler)
+        loose = None if way_out is None or sampler is None else \
+            (way_out.generator, float(sampler.cum[len(lead)]))
+        hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler, escape=loose)
         seg_poses = hand.poses
         self._motion_stats(stats, seg_poses, wrist_length, hand)
         seg = Segment(i, name, np.asarray(target_w, float), result.success, reason, message,

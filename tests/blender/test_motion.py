@@ -159,3 +159,50 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
     st = res.stats
     assert st["touching_transitions"] == 0 and st["unbounded_hand_turns"] == 0
     assert 0.0 <= st["mean_wrist_bend_deg"] <= st["max_wrist_bend_deg"]
+
+
+@pytest.mark.parametrize("kind", ["quaternius", "gomakehuman"])
+def test_fingertips_a_centimetre_from_a_wall_start_out_of_contact(fresh, addon, kind):
+    """A start within the clearance of a wall is planned out of contact (it used to be
+    refused): the hand's bones get no nearer the wall on the way out, and nothing passes
+    through it at any instant."""
+    armature = load(kind)
+    info = addon.blender.rig.build(armature, "right")
+    f, length = info.frame, info.arm.arm_length
+    bones = info.bones.arms["right"]
+    hand = hand_bones(armature, bones.hand)
+    side = f.right if info.side == "right" else -f.right
+    # the wall's face half a centimetre (on an adult) beyond the arm's outermost surface
+    # at the side: the fingers, and the forearm's and hand's thickness
+    a = info.arm
+    tips = np.array([x for seg in segments(armature, hand) for x in seg])
+    w, e = info.joints_world["wrist"], info.joints_world["elbow"]
+    outer = max(float((tips @ side).max()), float(w @ side) + max(a.forearm_radius, a.hand_radius),
+                float(e @ side) + max(a.forearm_radius, a.upper_arm_radius))
+    face = outer + 0.005 * length / 0.58
+    centre = w + side * (face - float(w @ side) + 0.02 * length)
+    wall = rigs.add_box("Wall", centre, (0.04 * length, 0.8 * length, 0.8 * length),
+                        np.column_stack([f.right, f.forward, f.up]))
+    tris = triangles(wall)
+    start = min(segment_distance(p, q, tris, 0.002 * length) for p, q in segments(armature, hand))
+    assert start < request_margin(addon) * length, "the fingertips must start within the clearance"
+    target = rigs.add_target("Cup", info.joints_world["shoulder"] + 0.65 * length * f.forward
+                             - 0.1 * length * f.up)
+    request = addon.blender.pipeline.Request(armature=armature.name, targets=[target.name],
+                                             side="right", frame_start=1)
+    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
+    res = outcome.results[0]
+    assert res.success, res.message
+    near = []
+    for fr in range(res.frame_start, res.frame_end + 1):
+        for sub in INSTANTS if fr < res.frame_end else (0.0,):
+            bpy.context.scene.frame_set(fr, subframe=sub)
+            near.append(min(segment_distance(p, q, tris, 0.002 * length)
+                            for p, q in segments(armature, [bones.upper_arm, bones.forearm] + hand)))
+    assert min(near) > 0.0, "a bone passes through the wall"
+    clear_at = next(i for i, d in enumerate(near) if d >= request_margin(addon) * length)
+    assert all(b >= a - 0.001 * length for a, b in zip(near[:clear_at], near[1:clear_at + 1]))
+
+
+def request_margin(addon):
+    return addon.core.Settings().clearance

@@ -1,0 +1,94 @@
+"""Starting in contact: a hand resting on a table, fingertips a centimetre from a wall.
+
+A start pose closer to an obstacle than the clearance used to be refused. It is a normal
+start, though, so Reach first moves out of contact and then plans as usual:
+
+* **How deep.** The start's clearance is measured (:meth:`CollisionChecker.clearance`:
+  the least distance between the arm's and hand's capsules and the obstacles, negative
+  inside). Deeper than ``Settings.start_contact_depth`` the start is refused, naming the
+  obstacle and the depth: the rig (or the scene) is then really wrong.
+* **Out of contact.** Otherwise a generator for a thinner arm (every radius less by as
+  much as the start lacks, so the start is clear for it) takes steps of the search's
+  length, at each the one (of the search's candidate directions, with the hand kept
+  continuous and the chest still) that most increases the real arm's clearance, until the real arm is clear
+  with the whole margin. Every step must increase it: the first moves of the motion only
+  ever get farther from what the arm touched. At most ``max_steps`` steps.
+
+The escape's poses lead the motion; the hand pass checks their frames with the thinner arm
+(:class:`~reach_addon.core.hand.HandPass`), every later frame with the real one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from .arm import Pose
+from .generator import ConfigurationGenerator
+from .search import sphere_directions
+
+
+@dataclasses.dataclass
+class Escape:
+    """The way out of a start in contact: ``poses`` (the start first, the last clear with
+    the whole margin), the thinner arm's ``generator``, the start's clearance and the
+    obstacle it touched."""
+
+    poses: list
+    generator: ConfigurationGenerator
+    start_clearance: float
+    obstacle: str
+
+
+def start_clearance(generator: ConfigurationGenerator, pose: Pose) -> float:
+    """The least distance (figure units) between the pose's capsules (arm and hand, without
+    the margin) and the obstacles; negative where a capsule is inside one."""
+    return generator.checker.clearance(generator.arm.to_world_points(pose.joints),
+                                       generator.arm.arm_length)
+
+
+def thinner(generator: ConfigurationGenerator, by: float) -> ConfigurationGenerator:
+    """A generator for the same arm with every capsule's radius less by ``by`` (kept at
+    least a tenth of itself)."""
+    arm = generator.arm
+    radii = {k: max(getattr(arm, k) - by, 0.1 * getattr(arm, k))
+             for k in ("upper_arm_radius", "forearm_radius", "hand_radius")}
+    return ConfigurationGenerator(dataclasses.replace(arm, **radii), generator.obstacles,
+                                  generator.settings)
+
+
+def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
+           max_steps: int = 40) -> Escape | None:
+    """Move out of contact (see the module docstring), or None if every step from
+    somewhere on the way fails to increase the clearance."""
+    arm, margin = generator.arm, generator.checker.margin
+    c0 = start_clearance(generator, start)
+    loose = thinner(generator, margin - min(c0, margin) + 1e-3 * arm.arm_length)
+    offsets = generator.step_length * sphere_directions(int(generator.settings.directions))
+    poses, clearance = [start], c0
+    for _ in range(max_steps):
+        if not generator.checker.collides(arm.to_world_points(poses[-1].joints)):
+            return Escape(poses, loose, c0, obstacle)
+        prev = poses[-1]
+        best, best_c = None, clearance
+        for w in prev.wrist + offsets:
+            pose = loose.solve(w, prev, body_rotation=prev.config.body_rotation,
+                               hand_scale=1.0)
+            if pose is None:
+                continue
+            c = start_clearance(generator, pose)
+            if c > best_c + 1e-9:
+                best, best_c = pose, c
+        if best is None:
+            return None
+        poses.append(best)
+        clearance = best_c
+    return None
+
+
+def depth_message(obstacle: str, part: str, depth: float, limit: float) -> str:
+    """Why a start in contact is refused: how deep it is, and what to do."""
+    how = "inside" if depth == float("inf") else f"{depth:.2f} arm lengths into"
+    return (f"the start pose is {how} '{obstacle}' (at the {part}), deeper than the "
+            f"{limit:.2f} arm lengths a start may touch (Start contact tolerance); move the "
+            "arm or the obstacle apart before planning")
+

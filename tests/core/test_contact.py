@@ -1,0 +1,95 @@
+"""Starting in contact (core.contact): a hand resting on a table or fingertips a centimetre
+from a wall is planned out of contact, every early frame farther from it; a start deeper
+than the tolerance is refused, naming the obstacle. Checked by the independent exact
+distances of tests/geometry.py."""
+
+import numpy as np
+import pytest
+
+from geometry import HANGING, arm_penetration, obstacles, standard_arm, triangles_of
+from reach_addon.core import START_IN_COLLISION, Planner, Settings, Task
+
+TARGET = np.array([-0.30, -0.42, 1.12])      # in front, at chest height
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return standard_arm()
+
+
+def start_joints(arm):
+    return arm.to_world_points(Planner(arm, None).generator.config_pose(HANGING).joints)
+
+
+def slab_under(point, below, half=0.15, thick=0.04):
+    """A table top whose upper face is ``below`` under ``point``."""
+    top = point[2] - below
+    return {"Table": [((point[0] - half, point[1] - half, top - thick),
+                       (point[0] + half, point[1] + half, top))]}
+
+
+def wall_before(point, gap, direction, half=0.2, thick=0.04):
+    """A wall across ``direction`` (a unit axis, ±x or ±y) ``gap`` beyond ``point``."""
+    lo, hi = point - half, point + half
+    axis = int(np.flatnonzero(direction)[0])
+    sign = float(direction[axis])
+    face = point[axis] + sign * gap
+    lo[axis], hi[axis] = (face, face + thick) if sign > 0 else (face - thick, face)
+    return {"Wall": [(tuple(lo), tuple(hi))]}
+
+
+def check_way_out(arm, plan, scene, settings):
+    tris = triangles_of(scene)
+    depth = [arm_penetration(arm, j, tris) for j in plan.world_joints()]
+    margin = settings.clearance * arm.arm_length
+    out = next(i for i, d in enumerate(depth) if d >= margin - 1e-3)
+    assert out > 0, "the start was in contact"
+    # the first frames only ever get farther from what the arm touched ...
+    assert all(b >= a - 1e-4 for a, b in zip(depth[:out], depth[1:out + 1])), depth[:out + 1]
+    # ... and once clear it stays clear
+    assert min(depth[out:]) >= 0.0
+
+
+def test_a_hand_resting_on_a_table_moves_off_it_first(arm):
+    tip = start_joints(arm)[4]
+    scene = slab_under(tip, 0.5 * arm.hand_radius)        # the hand's capsule sinks in
+    s = Settings()
+    plan = Planner(arm, obstacles(scene), s).plan(Task("reach", TARGET[None], HANGING))
+    assert plan.success, plan.message
+    assert np.linalg.norm(plan.wrist_trajectory()[-1] - TARGET) <= s.goal_tolerance * arm.arm_length
+    check_way_out(arm, plan, scene, s)
+
+
+def test_fingertips_a_centimetre_from_a_wall(arm):
+    joints = start_joints(arm)
+    tip = joints[4]
+    # the wall beside the hanging hand, on its outer side, a centimetre from the fingertips
+    scene = wall_before(tip, 0.01, np.array([-1.0, 0.0, 0.0]))
+    s = Settings()
+    planner = Planner(arm, obstacles(scene), s)
+    assert planner.generator.start_problem(planner.generator.config_pose(HANGING)) is not None
+    plan = planner.plan(Task("reach", TARGET[None], HANGING))
+    assert plan.success, plan.message
+    check_way_out(arm, plan, scene, s)
+
+
+def test_a_start_deeper_than_the_tolerance_is_refused(arm):
+    tip = start_joints(arm)[4]
+    deep = 0.9 * arm.hand_radius                 # the capsule 0.05 arm lengths in, the tip not
+    scene = slab_under(tip, arm.hand_radius - deep)
+    strict = Settings(start_contact_depth=0.02)
+    assert deep > strict.start_contact_depth * arm.arm_length
+    plan = Planner(arm, obstacles(scene), strict).plan(Task("reach", TARGET[None], HANGING))
+    assert not plan.success and plan.reason == START_IN_COLLISION
+    assert "Table" in plan.message and "Start contact tolerance" in plan.message
+    assert len(plan.poses) == 1
+    # within the (default) tolerance the same start is planned out of contact
+    s = Settings()
+    plan = Planner(arm, obstacles(scene), s).plan(Task("reach", TARGET[None], HANGING))
+    assert plan.success, plan.message
+    check_way_out(arm, plan, scene, s)
+    # the fingers inside the table: refused whatever the tolerance
+    inside = slab_under(tip, -0.5 * arm.hand_radius)
+    plan = Planner(arm, obstacles(inside), Settings(start_contact_depth=0.5)).plan(
+        Task("reach", TARGET[None], HANGING))
+    assert plan.reason == START_IN_COLLISION and "inside 'Table'" in plan.message
