@@ -64,6 +64,7 @@ demo: setup
 bench: setup
 	$(PY) -m pip install --quiet -r requirements-bench.txt
 	$(PY) bench/run.py
+	$(PY) bench/readme.py
 
 # The extension zip: manifest + package + bundled presets staged into one folder, then
 # validated and built by Blender's own tool.

@@ -30,3 +30,12 @@ def test_lint_is_clean():
     result = subprocess.run([str(ruff), "check", "reach_addon", "tests"], cwd=ROOT,
                             capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_readme_performance_figures_are_the_bench_results():
+    """The README's Performance table is generated from bench/results.json
+    (bench/readme.py), so it cannot drift from what make bench measured."""
+    done = subprocess.run([sys.executable, str(ROOT / "bench" / "readme.py"), "--check"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, ("README.md's Performance table differs from "
+                                  "bench/results.json: run python bench/readme.py " + done.stderr)

@@ -336,6 +336,26 @@ def hand_angles(upper, bend, forearm, direction):
             float(np.degrees(np.arcsin(np.clip(d @ h, -1.0, 1.0)))))
 
 
+def hand_frame(pose: Pose) -> np.ndarray:
+    """The hand's orientation at a pose, columns (d, g, d × g): its direction d (wrist →
+    hand end) and the elbow's hinge axis made perpendicular to it, g — the frame the bake
+    turns the hand bone by, so its change from frame to frame is the hand's whole turn,
+    the roll of a twisting arm included."""
+    s, e, w, h = pose.joints[1], pose.joints[2], pose.joints[3], pose.joints[4]
+    d = (h - w) / max(float(np.linalg.norm(h - w)), 1e-12)
+    g = np.cross(e - s, pose.bend)
+    g = g - (g @ d) * d
+    g = g / max(float(np.linalg.norm(g)), 1e-12)
+    return np.stack([d, g, np.cross(d, g)], -1)
+
+
+def frame_turn(a: Pose, b: Pose) -> float:
+    """The angle (degrees) of the rotation that takes the hand of ``a`` to that of ``b``
+    (:func:`hand_frame`)."""
+    m = hand_frame(b) @ hand_frame(a).T
+    return float(np.degrees(np.arccos(np.clip((np.trace(m) - 1.0) / 2.0, -1.0, 1.0))))
+
+
 def forward_kinematics(arm: ArmModel, configs):
     """Joint positions (..., 5, 3) and bend directions (..., 3), canonical frame, for
     configurations (..., 5) = (body rotation, α, β, γ, elbow) in degrees.

@@ -148,6 +148,8 @@ class HandPass:
         gen = generators[0] if isinstance(generators, list) else generators
         self.arm, self.settings = gen.arm, gen.settings
         self.bound = self.settings.hand_turn_speed / fps
+        self.space_bound = self.settings.hand_space_turn_speed / fps
+        self._dirs: dict = {}
         self.may_insert = may_insert
         # where the frames lie on the validated path, and a way to put poses between them
         self.arcs = None if arcs is None or sampler is None else list(arcs)
@@ -247,6 +249,15 @@ class HandPass:
             clear &= turn <= max(float(turn.min()), 0.5 * self.settings.hand_grid_step) + 1e-9
         return clear
 
+    def _directions(self, pose: Pose, grid: HandGrid) -> np.ndarray:
+        """Every state's hand direction at ``pose`` (S, 3), canonical frame (rigid to
+        world, so its angles are the angles in space), kept per pose."""
+        d = self._dirs.get(id(pose))
+        if d is None:
+            d = grid.coefficients @ self._gen(0).hand_axes(pose.joints, pose.bend)
+            self._dirs[id(pose)] = d
+        return d
+
     def _dp(self, poses, grid: HandGrid, feasible, banned, lifted):
         """(least-cost state path (a state index per frame), None), or (None, (k,
         reachable)) with the first frame ``k`` no bounded, clear state can reach and the
@@ -261,8 +272,15 @@ class HandPass:
         cost[grid.start] = 0.0
         back = np.zeros((len(poses), n_states), dtype=np.int64)
         cols = np.arange(n_states)
+        space_cos = math.cos(math.radians(self.space_bound)) - 1e-12
         for k in range(1, len(poses)):
-            m = cost[:, None] + (free if k in lifted else edge)
+            if k in lifted:
+                m = cost[:, None] + free
+            else:
+                # the hand's direction in space may turn no faster either: the forearm's
+                # own turn counts there, and the hand turns against it if it must
+                near = self._directions(poses[k - 1], grid) @ self._directions(poses[k], grid).T
+                m = cost[:, None] + np.where(near >= space_cos, edge, np.inf)
             for i, j in banned.get(k, ()):
                 if i >= 0:
                     m[i, j] = np.inf

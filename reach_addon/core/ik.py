@@ -478,7 +478,7 @@ def _valid_bounds(st, previous: ArmConfig, body: float, flex: float, max_change:
         min(st.beta_max, previous.beta + max_change)
     if a_lo > a_hi or b_lo > b_hi:
         return None
-    twist = max_change / max(min(flex / 20.0, 1.0), 1e-9)
+    twist = max_change
     g_lo, g_hi, split = st.gamma_min, st.gamma_max, False
     if twist < 180.0:
         centre = (previous.gamma + 180.0) % 360.0 - 180.0
@@ -503,16 +503,12 @@ def _smooth_angles(previous: ArmConfig, body, angles, flex, max_change, m):
         if not (abs(flex - previous.elbow) <= max_change
                 and abs(body - previous.body_rotation) <= max_change):
             return np.zeros((1, angles.shape[2]), dtype=bool)
-        twist_limit = max_change / max(min(flex / 20.0, 1.0), 1e-9)
-        limit = np.array([[max_change], [max_change], [twist_limit]])
+        limit = np.array([[max_change], [max_change], [max_change]])
         wrist_ok = True
     else:
         wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
                     & (np.abs(body - previous.body_rotation) <= max_change))[:, None]
-        twist_limit = max_change / np.maximum(np.minimum(flex / 20.0, 1.0), 1e-9)
-        limit = np.empty((len(flex), 3, 1))
-        limit[:, :2] = max_change
-        limit[:, 2, 0] = twist_limit
+        limit = np.full((len(flex), 3, 1), float(max_change))
     d = np.abs(angles[:, :3] - np.array([[previous.alpha], [previous.beta], [previous.gamma]]))
     g = d[:, 2]
     np.remainder(g, 360.0, out=g)
@@ -609,24 +605,23 @@ def wrap_degrees(angle):
 def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
     """The smoothness bound: no joint angle changes by more than ``max_change`` degrees from
     ``previous``. Shapes: ``body``/``flex`` (W,) (or floats for one wrist), the shoulder
-    angles (W, S). The twist counts in proportion to elbow flexion up to 20° (a nearly
-    straight elbow hides its twist, which is then free to settle)."""
+    angles (W, S). The twist counts like the others even with a straight elbow, where the
+    arm's bones hide it: the hand's roll shows it (it used to be let free there, and a
+    straight arm rolled its hand 40-50° in one frame)."""
     if isinstance(flex, float) and isinstance(body, float):
         if not (abs(flex - previous.elbow) <= max_change
                 and abs(body - previous.body_rotation) <= max_change):
             return np.zeros(np.shape(alpha), dtype=bool)
-        twist_limit = max_change / max(min(flex / 20.0, 1.0), 1e-9)
         twist = np.abs((gamma - (previous.gamma - 180.0)) % 360.0 - 180.0)
         return ((np.abs(alpha - previous.alpha) <= max_change)
-                & (np.abs(beta - previous.beta) <= max_change) & (twist <= twist_limit))
+                & (np.abs(beta - previous.beta) <= max_change) & (twist <= max_change))
     else:
         flex = np.asarray(flex)
         wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
                     & (np.abs(np.asarray(body) - previous.body_rotation) <= max_change))[:, None]
-        twist_limit = (max_change / np.maximum(np.minimum(flex / 20.0, 1.0), 1e-9))[:, None]
     return (wrist_ok & (np.abs(alpha - previous.alpha) <= max_change)
             & (np.abs(beta - previous.beta) <= max_change)
-            & (np.abs(wrap_degrees(gamma - previous.gamma)) <= twist_limit))
+            & (np.abs(wrap_degrees(gamma - previous.gamma)) <= max_change))
 
 
 def body_capsules_at(arm: ArmModel, body: float):

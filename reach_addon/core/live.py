@@ -357,11 +357,11 @@ def chase_steps_per_frame(settings: Settings, fps: float) -> int:
     return max(1, int(settings.chase_max_speed / fps / settings.step + 1e-9))
 
 
-def chase_frame(generator, previous: Pose, target_c, steps: int):
+def chase_frame(generator, previous: Pose, target_c, steps: int, fps: float = 24.0):
     """One frame of a chase: a best-first search from ``previous`` toward ``target_c``
     (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
     along; returns (the pose committed, the search result)."""
-    return chase_step(generator, previous, target_c, steps)
+    return chase_step(generator, previous, target_c, steps, fps)
 
 
 def chase_steps(planners, task: Task, chunk: int = 1):
@@ -396,7 +396,7 @@ def chase_steps(planners, task: Task, chunk: int = 1):
         if chunk and f % chunk == 0:
             yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
         gen = planners[f].generator
-        nxt, res = chase_frame(gen, poses[-1], trajectory[f], steps)
+        nxt, res = chase_frame(gen, poses[-1], trajectory[f], steps, task.fps)
         stats.nodes_searched += res.nodes_searched
         stats.search_time_s += res.search_time_s
         stats.nodes_in_solution += min(steps, len(res.path) - 1)

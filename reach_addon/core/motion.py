@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from .arm import ArmConfig, Pose
+from .arm import ArmConfig, Pose, hand_frame
 from .generator import ConfigurationGenerator
 from .torso import minimum_jerk, phased  # noqa: F401  (the timing profile; re-exported)
 
@@ -34,15 +34,24 @@ def wrist_path_length(poses) -> float:
     return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()) if len(pts) > 1 else 0.0
 
 
+def roll_marker(pose: Pose, lever: float) -> np.ndarray:
+    """A point ``lever`` off the wrist across the hand (along the second axis of
+    :func:`~reach_addon.core.arm.hand_frame`): it moves when the arm rolls about its own
+    axis (a twist of a straight arm), which no joint position shows."""
+    return pose.joints[3] + lever * hand_frame(pose)[:, 1]
+
+
 def path_steps(poses) -> np.ndarray:
     """Length of each step of a pose sequence: how far the arm's farthest-moving point
-    goes — the elbow, the wrist or the hand's end (its joints in :attr:`Pose.joints`).
-    A hand that turns in place, or an elbow that swings round while the wrist hardly
-    moves, takes the time that move takes; the timing then never drives any part of the
-    arm faster than the speed profile."""
+    goes — the elbow, the wrist, the hand's end (its joints in :attr:`Pose.joints`), or
+    the side of the hand half its length off its axis (:func:`roll_marker`). A hand that
+    turns in place, an elbow that swings round while the wrist hardly moves, or a straight
+    arm that rolls, takes the time that move takes; the timing then never drives any part
+    of the arm faster than the speed profile."""
     if len(poses) < 2:
         return np.zeros(0)
-    j = np.array([p.joints[2:5] for p in poses])            # elbow, wrist, hand end
+    lever = 0.5 * float(np.linalg.norm(poses[0].joints[4] - poses[0].joints[3]))
+    j = np.array([np.vstack([p.joints[2:5], roll_marker(p, lever)]) for p in poses])
     return np.linalg.norm(np.diff(j, axis=0), axis=2).max(axis=1)
 
 

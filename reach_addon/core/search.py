@@ -56,7 +56,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .arm import Pose
+from .arm import Pose, frame_turn
 from .errors import NO_PATH
 from .generator import ConfigurationGenerator
 
@@ -314,18 +314,23 @@ class BestFirstSearch:
                             self.closest_distance, self.target, self.guides)
 
 
-def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int):
+def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int,
+               fps: float = 24.0):
     """One frame of a chase: a best-first search from ``previous`` toward ``target``
     (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
     along. The hand is kept continuous; where that does not reach the target and a search
     with the hand free does, or where it is stuck (not half a step nearer) and the free one
     gets a step nearer, the free one is taken. The pose committed is the farthest along
     the path (at most ``steps``) that the arm and hand reach clear as the keys interpolate
-    (:meth:`ConfigurationGenerator.transition_problem`). (The hand pass
+    (:meth:`ConfigurationGenerator.transition_problem`) and, unless that pose is on the
+    target, whose hand has turned (its roll included,
+    :func:`~reach_addon.core.arm.frame_turn`) no more than the hand turn speed in space
+    allows in a frame at ``fps``. (The hand pass
     then smooths the hand and reports what it could not). Returns (the pose committed,
     the search result, with the nodes of both searches counted)."""
     s = generator.settings
     view = generator.for_reach(previous, target)
+    turn = s.hand_space_turn_speed / fps       # the hand's whole turn in a frame, roll too
     results = []
     for continuity in (True, False):
         searcher = BestFirstSearch(view, previous, target,
@@ -339,6 +344,12 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
         k = min(steps, len(result.path) - 1)
         while k > 1 and view.transition_problem(previous, result.path[k]) is not None:
             k -= 1
+        on_target = result.success and k == len(result.path) - 1
+        if not on_target:
+            # while catching up, the hand turns (roll included) no faster than the limit;
+            # on the target, keeping to it wins (a chase follows its target)
+            while k > 1 and frame_turn(previous, result.path[k]) > turn:
+                k -= 1
         pose = result.path[k]
         results.append((math.dist(pose.wrist.tolist(), result.target.tolist()), pose, result))
         if result.success:

@@ -438,7 +438,7 @@ class Planner:
         for f in range(1, len(trajectory)):
             if chunk:
                 yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
-            nxt, res = chase_step(gen, poses[-1], trajectory[f], steps_per_frame)
+            nxt, res = chase_step(gen, poses[-1], trajectory[f], steps_per_frame, task.fps)
             stats.nodes_searched += res.nodes_searched
             stats.search_time_s += res.search_time_s
             stats.nodes_in_solution += min(steps_per_frame, len(res.path) - 1)

@@ -239,6 +239,13 @@ def result_lines(props) -> list:
         lines.append(f"  nodes {st['nodes_searched']} searched, {st['nodes_in_solution']} in path")
         lines.append(f"  path {st['path_length_arm_lengths']:.2f} arm lengths, "
                      f"mean f_R {st['mean_f_r']:.2f}")
+        if "mean_wrist_bend_deg" in st:
+            lines.append(f"  wrist bend {st['mean_wrist_bend_deg']:.0f}° mean, "
+                         f"{st['max_wrist_bend_deg']:.0f}° max; turn ≤ "
+                         f"{st['max_wrist_turn_deg_per_frame']:.0f}°/frame")
+            if st.get("touching_transitions") or st.get("unbounded_hand_turns"):
+                lines.append(f"  hand: {st['touching_transitions']} frame(s) touching between "
+                             f"keys, {st['unbounded_hand_turns']} turn(s) over the limit")
         if not t["success"]:
             lines.append("  " + t["message"])
     return lines + obstacle_lines(res)

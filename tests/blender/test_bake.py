@@ -94,6 +94,13 @@ def test_bake_reaches_round_an_obstacle_on_real_rigs(fresh, addon, kind):
     assert task["success"], task["message"]
     f0, f1 = task["frame_start"], task["frame_end"]
     assert f0 == 1 and f1 > f0 + 5
+    # the panel shows the wrist's bend and its largest turn per frame
+    st = task["stats"]
+    assert 0 <= st["mean_wrist_bend_deg"] <= st["max_wrist_bend_deg"]
+    lines = addon.ui.operators.result_lines(bpy.context.scene.reach)
+    assert f"  wrist bend {st['mean_wrist_bend_deg']:.0f}° mean, " \
+           f"{st['max_wrist_bend_deg']:.0f}° max; turn ≤ " \
+           f"{st['max_wrist_turn_deg_per_frame']:.0f}°/frame" in lines
 
     worst = np.inf
     for f in range(f0, f1 + 1):

@@ -1,0 +1,134 @@
+"""Write the README's Performance table from ``bench/results.json`` (``make bench`` runs
+this after ``bench/run.py``), so the figures there are the bench's, never copied by hand.
+
+    python bench/readme.py [--check]
+
+The table sits between the markers ``<!-- bench:start -->`` and ``<!-- bench:end -->``.
+``--check`` exits 1 if the README's table is not the one the results give.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+START, END = "<!-- bench:start -->", "<!-- bench:end -->"
+TASKS = ("collision_free", "rotation", "guided", "chase")
+
+
+def _per_task(rows, key, fmt="{:.0f}", scale=1.0):
+    by = {r["task"]: r for r in rows}
+    return " / ".join(fmt.format(scale * by[t][key]) if t in by and key in by[t] else "–"
+                      for t in TASKS)
+
+
+def _pairs(rows, a, b, joint, fmt="{:.0f}"):
+    """Per task "a<joint>b", tasks separated by " / "."""
+    by = {r["task"]: r for r in rows}
+    return " / ".join(f"{fmt.format(by[t][a])}{joint}{fmt.format(by[t][b])}" if t in by else "–"
+                      for t in TASKS)
+
+
+def _range(values, fmt="{:.1f}"):
+    values = [v for v in values if v is not None]
+    if not values:
+        return "–"
+    lo, hi = min(values), max(values)
+    return fmt.format(lo) if abs(hi - lo) < 1e-12 else f"{fmt.format(lo)}–{fmt.format(hi)}"
+
+
+def table(r: dict) -> str:
+    m = r["machine"]
+    t2, race = r.get("table2", []), r.get("ompl", [])
+    paper = {row["task"]: row for row in t2}
+    lines = [f"On the {m['cores']}-core {m['cpu']} machine of `bench/results.md` (Reach "
+             f"{r['reach_version']}, bpy {r['blender_version']}, medians of {r['runs']} runs, "
+             f"{r['date']}); tasks (a) collision-free, (b) rotation, (c) guided, (d) chase:",
+             "", "| figure | Reach | paper / goal |", "|---|---|---|"]
+    if t2:
+        lines.append(f"| Table 2 search (a–d) | {_per_task(t2, 'search_time_s', scale=1000)} ms | "
+                     + " / ".join(f"{1000 * paper[t]['paper_search_time_s']:.0f}" for t in TASKS
+                                  if t in paper) + " ms (paper, 2005 PC) |")
+        lines.append(f"| nodes searched (a–d) | {_per_task(t2, 'nodes_searched')} | "
+                     + " / ".join(str(paper[t]["paper_nodes_searched"]) for t in TASKS
+                                  if t in paper) + " |")
+        lines.append(f"| µs per node searched (a–d) | "
+                     f"{_per_task(t2, 'time_per_node_ms', scale=1000)} | different hardware and "
+                     "problem: " + " / ".join(
+                         f"{1e6 * paper[t]['paper_search_time_s'] / paper[t]['paper_nodes_searched']:.0f}"
+                         for t in TASKS if t in paper) + " (paper) |")
+        if all("planning_time_s" in row for row in t2):
+            lines.append(f"| whole plan: search, smoothing, timing, the hand (a–d) | "
+                         f"{_per_task(t2, 'planning_time_s', scale=1000)} ms | |")
+        prep = [row["preprocess_time_s"] * 1000 for row in t2 if row["preprocess_time_s"] > 0]
+        lines.append(f"| workspace preprocessing | {_range(prep, '{:.0f}')} ms | goal ≤ 60 ms |")
+        if all("max_wrist_turn_deg_per_frame" in row for row in t2):
+            lines.append(f"| the hand's largest turn in a frame, relative to the forearm (a–d) | "
+                         f"{_per_task(t2, 'max_wrist_turn_deg_per_frame', '{:.1f}')}° | "
+                         "bound 15° at 24 fps |")
+            lines.append(f"| … in space, the forearm's turn included (a–d) | "
+                         f"{_per_task(t2, 'max_hand_turn_deg_per_frame', '{:.1f}')}° | |")
+            lines.append(f"| mean wrist bend (a–d) | "
+                         f"{_per_task(t2, 'mean_wrist_bend_deg', '{:.1f}')}° | |")
+            lines.append(f"| transitions touching between keys, turns over the bound (a–d) | "
+                         f"{_pairs(t2, 'touching_transitions', 'unbounded_hand_turns', ', ')} "
+                         "| 0, 0 |")
+    if "chase_update_ms_p50" in r:
+        lines.append(f"| live update, p50 / p95 | {r['chase_update_ms_p50']:.1f} / "
+                     f"{r['chase_update_ms_p95']:.1f} ms | goal p95 ≤ 16 ms |")
+    if "bake_1000_frames_ms" in r:
+        lines.append(f"| bake, 1000 frames × {r['bake_bones']} bones (→ 8 bones) | "
+                     f"{r['bake_1000_frames_ms']:.0f} ms (→ {r['bake_1000x8_ms']:.0f} ms) | "
+                     "goal ≤ 50 ms for 8 bones |")
+    if r.get("scaling"):
+        sc = r["scaling"]
+        lines.append("| search against " + " / ".join(f"{s['triangles'] / 1000:,.0f}k" for s in sc)
+                     + " triangles | " + " / ".join(f"{1000 * s['search_time_s']:.0f}" for s in sc)
+                     + " ms | BVH build " + " / ".join(f"{1000 * s['bvh_build_time_s']:.0f}"
+                                                       for s in sc) + " ms |")
+    if "gather_10k_instances_ms" in r:
+        lines.append(f"| obstacles from a 10,000-instance scatter | "
+                     f"{r['gather_10k_instances_ms']:.0f} ms | |")
+    if "batch_1proc_s" in r:
+        lines.append(f"| {r.get('batch_tasks', '')}-task batch study, 1 → 2 worker processes | "
+                     f"{r['batch_1proc_s']:.1f} → {r['batch_2proc_s']:.1f} s "
+                     f"({r['batch_speedup_2proc']:.2f}×) | |")
+    if race:
+        lines.append("| vs OMPL RRTConnect (+ simplification): OMPL time / Reach's whole plan "
+                     f"(a–d) | {_per_task(race, 'time_ratio_ompl_over_reach', '{:.2f}')} | same "
+                     "problem, checker and clock |")
+        lines.append(f"| Reach / OMPL wrist path length (a–d) | "
+                     f"{_per_task(race, 'path_ratio_reach_over_ompl', '{:.2f}')} | |")
+        lines.append(f"| mean f_R, Reach vs OMPL (a–d) | "
+                     f"{_pairs(race, 'reach_mean_f_r', 'ompl_mean_f_r', ' vs ', '{:.2f}')} | |")
+        lines.append(f"| interpolated samples touching, Reach vs OMPL (a–d) | "
+                     f"{_pairs(race, 'reach_collisions', 'ompl_collisions', ' vs ')} | 0 |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--check", action="store_true")
+    parser.add_argument("--results", default=str(ROOT / "bench" / "results.json"))
+    args = parser.parse_args(argv)
+    results = json.loads(Path(args.results).read_text())
+    readme = ROOT / "README.md"
+    text = readme.read_text()
+    if START not in text or END not in text:
+        print(f"README.md has no {START} … {END} markers", file=sys.stderr)
+        return 2
+    head, rest = text.split(START, 1)
+    _old, tail = rest.split(END, 1)
+    new = f"{head}{START}\n{table(results)}\n{END}{tail}"
+    if args.check:
+        return 0 if new == text else 1
+    readme.write_text(new)
+    print("README.md: Performance table written from", args.results)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
