@@ -249,6 +249,23 @@ class HandPass:
             clear &= turn <= max(float(turn.min()), 0.5 * self.settings.hand_grid_step) + 1e-9
         return clear
 
+    #: Least weight of the ease at the very start of a move (a turn there costs at most
+    #: 1 / EASE_FLOOR² times more than at full speed).
+    EASE_FLOOR = 0.05
+
+    def _ease(self, k: int, n: int) -> float:
+        """How freely the hand may turn into frame ``k`` of ``n``, in the first half of a
+        move: the minimum-jerk speed there relative to its peak, 16 τ² (1 - τ)² at the
+        transition's middle, τ = (k - ½) / (n - 1), at least :attr:`EASE_FLOOR`; 1 in the
+        second half (the hand may relax as the reach ends) and in a chase (whose frames
+        are the target's)."""
+        if not self.may_insert or n < 3:
+            return 1.0
+        tau = (k - 0.5) / (n - 1)
+        if tau >= 0.5:
+            return 1.0
+        return max(self.EASE_FLOOR, min(1.0, 16.0 * tau * tau * (1.0 - tau) ** 2))
+
     def _directions(self, pose: Pose, grid: HandGrid) -> np.ndarray:
         """Every state's hand direction at ``pose`` (S, 3), canonical frame (rigid to
         world, so its angles are the angles in space), kept per pose."""
@@ -280,7 +297,13 @@ class HandPass:
                 # the hand's direction in space may turn no faster either: the forearm's
                 # own turn counts there, and the hand turns against it if it must
                 near = self._directions(poses[k - 1], grid) @ self._directions(poses[k], grid).T
-                m = cost[:, None] + np.where(near >= space_cos, edge, np.inf)
+                ok = near >= space_cos
+                # and it eases in with the motion: at the start of a move a turn costs as
+                # much more as the minimum-jerk speed there is below its peak, so the hand
+                # does not set off faster than the arm (the motion joins what came before
+                # without a jump in speed) unless clearance leaves it no other way
+                ease = self._ease(k, len(poses))
+                m = cost[:, None] + np.where(ok, edge / (ease * ease), np.inf)
             for i, j in banned.get(k, ()):
                 if i >= 0:
                     m[i, j] = np.inf

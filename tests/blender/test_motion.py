@@ -206,3 +206,54 @@ def test_fingertips_a_centimetre_from_a_wall_start_out_of_contact(fresh, addon, 
 
 def request_margin(addon):
     return addon.core.Settings().clearance
+
+
+def test_a_bake_after_existing_animation_joins_it_without_a_jump(fresh, addon):
+    """The user's animation moves the arm from its rest pose to another and holds there at
+    frame 12; a reach baked from frame 12 starts from that pose, hand included, and moves
+    off it as the animation arrived (at rest): no jump in position or in speed at the join,
+    and the user's keys before it are kept."""
+    armature = load("gomakehuman")
+    info0 = addon.blender.rig.build(armature, "right")
+    bones = info0.bones.arms["right"]
+    keyed = [bones.keyed(r) for r in ("upper_arm", "forearm", "hand")]
+    for name in keyed:
+        pb = armature.pose.bones[name]
+        pb.rotation_mode = "QUATERNION"
+        pb.keyframe_insert("rotation_quaternion", frame=1)
+    from mathutils import Quaternion
+    armature.pose.bones[keyed[1]].rotation_quaternion = Quaternion((1, 0, 0), 0.5)
+    armature.pose.bones[keyed[2]].rotation_quaternion = Quaternion((0, 0, 1), 0.4)
+    for name in keyed:
+        armature.pose.bones[name].keyframe_insert("rotation_quaternion", frame=12)
+    bpy.context.scene.frame_set(12)
+    info = addon.blender.rig.build(armature, "right")
+    target, _plate = rigs.plate_scene(info, armature)
+    before = {}
+    for f in (10, 11, 12):
+        bpy.context.scene.frame_set(f)
+        before[f] = segments(armature, [bones.forearm, bones.hand])
+    request = addon.blender.pipeline.Request(armature=armature.name, targets=[target.name],
+                                             side="right", frame_start=12)
+    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
+    res = outcome.results[0]
+    assert res.success, res.message
+    assert res.frame_start == 12
+    length = info.arm.arm_length
+    hand = hand_bones(armature, bones.hand)
+
+    def points(f):
+        bpy.context.scene.frame_set(f)
+        return np.array([x for seg in segments(armature, [bones.forearm] + hand) for x in seg])
+
+    # the user's frames before the join are as they were, and the join is where they end
+    for f in (10, 11, 12):
+        bpy.context.scene.frame_set(f)
+        now = segments(armature, [bones.forearm, bones.hand])
+        assert np.allclose(np.array(now), np.array(before[f]), atol=0.002 * length), f
+    # speed (fastest point of forearm and hand, arm lengths per frame) around the join
+    p = {f: points(f) for f in range(9, 16)}
+    speed = {f: float(np.linalg.norm(p[f] - p[f - 1], axis=1).max()) / length for f in range(10, 16)}
+    peak = max(float(np.linalg.norm(points(f) - points(f - 1), axis=1).max()) / length
+               for f in range(13, res.frame_end + 1))
+    assert speed[12] <= 0.1 * peak and speed[13] <= 0.1 * peak, (speed, peak)
