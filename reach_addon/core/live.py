@@ -61,7 +61,7 @@ from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .hand import plan_hand
 from .search import BestFirstSearch, SearchResult, chase_step
 from .settings import Settings
-from .tasks import Plan, Planner, Segment, Stats, Task, motion_stats
+from .tasks import Plan, Planner, Segment, Stats, Task, escape_frames, escape_of, motion_stats
 from .workspace import workspace_steps  # noqa: F401  (re-exported)
 
 #: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
@@ -380,19 +380,19 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     arm, s = first.arm, first.settings
     start = first.generator.config_pose(task.start, task.start_hand)
     require_finite("start pose", start.joints)
-    problem = first.generator.start_problem(start)
-    if problem is not None:
-        plan = first._start_failure(task, start, problem)
-        plan.stats.planning_time_s = time.perf_counter() - t0
-        return plan
+    way_out, failed = first._start_escape(task, start)
+    if failed is not None:
+        failed.stats.planning_time_s = time.perf_counter() - t0
+        return failed
     length = arm.arm_length
     steps = chase_steps_per_frame(s, task.fps)
     trajectory = arm.to_canonical_points(task.targets)
-    poses, path = [start], [start.wrist]
+    poses = [start] + escape_frames(way_out, steps, len(trajectory))
+    path = [p.wrist for p in poses]
     stats = Stats()
     on_target = 0
     hit = None
-    for f in range(1, len(trajectory)):
+    for f in range(len(poses), len(trajectory)):
         if chunk and f % chunk == 0:
             yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
         gen = planners[f].generator
@@ -411,7 +411,8 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     stats.nodes_in_solution += 1  # the start, as in the reach tasks
     stats.path_length_arm_lengths = float(
         np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
-    hand = plan_hand([p.generator for p in planners], poses, task.fps, may_insert=False)
+    hand = plan_hand([p.generator for p in planners], poses, task.fps, may_insert=False,
+                     escape=escape_of(way_out, poses))
     poses = hand.poses
     motion_stats(stats, planners[0].arm, poses, [p.generator.checker for p in planners],
                  stats.path_length_arm_lengths, hand=hand)

@@ -425,17 +425,17 @@ class Planner:
 
     def _chase(self, task: Task, start: Pose, chunk: int):
         s, arm, gen = self.settings, self.arm, self.generator
-        problem = gen.start_problem(start)
-        if problem is not None:
-            return self._start_failure(task, start, problem)
+        way_out, failed = self._start_escape(task, start)
+        if failed is not None:
+            return failed
         length = arm.arm_length
         steps_per_frame = max(1, int(s.chase_max_speed / task.fps / s.step + 1e-9))
         trajectory = arm.to_canonical_points(task.targets)
-        poses = [start]
+        poses = [start] + escape_frames(way_out, steps_per_frame, len(trajectory))
         stats = Stats()
-        path = [start.wrist]
+        path = [p.wrist for p in poses]
         on_target = 0
-        for f in range(1, len(trajectory)):
+        for f in range(len(poses), len(trajectory)):
             if chunk:
                 yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
             nxt, res = chase_step(gen, poses[-1], trajectory[f], steps_per_frame, task.fps)
@@ -449,7 +449,8 @@ class Planner:
         stats.nodes_in_solution += 1  # the start, as in the reach tasks
         stats.path_length_arm_lengths = float(
             np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
-        hand = plan_hand(gen, poses, task.fps, may_insert=False)
+        hand = plan_hand(gen, poses, task.fps, may_insert=False,
+                         escape=escape_of(way_out, poses))
         poses = hand.poses
         self._motion_stats(stats, poses, stats.path_length_arm_lengths, hand)
         gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
@@ -471,6 +472,28 @@ class Planner:
         total.add(stats)
         total.frames = len(poses)
         return Plan(task, arm, s, poses, [seg], total, self._workspace)
+
+
+def escape_frames(way_out, steps_per_frame: int, frames: int) -> list:
+    """The frames of a chase that leave a start in contact (:mod:`~reach_addon.core.contact`):
+    every ``steps_per_frame``-th pose of the escape (its last included), at most
+    ``frames`` - 1 of them; none without one."""
+    if way_out is None:
+        return []
+    lead = way_out.poses[1:]
+    picked = lead[steps_per_frame - 1::steps_per_frame]
+    if lead and (not picked or picked[-1] is not lead[-1]):
+        picked.append(lead[-1])
+    return picked[:max(0, frames - 1)]
+
+
+def escape_of(way_out, poses):
+    """The hand pass's ``escape`` for a chase: frames before the escape's end are checked
+    with its thinner arm (arc lengths are frame numbers here)."""
+    if way_out is None:
+        return None
+    end = next((k for k, p in enumerate(poses) if p is way_out.poses[-1]), 0)
+    return (way_out.generator, float(end), list(range(len(poses))))
 
 
 def _drain(steps):

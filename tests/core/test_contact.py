@@ -93,3 +93,15 @@ def test_a_start_deeper_than_the_tolerance_is_refused(arm):
     plan = Planner(arm, obstacles(inside), Settings(start_contact_depth=0.5)).plan(
         Task("reach", TARGET[None], HANGING))
     assert plan.reason == START_IN_COLLISION and "inside 'Table'" in plan.message
+
+
+def test_a_chase_from_a_hand_resting_on_a_table(arm):
+    tip = start_joints(arm)[4]
+    scene = slab_under(tip, 0.5 * arm.hand_radius)
+    s = Settings()
+    t = np.linspace(0.0, 1.0, 48)[:, None]
+    moving = TARGET + t * np.array([0.0, 0.0, 0.08])       # a target rising slowly
+    plan = Planner(arm, obstacles(scene), s).plan(Task("chase", moving, HANGING))
+    assert plan.reason != START_IN_COLLISION, plan.message
+    assert plan.success, plan.message
+    check_way_out(arm, plan, scene, s)
