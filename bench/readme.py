@@ -69,8 +69,9 @@ def table(r: dict) -> str:
             lines.append(f"| the hand's largest turn in a frame, relative to the forearm (a–d) | "
                          f"{_per_task(t2, 'max_wrist_turn_deg_per_frame', '{:.1f}')}° | "
                          "bound 15° at 24 fps |")
-            lines.append(f"| … in space, the forearm's turn included (a–d) | "
-                         f"{_per_task(t2, 'max_hand_turn_deg_per_frame', '{:.1f}')}° | |")
+            lines.append(f"| … its whole turn in space, the forearm's turn and roll included "
+                         f"(a–d) | {_per_task(t2, 'max_hand_turn_deg_per_frame', '{:.1f}')}° | "
+                         "bound 15° at 24 fps |")
             lines.append(f"| mean wrist bend (a–d) | "
                          f"{_per_task(t2, 'mean_wrist_bend_deg', '{:.1f}')}° | |")
             lines.append(f"| transitions touching between keys, turns over the bound (a–d) | "

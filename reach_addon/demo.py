@@ -354,6 +354,7 @@ def table2_text(rows) -> str:
                      f"{s.get('max_hand_turn_deg_per_frame', 0.0):8.1f} "
                      f"{s.get('mean_wrist_bend_deg', 0.0):6.1f}")
     lines.append("wrist°/fr: the hand's largest turn in one frame relative to the forearm (bound "
-                 "15° at 24 fps); hand°/fr: in space, the forearm's own turn included; bend°: "
+                 "15° at 24 fps); hand°/fr: its whole turn in space, the forearm's turn and roll "
+                 "included (bound 15°); bend°: "
                  "the wrist's mean bend")
     return "\n".join(lines)

@@ -26,7 +26,10 @@ places:
      hand (anywhere, even outside the range), joined to the grid by a chain of states.
    * **Constraints.** A state must be clear of the obstacles and the body at its frame
      (:meth:`ConfigurationGenerator.hands_clear`); a transition may turn the hand, relative
-     to the forearm, by at most ``Settings.hand_turn_speed`` / fps degrees.
+     to the forearm, by at most ``Settings.hand_turn_speed`` / fps degrees, and its whole
+     orientation in space (the forearm's turn and roll included,
+     :func:`~reach_addon.core.arm.frame_turn`) by at most ``hand_space_turn_speed`` / fps,
+     so no bone of the hand turns faster.
    * **Cost.** Σ (turn / bound)² + ``wrist_relax_weight`` · (bend from neutral / 45°)²:
      the hand turns no faster and no farther than it must, and drifts back toward neutral
      when it is free.
@@ -60,7 +63,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .arm import Pose
+from .arm import Pose, frame_turn
 from .generator import hand_coefficients
 
 
@@ -71,7 +74,7 @@ class HandReport:
     poses: list
     inserted_frames: int = 0
     max_wrist_turn_deg: float = 0.0      # largest turn relative to the forearm in one frame
-    max_hand_turn_deg: float = 0.0       # largest turn of the hand's direction in space
+    max_hand_turn_deg: float = 0.0       # largest turn of the hand in space, roll included
     mean_wrist_bend_deg: float = 0.0     # mean angle between hand and forearm
     max_wrist_bend_deg: float = 0.0
     unbounded_turns: int = 0             # transitions where the bound had to be lifted
@@ -269,14 +272,21 @@ class HandPass:
             return 1.0
         return max(self.EASE_FLOOR, min(1.0, 16.0 * tau * tau * (1.0 - tau) ** 2))
 
-    def _directions(self, pose: Pose, grid: HandGrid) -> np.ndarray:
-        """Every state's hand direction at ``pose`` (S, 3), canonical frame (rigid to
-        world, so its angles are the angles in space), kept per pose."""
-        d = self._dirs.get(id(pose))
-        if d is None:
-            d = grid.coefficients @ self._gen(0).hand_axes(pose.joints, pose.bend)
-            self._dirs[id(pose)] = d
-        return d
+    def _orientations(self, pose: Pose, grid: HandGrid) -> np.ndarray:
+        """Every state's hand orientation at ``pose``, (3, S, 3): the columns of
+        :func:`~reach_addon.core.arm.hand_frame` (its direction d, the elbow's hinge made
+        perpendicular to it g, and d × g) per state, canonical frame (rigid to world, so
+        its rotations are the rotations in space); kept per pose."""
+        o = self._dirs.get(id(pose))
+        if o is None:
+            axes = self._gen(0).hand_axes(pose.joints, pose.bend)     # rows f, p, h
+            d = grid.coefficients @ axes
+            h = axes[2]
+            g = h[None, :] - (d @ h)[:, None] * d
+            g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
+            o = np.stack([d, g, np.cross(d, g)])
+            self._dirs[id(pose)] = o
+        return o
 
     def _dp(self, poses, grid: HandGrid, feasible, banned, lifted):
         """(least-cost state path (a state index per frame), None), or (None, (k,
@@ -297,10 +307,12 @@ class HandPass:
             if k in lifted:
                 m = cost[:, None] + free
             else:
-                # the hand's direction in space may turn no faster either: the forearm's
-                # own turn counts there, and the hand turns against it if it must
-                near = self._directions(poses[k - 1], grid) @ self._directions(poses[k], grid).T
-                ok = near >= space_cos
+                # the hand's whole orientation in space may turn no faster either (so no
+                # bone of the hand, finger or thumb, turns faster): the forearm's own turn
+                # and roll count there, and the hand turns against them where it can
+                a, b = self._orientations(poses[k - 1], grid), self._orientations(poses[k], grid)
+                trace = a[0] @ b[0].T + a[1] @ b[1].T + a[2] @ b[2].T
+                ok = trace >= 1.0 + 2.0 * space_cos
                 # and it eases in with the motion: at the start of a move a turn costs as
                 # much more as the minimum-jerk speed there is below its peak, so the hand
                 # does not set off faster than the arm (the motion joins what came before
@@ -410,21 +422,18 @@ class HandPass:
     def _report(self, poses, hands, inserted, lifted, unclear):
         arm = self.arm
         out = []
-        dirs = []
         for pose, hand in zip(poses, hands):
             hand = (float(hand[0]), float(hand[1]))
-            gen = self._gen(0)
-            axes = gen.hand_axes(pose.joints, pose.bend)
+            axes = self._gen(0).hand_axes(pose.joints, pose.bend)
             d = np.array(hand_coefficients(*hand)) @ axes
             joints = pose.joints.copy()
             joints[4] = joints[3] + arm.hand_length * d
             out.append(Pose(pose.config, joints, pose.bend, pose.f_r, hand))
-            dirs.append(d)
         coef = np.array([hand_coefficients(*h) for h in hands])
         bends = np.degrees(np.arccos(np.clip(coef[:, 0], -1.0, 1.0)))
         rel = wrist_turn(coef[1:], coef[:-1]) if len(coef) > 1 else np.zeros(1)
-        dirs = np.array(dirs)
-        world = wrist_turn(dirs[1:], dirs[:-1]) if len(dirs) > 1 else np.zeros(1)
+        # in space: the hand's whole turn, its roll included (what any bone of it shows)
+        world = np.array([frame_turn(a, b) for a, b in zip(out[:-1], out[1:])] or [0.0])
         return HandReport(out, inserted, float(rel.max(initial=0.0)),
                           float(world.max(initial=0.0)), float(bends.mean()),
                           float(bends.max()), lifted, list(unclear))

@@ -119,10 +119,10 @@ class Settings:
         "reaching and placing stay below about 300-400°/s, and animators read a turn of "
         "20-30° in one frame as a pop", "motion", 30.0, 2000.0, "deg/s")
     hand_space_turn_speed: float = _f(
-        360.0, "Hand turn speed in space", "Fastest turn of the hand's direction in space, "
-        "the forearm's own turn included (the hand turns against the forearm to keep to it, "
-        "else the motion slows): the same 360°/s, 15° a frame at 24 fps, so what the "
-        "animator sees of the hand never pops either", "motion", 30.0, 2000.0, "deg/s")
+        360.0, "Hand turn speed in space", "Fastest turn of the hand's orientation in space, "
+        "the forearm's own turn and roll included (the hand turns against the forearm to keep "
+        "to it, else the motion slows): the same 360°/s, 15° a frame at 24 fps, so no bone of "
+        "the hand, finger or thumb, pops either", "motion", 30.0, 2000.0, "deg/s")
     wrist_relax_weight: float = _f(
         2.0, "Wrist relax weight", "How strongly the hand is drawn back toward neutral (in "
         "line with the forearm) against how smoothly it turns: a frame bent 45° costs this "

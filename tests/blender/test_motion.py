@@ -9,7 +9,8 @@ every instant:
 * every bone of the arm and of the hand, finger bones included, stays clear of the
   obstacles' triangles (exact distances, numpy);
 * the hand's direction relative to the forearm (the forearm bone's own matrix, as Blender
-  evaluates it) turns at most the hand turn speed limit per frame;
+  evaluates it) turns at most the hand turn speed limit per frame, and no bone of the hand
+  turns in space faster than the hand turn speed in space;
 * at every keyed frame the keyed hand is the planned hand: the wrist where the plan has it,
   the hand's axis (wrist to the mean of its finger joints) along the plan's.
 """
@@ -127,7 +128,7 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
     chest_free = kind == "rigify"
 
     scene_ = bpy.context.scene
-    worst, worst_at, prev_dir, turns = np.inf, None, None, []
+    worst, worst_at, prev_dir, turns, space, prev_bones = np.inf, None, None, [], [], None
     for f in range(res.frame_start, res.frame_end + 1):
         for sub in INSTANTS if f < res.frame_end else (0.0,):
             scene_.frame_set(f, subframe=sub)
@@ -150,12 +151,16 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
                 assert off <= 2.0, f"frame {f}: the keyed hand is {off:.1f}° off the plan's"
             if sub == 0.0:
                 now = hand_in_forearm(armature, bones.forearm, hand)
+                bones_now = [q - p for p, q in segments(armature, hand)]
                 if prev_dir is not None:
                     turns.append(angle_deg(prev_dir, now))
-                prev_dir = now
+                    space.append(max(angle_deg(a, b) for a, b in zip(prev_bones, bones_now)))
+                prev_dir, prev_bones = now, bones_now
     assert worst > 0.0, f"{worst_at}: a bone passes through the {obstacle.name}"
     assert max(turns) <= s.hand_turn_speed / fps + 2.0, \
         f"the hand turns {max(turns):.1f}° relative to the forearm in one frame"
+    assert max(space) <= s.hand_space_turn_speed / fps + 2.0, \
+        f"a bone of the hand turns {max(space):.1f}° in space in one frame"
     st = res.stats
     assert st["touching_transitions"] == 0 and st["unbounded_hand_turns"] == 0
     assert 0.0 <= st["mean_wrist_bend_deg"] <= st["max_wrist_bend_deg"]
