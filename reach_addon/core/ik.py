@@ -285,8 +285,8 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
     ``previous`` is the configuration the move starts from: f_E is measured from it and,
     with ``max_change`` (degrees), the smoothness bound is applied against it. Without
     ``previous`` the exertion is measured from the hanging arm (α = β = γ = 0) and a
-    straight elbow gets twist 0. ``body_rotation`` overrides Table 1 (used when a path is
-    timed with phased chest rotation).
+    straight elbow gets twist 0. ``body_rotation`` overrides Table 1 (where the chest
+    must stay as it is: a start moving out of contact, a pose put between two others).
 
     The inner loop of the planner calls this for one wrist at a time, so the work is laid
     out for few numpy calls (each costs about a microsecond however small its array):

@@ -26,7 +26,7 @@ import numpy as np
 
 from .arm import ArmConfig, Pose, hand_frame
 from .generator import ConfigurationGenerator
-from .torso import minimum_jerk, phased  # noqa: F401  (the timing profile; re-exported)
+from .torso import minimum_jerk
 
 
 def wrist_path_length(poses) -> float:
