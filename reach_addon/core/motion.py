@@ -154,6 +154,21 @@ class PathSampler:
                                           (float(hand[0]), float(hand[1])))
 
 
+def limb_turn(poses) -> float:
+    """The largest turn (degrees) of the upper arm's or the forearm's direction from one
+    pose to the next."""
+    if len(poses) < 2:
+        return 0.0
+    j = np.array([p.joints for p in poses])
+    worst = 0.0
+    for a, b in ((1, 2), (2, 3)):
+        v = j[:, b] - j[:, a]
+        v = v / np.linalg.norm(v, axis=1, keepdims=True)
+        cos = np.clip(np.einsum("ij,ij->i", v[1:], v[:-1]), -1.0, 1.0)
+        worst = max(worst, float(np.degrees(np.arccos(cos)).max()))
+    return worst
+
+
 def time_path(generator: ConfigurationGenerator, dense: list, frames: int):
     """``frames`` poses along ``dense`` (the first is ``dense[0]``, the last ``dense[-1]``)
     spaced in time by the minimum-jerk profile over the path's arc length

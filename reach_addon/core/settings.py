@@ -123,6 +123,11 @@ class Settings:
         "the forearm's own turn and roll included (the hand turns against the forearm to keep "
         "to it, else the motion slows): the same 360°/s, 15° a frame at 24 fps, so no bone of "
         "the hand, finger or thumb, pops either", "motion", 30.0, 2000.0, "deg/s")
+    limb_turn_speed: float = _f(
+        360.0, "Limb turn speed", "Fastest turn of the upper arm or the forearm in space: an "
+        "automatic duration is stretched (up to twice) where the minimum-jerk peak would turn "
+        "a limb faster (15° a frame at 24 fps, as for the hand)", "motion", 30.0, 2000.0,
+        "deg/s")
     wrist_relax_weight: float = _f(
         2.0, "Wrist relax weight", "How strongly the hand is drawn back toward neutral (in "
         "line with the forearm) against how smoothly it turns: a frame bent 45° costs this "

@@ -35,7 +35,7 @@ from .errors import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTAC
                      ReachError, require_finite)
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
-from .motion import auto_duration, shortcut, time_path, wrist_path_length
+from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
 from .search import BestFirstSearch, SearchResult, chase_step
 from .settings import Settings
 from .workspace import Workspace, build_workspace
@@ -389,6 +389,13 @@ class Planner:
             duration = task.duration_s or auto_duration(wrist_length, s)
             frames = max(2, int(round(duration * task.fps)) + 1)
             seg_poses, arcs, sampler = time_path(gen, dense, frames)
+            # an automatic duration is stretched where a limb would turn faster than
+            # limb_turn_speed at the peak (an elbow swinging round a short wrist path)
+            bound = s.limb_turn_speed / task.fps
+            turn = limb_turn(seg_poses)
+            if task.duration_s is None and turn > bound:
+                frames = int(math.ceil(frames * min(turn / bound, 2.0)))
+                seg_poses, arcs, sampler = time_path(gen, dense, frames)
         loose = None if way_out is None or sampler is None else \
             (way_out.generator, float(sampler.cum[len(lead)]))
         hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler, escape=loose)
