@@ -36,8 +36,8 @@ def _range(values, fmt="{:.1f}"):
     values = [v for v in values if v is not None]
     if not values:
         return "–"
-    lo, hi = min(values), max(values)
-    return fmt.format(lo) if abs(hi - lo) < 1e-12 else f"{fmt.format(lo)}–{fmt.format(hi)}"
+    lo, hi = fmt.format(min(values)), fmt.format(max(values))
+    return lo if lo == hi else f"{lo}–{hi}"
 
 
 def table(r: dict) -> str:
