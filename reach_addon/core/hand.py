@@ -154,14 +154,12 @@ class HandPass:
         self.space_bound = self.settings.hand_space_turn_speed / fps
         self._dirs: dict = {}
         self.may_insert = may_insert
-        # where the frames lie on the validated path, and a way to put poses between them
+        # where the frames lie along the motion (arc lengths of the validated path, or a
+        # chase's frame numbers), and with a sampler a way to put poses between them
         self.sampler = sampler
-        self.arcs = None if arcs is None or sampler is None else list(arcs)
-        # (generator, arc length[, the frames' arcs]): frames before that arc are the way
-        # out of a start in contact, checked with that (thinner arm's) generator
-        # (core.contact); a chase, with no sampler, passes its frame numbers as arcs
-        if escape is not None and len(escape) == 3:
-            escape, self.arcs = escape[:2], list(escape[2])
+        self.arcs = None if arcs is None else list(arcs)
+        # (generator, arc length): frames before that arc are the way out of a start in
+        # contact, checked with that (thinner arm's) generator (core.contact)
         self.escape = escape if self.arcs is not None else None
         self._clear: set = set()
 
@@ -391,10 +389,10 @@ class HandPass:
         prev = a
         for j in range(1, count + 1):
             t = j / (count + 1)
+            if self.arcs is not None:
+                arcs.append((1.0 - t) * self.arcs[k] + t * self.arcs[k + 1])
             if self.sampler is not None:
-                arc = (1.0 - t) * self.arcs[k] + t * self.arcs[k + 1]
-                mid = self.sampler(arc)
-                arcs.append(arc)
+                mid = self.sampler(arcs[-1])
                 clear = self._feasible(k + 1, mid, grid)
             else:
                 config = _interpolate(a, b, t)

@@ -412,7 +412,7 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     stats.path_length_arm_lengths = float(
         np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
     hand = plan_hand([p.generator for p in planners], poses, task.fps, may_insert=False,
-                     escape=escape_of(way_out, poses))
+                     arcs=range(len(poses)), escape=escape_of(way_out, poses))
     poses = hand.poses
     motion_stats(stats, planners[0].arm, poses, [p.generator.checker for p in planners],
                  stats.path_length_arm_lengths, hand=hand)

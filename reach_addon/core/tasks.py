@@ -456,7 +456,7 @@ class Planner:
         stats.nodes_in_solution += 1  # the start, as in the reach tasks
         stats.path_length_arm_lengths = float(
             np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
-        hand = plan_hand(gen, poses, task.fps, may_insert=False,
+        hand = plan_hand(gen, poses, task.fps, may_insert=False, arcs=range(len(poses)),
                          escape=escape_of(way_out, poses))
         poses = hand.poses
         self._motion_stats(stats, poses, stats.path_length_arm_lengths, hand)
@@ -495,12 +495,12 @@ def escape_frames(way_out, steps_per_frame: int, frames: int) -> list:
 
 
 def escape_of(way_out, poses):
-    """The hand pass's ``escape`` for a chase: frames before the escape's end are checked
-    with its thinner arm (arc lengths are frame numbers here)."""
+    """The hand pass's ``escape`` for a chase, whose frames' "arc lengths" are their
+    numbers: frames before the escape's end are checked with its thinner arm."""
     if way_out is None:
         return None
     end = next((k for k, p in enumerate(poses) if p is way_out.poses[-1]), 0)
-    return (way_out.generator, float(end), list(range(len(poses))))
+    return way_out.generator, float(end)
 
 
 def _drain(steps):
