@@ -35,6 +35,12 @@ core has its origin on the spine axis (the line through the chest bone's head al
 shoulder height, x toward the reaching arm's side. Body capsules (chest, pelvis, head) are
 sized in proportion to the shoulder half-width; arm capsule radii come from the skin when
 there is one (75th percentile of vertex distances to each segment), else from proportions.
+
+Scale: any uniform scale, and mirroring, of the armature object or its parents is measured
+in world units as it is. A non-uniform one (the world matrix's singular values differ by
+more than :data:`SCALE_TOLERANCE`) is refused up front with a message that names the
+armature (or the parent that causes it) and the fix; :func:`_check_uniform_scale` says why
+and what was measured.
 """
 
 from __future__ import annotations
@@ -693,3 +699,53 @@ def _check_armature(armature):
     if abs(np.linalg.det(m[:3, :3])) < 1e-12:
         raise ReachError(f"armature '{armature.name}' has zero scale on some axis; give it a "
                          "non-zero scale")
+    _check_uniform_scale(armature, m[:3, :3])
+
+
+#: How far the armature's world scale may differ between axes (largest over smallest
+#: singular value of its world matrix, minus 1) before Reach refuses it. Measured: a scale
+#: of (1, 1.001, 1) put the baked wrist 0.06–0.08 % of an arm length off the plan.
+SCALE_TOLERANCE = 1e-3
+
+
+def _check_uniform_scale(armature, m3):
+    """Refuse an armature whose world transform scales its axes differently (its own scale,
+    or a parent's: the singular values of its world matrix differ); mirroring (a negative
+    scale) is uniform and fine.
+
+    Why refuse rather than handle it. Under such a transform a bone's world length depends
+    on its direction, and a bone's rotation under a non-uniformly scaled parent shears it:
+    no rotation of rigid bones can follow the planner's arm, whose segments keep their
+    world lengths. Measured (Rigify's metarig and the Quaternius rig, the plate reach of the
+    tests, the baked bones evaluated with ``frame_set``): with object scale (1, 1.3, 0.8)
+    the baked wrist ended 0.21–0.30 arm lengths from the planned wrist, (1.3, 1, 1)
+    0.17, (1, 1.05, 1) 0.03–0.04, (1, 1.01, 1) 0.006–0.008, a non-uniformly scaled
+    parent 0.24–0.26; and even bones pointed exactly along each planned segment's direction
+    in armature space would change the segments' world lengths by up to 0.14–0.22 arm
+    lengths at (1, 1.3, 0.8) (0.005 at (1, 1.01, 1)). So the bake could only be made right
+    by stretching bones (keying scale), which changes the character; Reach asks for the
+    scale to be applied instead, before anything is changed."""
+    sv = np.linalg.svd(m3, compute_uv=False)
+    if sv[0] <= sv[-1] * (1.0 + SCALE_TOLERANCE):
+        return
+    scale = ", ".join(f"{v:g}" for v in np.round(np.array(armature.scale), 4))
+    own = np.abs(np.array(armature.scale))
+    if own.max() > own.min() * (1.0 + SCALE_TOLERANCE):
+        raise ReachError(
+            f"armature '{armature.name}' has a non-uniform scale ({scale}): its bones would "
+            "stretch and shear as they turn, so Reach cannot bake them; apply the scale "
+            "(select it in Object Mode, Ctrl+A > Scale) or give it the same size on every "
+            "axis (a minus sign that mirrors it may stay)")
+    culprit = armature.parent
+    while culprit is not None:
+        s = np.abs(np.array(culprit.scale))
+        if s.max() > s.min() * (1.0 + SCALE_TOLERANCE):
+            break
+        culprit = culprit.parent
+    where = f"its parent '{culprit.name}'" if culprit is not None else "its parent"
+    raise ReachError(
+        f"armature '{armature.name}' is scaled non-uniformly by {where} (world scale "
+        f"{', '.join(f'{v:.3g}' for v in sv)}): its bones would stretch and shear as they "
+        "turn, so Reach cannot bake them; give the parent the same scale on every axis, or "
+        "unparent the armature keeping its transform (Alt+P > Clear and Keep Transformation) "
+        "and apply its scale (Ctrl+A > Scale)")
