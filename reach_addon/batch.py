@@ -51,8 +51,8 @@ and the scene files at the same paths)::
 One thread per Dask worker process is enough: its Reach worker child does the work.
 
 Results are written by the submitting process as they arrive, one JSON file per task named
-by a hash of its specification, atomically (a temporary file renamed into place); a re-run
-skips tasks whose result exists. At the end ``summary.csv`` (one row per task) and
+by a hash of its specification, atomically (:mod:`.atomic`: a temporary file renamed into
+place); a re-run skips tasks whose result exists. At the end ``summary.csv`` (one row per task) and
 ``summary.json`` (success rate, times, strength categories, per variant) are written.
 """
 
@@ -67,13 +67,13 @@ import os
 import queue
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from . import atomic
 from .core import ReachError
 
 MARK = "@@reach-result "
@@ -366,14 +366,6 @@ def dask_task(spec: dict) -> dict:
 
 # --- running a study ------------------------------------------------------------------------
 
-def _write_atomic(path: Path, text: str):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-
-
 def result_path(output: Path, spec: dict) -> Path:
     return output / "tasks" / f"{spec['id']}.json"
 
@@ -471,7 +463,7 @@ def run_study(path: Path, workers: int | None = None, dask: str | None = None,
             errors += 1
             print(f"[{n}/{len(pending)}] {label}: ERROR {result.get('error')}", file=out, flush=True)
             continue
-        _write_atomic(result_path(study.output, spec), json.dumps(result, indent=1))
+        atomic.write_text(result_path(study.output, spec), json.dumps(result, indent=1))
         results[spec["id"]] = result
         state = (f"reached, f_R {result['final_f_r']}" if result["success"]
                  else f"not reached ({result['reason']})")
@@ -479,8 +471,8 @@ def run_study(path: Path, workers: int | None = None, dask: str | None = None,
     wall = time.perf_counter() - t0
     ordered = [results[s["id"]] for s in study.specs if s["id"] in results]
     summary = summarize(study, ordered, wall, dask or f"local:{workers}")
-    _write_atomic(study.output / "summary.json", json.dumps(summary, indent=2))
-    _write_atomic(study.output / "summary.csv", summary_csv(ordered))
+    atomic.write_text(study.output / "summary.json", json.dumps(summary, indent=2))
+    atomic.write_text(study.output / "summary.csv", summary_csv(ordered))
     print(f"{summary['succeeded']}/{summary['tasks']} reached "
           f"({100 * summary['success_rate']:.0f} %); results in {study.output}", file=out,
           flush=True)

@@ -12,25 +12,64 @@
 Commands: ``bake`` (one .blend), ``batch`` (a study of many tasks, local processes or a
 Dask cluster), ``demo`` (the paper's four tasks). Exit status: 0 every task reached its
 target; 1 some did not (their reasons are in the report; the others are still baked and
-saved); 2 bad input, with one line on stderr naming what is wrong and no output written.
-Planner settings are flags too (``--step 0.03``, ``--no-chest-rotation``, ...), applied
-after ``--preset``.
+saved); 2 bad input, with one line on stderr naming what is wrong and no output written;
+128 + the signal's number (143, 130) when SIGTERM or Ctrl+C stops it, with one line on
+stderr saying what was and was not written. Planner settings are flags too (``--step
+0.03``, ``--no-chest-rotation``, ...), applied after ``--preset``.
+
+Every file is written atomically (:mod:`.atomic`): to a temporary file in its folder, then
+renamed onto its name, so ``--output`` (or the input file, with ``--in-place``) is either
+its old self or the complete new file, never part of one, and a stopped run leaves no
+temporary file behind.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
+import signal
 import sys
-import tempfile
+import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
+from . import atomic
 from .core import ReachError, Settings
 from .core.settings import fields
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class Interrupted(BaseException):
+    """SIGTERM or SIGINT arrived while a command ran. A BaseException, like
+    KeyboardInterrupt, so no ``except Exception`` on the way swallows it; files being
+    written are abandoned (:mod:`.atomic`) as it passes."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+        self.name = signal.Signals(signum).name
+        self.note = "nothing was written"
+
+
+@contextmanager
+def _interruptible():
+    """Turn SIGTERM and SIGINT into :class:`Interrupted` while the block runs (on the main
+    thread only: Python handles signals there), then put the previous handlers back."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, _frame):
+        raise Interrupted(signum)
+
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -124,14 +163,6 @@ def _bones(pairs):
     return out
 
 
-def _write_atomic(path: Path, text: str):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-
-
 def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
     """The JSON report (schema in the README)."""
     import bpy
@@ -189,22 +220,35 @@ def cmd_bake(args) -> int:
         raise ReachError("--output is the input file; use --in-place to save over it")
     bones = _bones(args.bone)
 
+    written = []
     try:
-        bpy.ops.wm.open_mainfile(filepath=str(scene_path), load_ui=False)
-    except RuntimeError as exc:
-        raise ReachError(f"cannot open '{scene_path}' as a .blend file: "
-                         f"{str(exc).strip().splitlines()[-1]}") from None
-    registered = ensure_registered()
-    try:
-        return _bake_open_file(args, scene_path, output, bones)
-    finally:
-        if registered:
-            from . import unregister
+        with _interruptible():
+            try:
+                bpy.ops.wm.open_mainfile(filepath=str(scene_path), load_ui=False)
+            except RuntimeError as exc:
+                raise ReachError(f"cannot open '{scene_path}' as a .blend file: "
+                                 f"{str(exc).strip().splitlines()[-1]}") from None
+            registered = ensure_registered()
+            try:
+                return _bake_open_file(args, scene_path, output, bones, written)
+            finally:
+                if registered:
+                    from . import unregister
 
-            unregister()
+                    unregister()
+    except Interrupted as exc:
+        if written:
+            exc.note = "wrote " + ", ".join(f"'{p}'" for p in written) + " and nothing after"
+        else:
+            kept = [f"'{scene_path}' is unchanged"]
+            if output != scene_path:
+                kept.insert(0, f"'{output}' " + ("is unchanged" if output.exists()
+                                                 else "was not created"))
+            exc.note = f"nothing was written ({', '.join(kept)})"
+        raise
 
 
-def _bake_open_file(args, scene_path, output, bones) -> int:
+def _bake_open_file(args, scene_path, output, bones, written) -> int:
     import bpy
 
     from .blender import pipeline
@@ -224,6 +268,8 @@ def _bake_open_file(args, scene_path, output, bones) -> int:
         bake_closest=args.bake_closest)
 
     t0 = time.perf_counter()
+    print(f"planning {len(request.targets)} target(s) for '{request.armature}' ({request.task})",
+          flush=True)
     outcome = pipeline.run(bpy.context, request, bake=True)
     n = len(outcome.results)
     for i, r in enumerate(outcome.results, 1):
@@ -233,7 +279,8 @@ def _bake_open_file(args, scene_path, output, bones) -> int:
               f"{st['nodes_searched']} nodes, {st['search_time_s'] * 1000:.0f} ms search"
               + ("" if r.success else f"; {r.message}"), flush=True)
 
-    bpy.ops.wm.save_as_mainfile(filepath=str(output.resolve()), copy=not args.in_place)
+    atomic.save_blend(output)
+    written.append(output)
     report = report_dict(outcome, settings, scene_path, output)
     report["total_time_s"] = time.perf_counter() - t0
     if args.render:
@@ -241,7 +288,8 @@ def _bake_open_file(args, scene_path, output, bones) -> int:
 
         report["renders"] = render_outcome(bpy.context, outcome, Path(args.render))
     if args.report:
-        _write_atomic(Path(args.report), json.dumps(report, indent=2))
+        atomic.write_text(Path(args.report), json.dumps(report, indent=2))
+        written.append(args.report)
     print(f"saved {output}" + (f", report {args.report}" if args.report else ""), flush=True)
     return EXIT_OK if outcome.success else EXIT_FAILED
 
@@ -278,6 +326,9 @@ def main(argv=None) -> int:
     except ReachError as exc:
         print(f"reach: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except Interrupted as exc:
+        print(f"reach: stopped by {exc.name}; {exc.note}", file=sys.stderr, flush=True)
+        return 128 + exc.signum
 
 
 def blender_command(argv) -> int:

@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
+from .. import atomic
 from .scene import VIZ_TAG
 
 
@@ -77,7 +78,9 @@ def render_outcome(context, outcome, folder: Path, still: str | None = "last_fra
                    video: str | None = "reach.mp4", frames=None, size=(640, 360)) -> dict:
     """Render the baked frames of ``outcome`` into ``folder``: a still of the last frame
     and a video of ``frames`` (first, last; default the outcome's own). A name of None
-    skips that file. Returns {"still": path, "video": path} of what was written."""
+    skips that file. Returns {"still": path, "video": path} of what was written. Each file
+    is rendered to a temporary name in ``folder`` and renamed into place when complete
+    (:mod:`reach_addon.atomic`)."""
     scene = context.scene
     folder = Path(folder).resolve()
     folder.mkdir(parents=True, exist_ok=True)
@@ -108,16 +111,18 @@ def render_outcome(context, outcome, folder: Path, still: str | None = "last_fra
             scene.frame_set(last)
             written["still"] = str(folder / still)
             _set_format(r, "PNG")
-            r.filepath = written["still"]
-            bpy.ops.render.render(write_still=True)
+            with atomic.replacing(written["still"]) as tmp:
+                r.filepath = str(tmp)
+                bpy.ops.render.render(write_still=True)
         if video:
             written["video"] = str(folder / video)
             _set_format(r, "FFMPEG")
             r.ffmpeg.format = "MPEG4"
             r.ffmpeg.codec = "H264"
-            r.filepath = written["video"]
             scene.frame_start, scene.frame_end = first, last
-            bpy.ops.render.render(animation=True)
+            with atomic.replacing(written["video"]) as tmp:
+                r.filepath = str(tmp)
+                bpy.ops.render.render(animation=True)
         return written
     finally:
         for ob in temporaries:

@@ -213,3 +213,105 @@ def test_render_writes_a_still_with_the_red_trajectory_and_a_video(scenes, tmp_p
     px = np.array(image.pixels[:]).reshape(h, w, 4)
     red = (px[..., 0] > 0.6) & (px[..., 1] < 0.25) & (px[..., 2] < 0.25)
     assert red.sum() > 100, "the red trajectory is not in the still"
+
+
+# --- interrupted runs ----------------------------------------------------------------------
+
+# A search that takes minutes: a step of 4 mm and budgets nothing reaches before SIGTERM.
+LONG_PLAN = ("--step", "0.004", "--node-budget", "200000", "--stall-budget", "200000")
+
+
+def temp_files(folder):
+    return sorted(p.name for p in Path(folder).iterdir()
+                  if ".tmp" in p.name or p.name.endswith(("@", ".blend1")))
+
+
+@pytest.mark.parametrize("mode", ("output", "in-place"))
+def test_sigterm_while_planning_writes_nothing(scenes, tmp_path, mode):
+    """SIGTERM to ``reach bake`` while it plans: it stops within seconds with one line on
+    stderr and status 143 (128 + SIGTERM); no output file and no temporary file exist; the
+    input is byte for byte what it was (with --in-place too, where the output is the
+    input)."""
+    import signal
+    import time
+
+    scene = scenes["metarig"]
+    source = tmp_path / "in" / "scene.blend"
+    source.parent.mkdir()
+    source.write_bytes(Path(scene["path"]).read_bytes())
+    before = digest(source)
+    out = tmp_path / "out" / "baked.blend"
+    where = ["--in-place"] if mode == "in-place" else ["--output", out]
+    env = dict(os.environ, PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "reach_addon", "bake", str(source), "--armature",
+         scene["armature"], "--target", "Cup", *map(str, where), "--report",
+         str(tmp_path / "out" / "report.json"), *LONG_PLAN],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
+    try:
+        seen = []
+        for line in proc.stdout:                      # Blender's own lines, then ours
+            seen.append(line)
+            if line.startswith("planning 1 target(s)"):   # printed as planning starts
+                break
+        assert seen and seen[-1].startswith("planning"), "".join(seen) + proc.stderr.read()
+        time.sleep(2.0)
+        assert proc.poll() is None, "the plan ended before SIGTERM: make it longer"
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=60)
+        stdout = "".join(seen) + stdout
+        stopped_in = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 128 + signal.SIGTERM, stdout + stderr
+    assert stopped_in < 10.0
+    lines = stderr.strip().splitlines()
+    assert lines[-1].startswith("reach: stopped by SIGTERM; nothing was written"), stderr
+    assert "[1/1]" not in stdout and "saved" not in stdout
+    assert digest(source) == before, "the input file changed"
+    assert not out.parent.exists() or sorted(p.name for p in out.parent.iterdir()) == []
+    assert [p.name for p in source.parent.iterdir()] == ["scene.blend"]
+
+
+def test_in_place_replaces_the_input_whole_and_leaves_no_backup_or_temporary_file(
+        scenes, tmp_path):
+    scene = scenes["quaternius"]
+    source = tmp_path / "scene.blend"
+    source.write_bytes(Path(scene["path"]).read_bytes())
+    before = digest(source)
+    run = reach("bake", source, "--armature", scene["armature"], "--target", "Jar",
+                "--in-place", "--report", tmp_path / "r.json")
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "scene.blend"]
+    assert digest(source) != before
+    check_output("quaternius", scene, source, json.loads((tmp_path / "r.json").read_text()))
+
+
+def test_output_is_replaced_only_whole(scenes, tmp_path):
+    """The atomic writers themselves: an existing output is replaced only by a complete
+    file; a writer stopped half way (KeyboardInterrupt, as a signal arrives) leaves the old
+    file and no temporary file; a saved .blend leaves no ``.blend1`` backup or ``@`` file
+    and opens in Blender."""
+    from reach_addon import atomic
+
+    dest = tmp_path / "report.json"
+    dest.write_text("old")
+    with pytest.raises(KeyboardInterrupt):
+        with atomic.replacing(dest) as tmp:
+            tmp.write_text("half of the new")
+            raise KeyboardInterrupt
+    assert dest.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["report.json"]
+    atomic.write_text(dest, "new")
+    assert dest.read_text() == "new" and sorted(p.name for p in tmp_path.iterdir()) == ["report.json"]
+
+    bpy.ops.wm.open_mainfile(filepath=str(scenes["metarig"]["path"]), load_ui=False)
+    blend = tmp_path / "out.blend"
+    blend.write_bytes(b"an older file")
+    atomic.save_blend(blend)
+    atomic.save_blend(blend)                          # over its own complete version too
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.blend", "report.json"]
+    bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+    assert scenes["metarig"]["armature"] in bpy.data.objects
