@@ -179,7 +179,9 @@ def _chase_range(context, target, frame_start):
 
 def steps(context, request: Request, bake: bool = True):
     """The pipeline as a generator: yields (fraction, message), returns an :class:`Outcome`.
-    Closing it early (a cancelled modal operator) leaves the scene as it was."""
+    Closing it early (a cancelled modal operator, at any of its yields) leaves the scene as
+    it was: every yield comes before the first change to the scene (keys, drawing), and
+    the keys and the drawing are made in the one last step, which does not yield."""
     scene = context.scene
     armature, targets, collection = validate(context, request, bake)
     original_frame = scene.frame_current
@@ -241,10 +243,12 @@ def steps(context, request: Request, bake: bool = True):
         outcome = Outcome(request, info, plans, [], obstacles=obstacles.triangle_counts())
         keyed = []
         draw = request.draw
+        baked = [(p, f) for p, f in plans if p.success or request.bake_closest] if bake else []
+        # The last yield: from here on the scene changes (keys, drawing), so nothing below
+        # yields and a caller that stops at any yield has changed nothing.
+        yield 0.92, "baking keys" if baked else "drawing"
         if bake:
-            baked = [(p, f) for p, f in plans if p.success or request.bake_closest]
             if baked:
-                yield 0.92, "baking keys"
                 result = bake_mod.bake(context, armature, info, baked, request.new_action)
                 outcome.baked, outcome.action, keyed = True, result.action, result.bones
             else:
@@ -256,7 +260,6 @@ def steps(context, request: Request, bake: bool = True):
         outcome.results = _results(info, plans, keyed, request)
         if draw:
             _draw(scene, info, plans, planner, request)
-        yield 1.0, "done"
         return outcome
     finally:
         if scene.frame_current != original_frame:

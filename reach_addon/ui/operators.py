@@ -1,9 +1,13 @@
 """Operators: Plan (preview), Bake, Clear, Detect bones, Live, Key Pose.
 
 Plan and Bake run the pipeline. In the UI they are modal: the plan advances on a timer in
-slices of about 30 ms, the panel shows progress, and Esc cancels with nothing baked. In
-background mode (``INVOKE_DEFAULT`` runs ``execute`` there) they run synchronously. Every
-:class:`~reach_addon.core.ReachError` becomes ``self.report({'ERROR'}, ...)``.
+slices of about 30 ms, the panel shows progress, and Esc cancels with nothing baked or
+drawn and no undo step: Esc lands between slices, at a yield of
+:func:`~reach_addon.blender.pipeline.steps`, and the keys and drawing are made in its last
+step, which does not yield (a cancelled operator pushes no undo step; the user's own
+steps stay as they were). In background mode (``INVOKE_DEFAULT`` runs ``execute`` there)
+they run synchronously. Every :class:`~reach_addon.core.ReachError` becomes
+``self.report({'ERROR'}, ...)``.
 
 Live toggles live mode (:mod:`reach_addon.blender.live`): while it is on the arm follows the
 target; Key Pose (K in the 3D View while Live is on) keys the pose on screen at the current

@@ -231,3 +231,47 @@ def test_auto_arm_takes_the_nearer_arm(fresh, addon):
     props.armature, props.target, props.arm = arm, target, "AUTO"
     assert bpy.ops.reach.plan() == {"FINISHED"}
     assert result()[0]["arm"] == "left" and result()[0]["success"]
+
+
+@pytest.mark.parametrize("bake", (True, False), ids=("bake", "plan"))
+def test_stopping_at_any_step_changes_nothing(fresh, addon, bake):
+    """Esc in the interface closes the pipeline's generator at whichever step it is (the
+    modal Plan and Bake advance it on a timer). Closed at each of its yields in turn — the
+    first, the middle of the search, the last one before the keys — the file is exactly as
+    it was: the user's own keys on the bone that would be baked, the pose, the objects, the
+    frame. Run to the end, the same request does change it."""
+    import dataclasses
+
+    from test_bad_input import fingerprint
+
+    arm, info, target, _plate = set_up("metarig", addon)
+    pb = arm.pose.bones["upper_arm.R"]
+    for f, angle in ((1, 0.1), (12, 0.3)):       # the user's keys, inside the bake's range
+        pb.rotation_quaternion = (np.cos(angle), np.sin(angle), 0, 0)
+        pb.keyframe_insert("rotation_quaternion", frame=f)
+    bpy.context.scene.frame_set(1)
+    request = addon.ui.operators.request_from(bpy.context.scene.reach)
+    pipeline = addon.blender.pipeline
+    before = fingerprint()
+
+    def run(gen, stop=None):
+        n = 0
+        while stop is None or n < stop:
+            try:
+                next(gen)
+            except StopIteration as done:
+                return n, done.value
+            n += 1
+        gen.close()                              # what Esc does
+        return n, None
+
+    # how many steps: the same request planned without keys or drawing changes nothing
+    n, outcome = run(pipeline.steps(bpy.context, dataclasses.replace(request, draw=False),
+                                    bake=False))
+    assert outcome.success and n >= 4 and fingerprint() == before
+    for stop in sorted({1, 2, n // 2, n - 1, n} if n > 12 else set(range(1, n + 1))):
+        run(pipeline.steps(bpy.context, request, bake=bake), stop)
+        assert fingerprint() == before, f"changed when stopped after step {stop} of {n}"
+    _n, outcome = run(pipeline.steps(bpy.context, request, bake=bake))
+    assert outcome.success and outcome.baked == bake
+    assert fingerprint() != before, "the full run changes the file (keys or drawing)"

@@ -244,7 +244,20 @@ def session():
     yield 1.0
     screenshot("before")
 
-    # 2. Esc cancels a long bake, leaving the scene as it was.
+    # 2. Esc cancels a long bake, leaving the scene, the user's keys and undo as they were.
+    # The user's own keys (one undo step of theirs) on the bone the bake would key, inside
+    # the frames it would key.
+    with override():
+        bpy.ops.ed.undo_push(message="Reach test: set up")
+    clean = state()
+    arm = bpy.data.objects[ARMATURE]
+    mod = sys.modules["reach_addon"]
+    pb = arm.pose.bones[mod.blender.rig.build(arm, "right").bones.arms["right"].keyed("upper_arm")]
+    path = "rotation_quaternion" if pb.rotation_mode == "QUATERNION" else "rotation_euler"
+    for frame in (1, 15):
+        pb.keyframe_insert(path, frame=frame)
+    with override():
+        bpy.ops.ed.undo_push(message="Reach test: the user's keys")
     before = state()
     settings = props.settings
     saved = settings.step, settings.node_budget, settings.stall_budget
@@ -260,12 +273,28 @@ def session():
         yield 0.2
     yield 1.0                                    # and nothing lands later
     after = state()
-    settings.step, settings.node_budget, settings.stall_budget = saved
     diff = sorted(k for k in before if before[k] != after[k])
     note("escape", before_escape=running, running_after=props.running,
          seconds_to_stop=round(time.monotonic() - t0, 2), status=props.status, changed=diff,
          before_keys=len(before["keys"]), after_keys=len(after["keys"]),
          before_action=before["armature_action"], after_action=after["armature_action"])
+    # Undo after Esc: the top step is still the user's keys (the cancelled bake pushed
+    # none), so one Ctrl+Z takes them away and Ctrl+Shift+Z brings them back.
+    with override():
+        bpy.ops.ed.undo()
+    undone = state()
+    with override():
+        bpy.ops.ed.redo()
+    redone = state()
+    with override():
+        bpy.ops.ed.undo()                        # on without the user's keys
+    note("undo after escape", clean_keys=len(clean["keys"]), undone_keys=len(undone["keys"]),
+         undone_vs_clean=sorted(k for k in clean if clean[k] != undone[k]),
+         redone_keys=len(redone["keys"]),
+         redone_vs_before=sorted(k for k in before if before[k] != redone[k]))
+    props = bpy.context.scene.reach              # undo replaced the scene's data
+    settings = props.settings
+    settings.step, settings.node_budget, settings.stall_budget = saved
 
     # 3. Plan, then Bake; with STEP set in the panel's settings if given (in the interface
     # each slice of planning is followed by a viewport redraw, which software OpenGL makes
