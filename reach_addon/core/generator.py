@@ -20,7 +20,7 @@ from . import ik
 from .arm import ArmConfig, ArmModel, Pose, forward_kinematics, pose_from_config
 from .collision import CollisionChecker, Obstacles, point_segment_distance
 from .errors import OUT_OF_REACH, TARGET_IN_OBSTACLE
-from .strength import f_r
+from .strength import strength_category
 from .torso import ChestPath
 
 
@@ -89,8 +89,8 @@ class ConfigurationGenerator:
         rotation follows :class:`~reach_addon.core.torso.ChestPath` instead of Table 1
         alone (the search, the smoothing and the timing of that reach all use it)."""
         view = copy.copy(self)
-        view.chest = ChestPath(self.arm.arm_length, self.settings, start.wrist,
-                               start.config.body_rotation, target)
+        view.chest = ChestPath(self.arm.arm_length, self.arm.hand_length, self.settings,
+                               start.wrist, start.config.body_rotation, target)
         return view
 
     def move_scale(self, previous: Pose, wrist) -> float:
@@ -472,6 +472,5 @@ class ConfigurationGenerator:
     def config_pose(self, config: ArmConfig, hand=(0.0, 0.0)) -> Pose:
         """The pose of a configuration (forward kinematics) with the wrist's two angles
         ``hand``, and its strength category."""
-        level = f_r(config.alpha, config.beta, self.settings.preferred_level_h,
-                    self.settings.preferred_level_v)
+        level = strength_category(config.alpha, config.beta, self.settings)
         return pose_from_config(self.arm, config, int(level), tuple(hand))

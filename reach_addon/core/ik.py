@@ -330,7 +330,7 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         m = SCALAR
         wx, wy, wz = w[0].tolist()
         if body_rotation is None:
-            body = float(body_rotation_deg(w[0], arm.arm_length, st))
+            body = float(body_rotation_deg(w[0], arm.arm_length, arm.hand_length, st))
         elif isinstance(body_rotation, float):
             body = body_rotation
         else:
@@ -339,7 +339,7 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         m = ARRAY
         wx, wy, wz = w[:, 0], w[:, 1], w[:, 2]
         if body_rotation is None:
-            body = np.asarray(body_rotation_deg(w, arm.arm_length, st), dtype=float)
+            body = np.asarray(body_rotation_deg(w, arm.arm_length, arm.hand_length, st), dtype=float)
         else:
             body = np.broadcast_to(np.asarray(body_rotation, dtype=float), (n_w,)).copy()
     values, reachable, degenerate, flex = _wrist_terms(arm, wx, wy, wz, body, st, m)
@@ -415,8 +415,16 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
                 lh, lv = st.preferred_level_h, st.preferred_level_v
                 wa, wb, wg = st.weight_alpha, st.weight_beta, st.weight_gamma
                 score = strength.score_float
-                for k in ks:
-                    f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv, wa, wb, wg)
+                if st.strength_reading == "split":
+                    for k in ks:
+                        f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv,
+                                                  wa, wb, wg)
+                else:
+                    read = strength.strength_angles
+                    for k in ks:
+                        sa, sb = read(a_[k], b_[k], st.strength_reading)
+                        f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv,
+                                                  wa, wb, wg, sa, sb)
             wrong = wrong_side[0].tolist() if st.elbow_side == "prefer" else None
             ranked = (st.elbow_side, _rank(ks, f_r, second, wrong))
         else:

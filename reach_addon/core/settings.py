@@ -15,8 +15,8 @@ import dataclasses
 from dataclasses import dataclass, field
 
 from .errors import ReachError
-from .strength import PREFERRED_LEVEL_H, PREFERRED_LEVEL_V, S_H_MIN, S_V_MIN
-from .torso import TABLE1_FADE_START_M, TABLE1_REFERENCE_ARM_LENGTH_M
+from .strength import PREFERRED_LEVEL_H, PREFERRED_LEVEL_V, READINGS, S_H_MIN, S_V_MIN
+from .torso import CHEST_ROTATION_MAX_DEG, TABLE1_HAND_POINT, TABLE1_REFERENCE_ARM_LENGTH_M
 
 
 def _f(default, label, doc, group, lo=None, hi=None, unit="", choices=None):
@@ -52,6 +52,12 @@ class Settings:
         1.5, "Weight ω_γ", "Exertion weight of humeral twist. The paper has no rotation "
         "curve; the rotator cuff is taken as about two thirds as strong as the abductors",
         "strength", 0.0, 10.0)
+    strength_reading: str = _f(
+        "split", "Angle reading", "Which shoulder angles S_H and S_V are read at: 'split', "
+        "the elevation split by the direction it is raised toward (α = θ cos φ, β = θ sin φ; "
+        "continuous as the arm hangs, the default), or 'horizontal', the arm's direction in "
+        "the horizontal plane and its elevation (as reference 11 pulled 'in the horizontal "
+        "plane')", "strength", choices=READINGS)
     elbow_side: str = _f(
         "require", "Elbow side", "Algorithm 1: 'require' keeps only elbows on the preferred "
         "side, 'prefer' tries them first, 'off' ignores the rule", "strength",
@@ -90,16 +96,20 @@ class Settings:
     chest_rotation: bool = _f(True, "Body rotation", "Read chest rotation from the reach "
                               "direction by Table 1", "body")
     chest_rotation_max: float = _f(
-        45.0, "Chest rotation limit", "Greatest chest rotation (thoracic axial rotation "
-        "range, about 45° each way)", "body", 0.0, 90.0, "deg")
+        CHEST_ROTATION_MAX_DEG, "Chest rotation limit", "Greatest chest rotation against the "
+        "feet (Table 1 measures it so; the figure's pelvis stays). Standing people reach "
+        "about 96° (Montgomery et al. 2011: trunk 32.6° + pelvis 63.8°); 60° is above every "
+        "Table 1 value up to 170° of direction", "body", 0.0, 90.0, "deg")
     table1_arm_length_m: float = _f(
         TABLE1_REFERENCE_ARM_LENGTH_M, "Table 1 subject arm",
-        "Shoulder-to-wrist length of the subject Table 1 was measured on; a figure's reach "
-        "distance is scaled by this over its own arm length", "body", 0.3, 1.0, "m")
-    table1_fade_start_m: float = _f(
-        TABLE1_FADE_START_M, "Rotation fade start",
-        "Below 75 cm Table 1 has no data: rotation fades linearly from the 75 cm row to zero "
-        "at this distance", "body", 0.0, 0.75, "m")
+        "Shoulder-to-wrist length of the adult Table 1 is read for (a 1.75 m adult by "
+        "Drillis & Contini); a figure's reach distance is scaled by this over its own arm "
+        "length", "body", 0.3, 1.0, "m")
+    table1_hand_point: float = _f(
+        TABLE1_HAND_POINT, "Table 1 hand point",
+        "Where Table 1's reach distance is measured, as a share of the hand's length beyond "
+        "the wrist: 1 the fingertips (default), 0.4 the centre of a grip, 0 the wrist",
+        "body", 0.0, 1.0)
     chest_phase_delay: float = _f(
         0.25, "Chest phase delay", "Fraction of a reach's progress toward its target before "
         "the chest starts to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)

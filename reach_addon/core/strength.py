@@ -18,9 +18,43 @@ The three-level ranking of the paper:
 3. the elbow's preferred side (Algorithm 1, in :mod:`reach_addon.core.ik`).
 
 :func:`rank_order` implements levels 1 and 2 (and takes level 3 as an optional first key).
+
+Two readings of α and β
+-----------------------
+The paper calls α and β the "horizontal" and "vertical" shoulder rotations behind S_H and
+S_V but does not define them further, and its sources measured differently (reference 11,
+Mital & Faard, pulled "in the horizontal plane"). ``Settings.strength_reading`` chooses
+which angles the curves are read at (:func:`strength_angles`):
+
+* ``"split"`` (default): the arm's elevation θ from hanging split by the direction φ it is
+  raised toward, α = θ cos φ and β = θ sin φ (the joint angles of :mod:`~reach_addon.core.arm`
+  themselves). Arm out to the side by 90°: α = 90, β = 0; forward by 90°: α = 0, β = 90.
+* ``"horizontal"``: α is the upper arm's direction in the horizontal plane, from straight
+  ahead toward the arm's side (0 forward, 90 to the side, 180 behind, negative across the
+  body), and β its elevation θ from hanging.
+
+f_R (SL_H = S_H(60°), SL_V = S_V(60°), the defaults) for the arm raised 60° and 90°:
+
+=======================  =========  ==============
+arm raised               ``split``  ``horizontal``
+=======================  =========  ==============
+60° sideways             0          1
+90° sideways             1          2
+60° forward              0          0
+90° forward              1          1
+=======================  =========  ==============
+
+``split`` is the default because it is continuous: near hanging both angles go to zero
+whichever way the arm swings, so the category of a nearly hanging arm does not change
+with a degree of swing. Under ``horizontal`` the direction of an arm hanging within a
+degree of vertical can be anything, and S_H jumps between its forward value (65) and its
+behind value (34) as the arm sways; it also calls an arm held 10° out to the side as
+weak horizontally as one held at shoulder height. (Tested: tests/core/test_strength.py.)
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -132,6 +166,31 @@ PREFERRED_LEVEL_H = float(strength_horizontal(60.0))
 PREFERRED_LEVEL_V = float(strength_vertical(60.0))
 
 
+#: The readings of α and β that ``Settings.strength_reading`` chooses between.
+READINGS = ("split", "horizontal")
+
+
+def strength_angles(alpha_deg, beta_deg, reading="split"):
+    """(α_S, β_S): the angles S_H and S_V are read at, from the shoulder angles (α, β).
+
+    .. math::
+        split:\\ (α_S, β_S) = (α, β) \\qquad
+        horizontal:\\ (α_S, β_S) = (\\operatorname{atan2}(α, β),\\ \\sqrt{α^2 + β^2})
+
+    With α = θ cos φ and β = θ sin φ, atan2(α, β) is the upper arm's horizontal direction
+    from straight ahead toward the arm's side and √(α² + β²) = θ its elevation (see the
+    module docstring). Floats or arrays.
+    """
+    if reading == "split":
+        return alpha_deg, beta_deg
+    if reading != "horizontal":
+        raise ValueError(f"unknown strength reading {reading!r}; one of {READINGS}")
+    if isinstance(alpha_deg, float) and isinstance(beta_deg, float):
+        return math.degrees(math.atan2(alpha_deg, beta_deg)), math.hypot(alpha_deg, beta_deg)
+    a, b = np.asarray(alpha_deg, dtype=float), np.asarray(beta_deg, dtype=float)
+    return np.degrees(np.arctan2(a, b)), np.hypot(a, b)
+
+
 def below_level(strength_value, level):
     """The first-level indicator: 1 where a strength is below its preferred level, else 0
     (f_H and f_V are this applied to S_H(α) and S_V(β))."""
@@ -226,11 +285,12 @@ def scores(alpha, beta, gamma, previous, settings):
     curve once: f_E where f_R = 0, f_S where f_R = 1, f_T where f_R = 2. ``previous`` is
     (α', β', γ'), the posture the move starts from."""
     lh, lv = settings.preferred_level_h, settings.preferred_level_v
+    sa, sb = strength_angles(alpha, beta, settings.strength_reading)
     if isinstance(alpha, float) and isinstance(beta, float):
         a0, b0, g0 = previous
         return score_float(alpha, beta, gamma, a0, b0, g0, lh, lv, settings.weight_alpha,
-                           settings.weight_beta, settings.weight_gamma)
-    sh, sv = strength_horizontal(alpha), strength_vertical(beta)
+                           settings.weight_beta, settings.weight_gamma, sa, sb)
+    sh, sv = strength_horizontal(sa), strength_vertical(sb)
     level = below_level(sh, lh) + below_level(sv, lv)
     a0, b0, g0 = previous
     exertion = f_e(alpha, beta, gamma, a0, b0, g0,
@@ -241,11 +301,17 @@ def scores(alpha, beta, gamma, previous, settings):
     return level, second
 
 
-def score_float(alpha, beta, gamma, a0, b0, g0, lh, lv, w_alpha, w_beta, w_gamma):
+def score_float(alpha, beta, gamma, a0, b0, g0, lh, lv, w_alpha, w_beta, w_gamma,
+                strength_alpha=None, strength_beta=None):
     """:func:`scores` of one candidate given as floats, with the settings' levels and
     weights passed in: the same formulas written out branch by branch (f_E, the deficits,
-    the balanced gain), one Python call instead of eight, for the planner's inner loop."""
-    sh, sv = _s_h_float(alpha), _s_v_float(beta)
+    the balanced gain), one Python call instead of eight, for the planner's inner loop.
+    The strength curves are read at (``strength_alpha``, ``strength_beta``) when given
+    (:func:`strength_angles`), else at (α, β); f_E always measures the joint angles."""
+    if strength_alpha is None:
+        sh, sv = _s_h_float(alpha), _s_v_float(beta)
+    else:
+        sh, sv = _s_h_float(strength_alpha), _s_v_float(strength_beta)
     if sh >= lh:
         if sv >= lv:
             return 0, w_alpha * abs(alpha - a0) + w_beta * abs(beta - b0) + w_gamma * abs(gamma - g0)
@@ -255,6 +321,13 @@ def score_float(alpha, beta, gamma, a0, b0, g0, lh, lv, w_alpha, w_beta, w_gamma
         return 1, dh
     dv = (lv - sv) / (lv - S_V_MIN)
     return 2, dh + dv - dh * dv
+
+
+def strength_category(alpha_deg, beta_deg, settings):
+    """f_R of shoulder angles under ``settings`` (its preferred levels and its reading of
+    α and β, :func:`strength_angles`)."""
+    sa, sb = strength_angles(alpha_deg, beta_deg, settings.strength_reading)
+    return f_r(sa, sb, settings.preferred_level_h, settings.preferred_level_v)
 
 
 def rank_order(f_r_values, second, first_key=None):

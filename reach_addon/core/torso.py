@@ -14,25 +14,44 @@ distal segments move first, the trunk joins for sideward reaches.
 
 Frame: the *canonical arm frame* of :mod:`reach_addon.core.arm` — origin on the vertical
 axis through the spine at chest height, x toward the reaching arm's side, y forward, z up.
-Reach direction is the horizontal angle of the target from straight ahead, positive toward
+Reach direction is the horizontal angle of the wrist from straight ahead, positive toward
 the reaching side (90° = straight out to that side, 180° = behind, negative = across the
-body); reach distance is the horizontal distance from the spine axis.
+body).
 
-Choices where the paper is silent (each a setting):
+How the distance is measured and scaled (the paper is silent; each choice a setting):
 
-* **Other figure sizes.** The distance is scaled by ``TABLE1_REFERENCE_ARM_LENGTH_M / arm
-  length`` before the table is read, so the table sees every figure as the paper's subject.
-  The reference, 0.58 m shoulder-to-wrist, is a 1.75 m adult by Drillis & Contini's
-  segment proportions (upper arm 0.186 H, forearm 0.146 H).
+* **Measured to the point the hand reaches**, as a reach distance is measured on a person:
+  the horizontal distance from the body's vertical axis to the hand, not to the wrist.
+  The hand is taken to continue the reach outward:
+  :math:`d = \\sqrt{x_w^2 + y_w^2} + k_{hand} L_{hand}`, with ``k_hand`` =
+  ``Settings.table1_hand_point`` (1 = the fingertips, the default; 0.4 = the centre of a
+  grip, since fingertip reach ≈ grip reach + 60 % of hand length in Pheasant's
+  *Bodyspace* conventions; 0 = the wrist). The fingertips are the default because a
+  1.75 m figure that does not lean (ours does not) can put its fingertips, but not the
+  centre of its grip, 85 cm from its spine axis: with the grip the 85 cm row would lie
+  beyond every figure's reach and Table 1 could never be met there.
+* **Scaled to the study's population** by arm length: :math:`d_{table} = d ×
+  L_{ref} / L_{figure}` with :math:`L_{ref}` = ``Settings.table1_arm_length_m``, 0.58 m
+  shoulder to wrist, the arm of a 1.75 m adult by Drillis & Contini's segment proportions
+  (upper arm 0.186 H, forearm 0.146 H; Drillis, Contini & Bluestein 1964, *Body segment
+  parameters*). So a full-size adult whose hand is 75 or 85 cm out reads exactly the
+  table's rows, and a figure of any size reads the rows at the same share of its reach.
 * **Between the rows** slope and intercept are interpolated linearly in distance.
-* **Beyond 85 cm** the 85 cm row is used (no data to extrapolate from).
-* **Below 75 cm** the 75 cm row's rotation fades linearly to zero at
-  ``TABLE1_FADE_START_M`` (0.50 m): close targets need no trunk, and extrapolating a
-  two-point regression towards the body would make the hanging arm (wrist beside the hip,
-  reach direction 90°) twist the chest.
+* **Outside the rows** the same straight lines in distance are extrapolated, as the paper
+  describes the data: "the starting rotation degree varies according to the target
+  distance", so a nearer target starts turning the chest at a larger direction (62.7° at
+  65 cm, 77° at 45 cm) and a farther one sooner. No fade to zero at an invented distance.
+  The starting angle is kept within [0°, 180°] (the intercept is never positive), so a
+  reach straight ahead never turns the chest.
 * **Across the body** (negative direction) the formula gives 0: Table 1 covers reaches to
   the arm's own side only.
-* The result is capped at ``Settings.chest_rotation_max``.
+* **The cap**, ``Settings.chest_rotation_max`` (60° by default), limits the chest's turn
+  against the feet. Table 1 measures the chest against the room, the pelvis's turn on the
+  hips included; the figure's pelvis stays, so the keyed chest carries the whole turn.
+  Standing people turn the chest against the feet by about 96° at most (trunk on pelvis
+  32.6°, pelvis 63.8°: Montgomery, Boocock & Hing 2011, *Clinical Biomechanics*
+  26:707–712, twenty men, maximal standing rotation); 60° keeps well inside that and still
+  above every value the two rows give up to 170° of direction (58.3° on the 75 cm row).
 """
 
 from __future__ import annotations
@@ -47,8 +66,10 @@ from .numeric import ARRAY, SCALAR, ops
 TABLE1 = ((0.75, 0.50, -26.7), (0.85, 0.45, -18.9))
 #: Shoulder-to-wrist length of the subject behind Table 1 (see the module docstring).
 TABLE1_REFERENCE_ARM_LENGTH_M = 0.58
-#: Distance at which the below-table fade reaches zero rotation.
-TABLE1_FADE_START_M = 0.50
+#: Where the hand's reach is measured, as a fraction of the hand's length beyond the wrist.
+TABLE1_HAND_POINT = 1.0
+#: Default cap on the chest's rotation (degrees; see the module docstring).
+CHEST_ROTATION_MAX_DEG = 60.0
 
 
 def _operand(x):
@@ -58,65 +79,57 @@ def _operand(x):
 
 
 def table1_coefficients(distance_m):
-    """(slope, intercept) of Table 1 at a reach distance: linear between the 75 cm and
-    85 cm rows, the nearest row outside them."""
+    """(slope, intercept) of Table 1 at a reach distance (the table's metres).
+
+    .. math::
+        t = \\frac{d - 0.75}{0.85 - 0.75},\\quad slope = 0.50 - 0.05\\,t,\\quad
+        intercept = \\min(0,\\ -26.7 + 7.8\\,t)
+
+    linear between the 75 cm and 85 cm rows and extrapolated beyond them (the intercept
+    never positive, so the starting angle stays at or above 0°)."""
     m, distance = _operand(distance_m)
     (d0, s0, i0), (d1, s1, i1) = TABLE1
-    t = m.clip((distance - d0) / (d1 - d0), 0.0, 1.0)
-    return s0 + (s1 - s0) * t, i0 + (i1 - i0) * t
+    t = (distance - d0) / (d1 - d0)
+    return s0 + (s1 - s0) * t, m.minimum(i0 + (i1 - i0) * t, 0.0)
 
 
 def starting_angle_deg(distance_m):
     """The reach direction at which the chest starts to turn: -intercept / slope
-    (53.4° at 75 cm, 42.0° at 85 cm)."""
+    (53.4° at 75 cm, 42.0° at 85 cm, larger for nearer targets)."""
     slope, intercept = table1_coefficients(distance_m)
     return -intercept / slope
 
 
-def chest_rotation_deg(direction_deg, distance_m, fade_start_m=TABLE1_FADE_START_M,
-                       max_deg=None):
+def chest_rotation_deg(direction_deg, distance_m, max_deg=None):
     """Chest rotation from reach direction and distance (Table 1).
 
-    .. math:: θ_{chest} = \\max(0,\\ direction × slope(d) + intercept(d))
+    .. math:: θ_{chest} = \\min(θ_{max},\\ \\max(0,\\ direction × slope(d) + intercept(d)))
 
-    with slope and intercept interpolated between the 75 cm and 85 cm rows. Below 75 cm
-    the value is multiplied by a weight that falls linearly from 1 at 75 cm to 0 at
-    ``fade_start_m``; beyond 85 cm the 85 cm row holds. ``distance_m`` is already scaled to
-    the paper's subject (see :func:`body_rotation_deg`). Floats in, float out; arrays in,
-    array out.
+    with slope and intercept from :func:`table1_coefficients`. ``distance_m`` is already
+    measured to the hand and scaled to the paper's subject (see :func:`table1_distance`).
+    Floats in, float out; arrays in, array out.
     """
     if isinstance(direction_deg, float) and isinstance(distance_m, float):
-        return _chest_rotation_float(direction_deg, distance_m, fade_start_m, max_deg)
+        return _chest_rotation_float(direction_deg, distance_m, max_deg)
     m, direction = _operand(direction_deg)
     m2, distance = _operand(distance_m)
     if m is not m2:
         m, direction, distance = ARRAY, np.asarray(direction, float), np.asarray(distance, float)
     slope, intercept = table1_coefficients(distance)
     rotation = m.maximum(0.0, direction * slope + intercept)
-    near = TABLE1[0][0]
-    if fade_start_m < near:
-        rotation = rotation * m.clip((distance - fade_start_m) / (near - fade_start_m), 0.0, 1.0)
-    else:
-        rotation = m.where(distance >= near, rotation, 0.0)
     if max_deg is not None:
         rotation = m.minimum(rotation, max_deg)
     return rotation
 
 
-def _chest_rotation_float(direction: float, distance: float, fade_start_m: float,
-                          max_deg) -> float:
+def _chest_rotation_float(direction: float, distance: float, max_deg) -> float:
     """:func:`chest_rotation_deg` for one float reach, step by step (the planner asks for
     every wrist position it tries)."""
     (d0, s0, i0), (d1, s1, i1) = TABLE1
     t = (distance - d0) / (d1 - d0)
-    t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
-    rotation = direction * (s0 + (s1 - s0) * t) + (i0 + (i1 - i0) * t)
+    intercept = i0 + (i1 - i0) * t
+    rotation = direction * (s0 + (s1 - s0) * t) + (intercept if intercept < 0.0 else 0.0)
     rotation = rotation if rotation > 0.0 else 0.0
-    if fade_start_m < d0:
-        w = (distance - fade_start_m) / (d0 - fade_start_m)
-        rotation = rotation * (0.0 if w < 0.0 else 1.0 if w > 1.0 else w)
-    elif distance < d0:
-        rotation = 0.0
     if max_deg is not None and rotation > max_deg:
         rotation = max_deg
     return rotation
@@ -135,27 +148,40 @@ def reach_distance(points):
     return np.hypot(p[..., 0], p[..., 1])
 
 
-def body_rotation_deg(wrists, arm_length, settings):
+def table1_distance(horizontal, arm_length, hand_length, settings):
+    """The reach distance Table 1 is read at, in the table's metres, from the wrist's
+    horizontal distance to the spine axis (the figure's units).
+
+    .. math:: d_{table} = (\\sqrt{x_w^2 + y_w^2} + k_{hand} L_{hand}) × L_{ref} / L_{figure}
+
+    ``k_hand`` = ``settings.table1_hand_point``, ``L_ref`` = ``settings.table1_arm_length_m``,
+    ``L_figure`` = ``arm_length`` (shoulder to wrist). Floats or arrays."""
+    return ((horizontal + settings.table1_hand_point * hand_length)
+            * (settings.table1_arm_length_m / arm_length))
+
+
+def body_rotation_deg(wrists, arm_length, hand_length, settings):
     """Chest rotation for wrist positions (canonical frame, the figure's units): a float
     for one point (3,), an array for (..., 3).
 
-    The multi-joint function of the paper: the distance is scaled to the Table 1 subject
-    (× ``settings.table1_arm_length_m / arm_length``) and Table 1 is read. Zero when
-    ``settings.chest_rotation`` is off.
+    The multi-joint function of the paper: Table 1 read at the wrist's direction and at
+    :func:`table1_distance`. Zero when ``settings.chest_rotation`` is off.
     """
     wrists = np.asarray(wrists, dtype=float)
-    scale = settings.table1_arm_length_m / arm_length
     if wrists.shape == (3,):
         if not settings.chest_rotation:
             return 0.0
         x, y = float(wrists[0]), float(wrists[1])
-        return chest_rotation_deg(math.degrees(math.atan2(x, y)), math.hypot(x, y) * scale,
-                                  settings.table1_fade_start_m, settings.chest_rotation_max)
+        return chest_rotation_deg(
+            math.degrees(math.atan2(x, y)),
+            float(table1_distance(math.hypot(x, y), arm_length, hand_length, settings)),
+            settings.chest_rotation_max)
     if not settings.chest_rotation:
         return np.zeros(wrists.shape[:-1])
     return np.asarray(chest_rotation_deg(
-        reach_direction_deg(wrists), reach_distance(wrists) * scale,
-        settings.table1_fade_start_m, settings.chest_rotation_max))
+        reach_direction_deg(wrists),
+        table1_distance(reach_distance(wrists), arm_length, hand_length, settings),
+        settings.chest_rotation_max))
 
 
 def spine_rotation_matrix(angle_deg):
@@ -231,19 +257,21 @@ class ChestPath:
     searched and timed, carries it (the timing then needs no second IK solve).
     """
 
-    def __init__(self, arm_length, settings, start_wrist, start_rotation, target):
+    def __init__(self, arm_length, hand_length, settings, start_wrist, start_rotation, target):
         self.arm_length = arm_length
+        self.hand_length = hand_length
         self.settings = settings
         self.target = np.asarray(target, dtype=float)
         start_wrist = np.asarray(start_wrist, dtype=float)
         self.offset = float(start_rotation) - float(body_rotation_deg(start_wrist, arm_length,
-                                                                        settings))
+                                                                        hand_length, settings))
         self.span = float(np.linalg.norm(start_wrist - self.target))
         self.start_rotation = float(start_rotation)
 
     def __call__(self, wrist) -> float:
         wrist = np.asarray(wrist, dtype=float)
-        table = float(body_rotation_deg(wrist, self.arm_length, self.settings))
+        table = float(body_rotation_deg(wrist, self.arm_length, self.hand_length,
+                                        self.settings))
         if self.span <= 1e-12:
             return table
         remaining = min(1.0, math.dist(wrist.tolist(), self.target.tolist()) / self.span)

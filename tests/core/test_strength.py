@@ -118,3 +118,82 @@ def test_module_exposes_the_paper_names():
     for name in ("strength_horizontal", "strength_vertical", "f_h", "f_v", "f_r", "f_e", "f_s",
                  "f_t", "S_H_MIN", "S_V_MIN"):
         assert hasattr(strength, name)
+
+
+# --- the two readings of α and β --------------------------------------------------------------
+
+def _raised(elevation_deg, toward):
+    """Upper-arm direction (chest frame, x to the arm's side, y forward, z up) raised by
+    ``elevation_deg`` from hanging toward the side or the front."""
+    e = np.radians(elevation_deg)
+    horizontal = np.array([1.0, 0.0]) if toward == "sideways" else np.array([0.0, 1.0])
+    return np.array([*(np.sin(e) * horizontal), -np.cos(e)])
+
+
+def _documented_table():
+    """The f_R table in core.strength's docstring: {(elevation, toward): (split, horizontal)}."""
+    rows = {}
+    for line in strength.__doc__.splitlines():
+        words = line.split()
+        if len(words) == 4 and words[1] in ("sideways", "forward") and words[0].endswith("°"):
+            rows[(float(words[0][:-1]), words[1])] = (int(words[2]), int(words[3]))
+    return rows
+
+
+def test_both_readings_as_documented():
+    """The docstring's table of f_R under each reading is what the code computes, from the
+    upper arm's direction through the arm module's own angle convention."""
+    from reach_addon.core.arm import shoulder_angles
+
+    table = _documented_table()
+    assert set(table) == {(e, t) for e in (60.0, 90.0) for t in ("sideways", "forward")}
+    for (elevation, toward), expected in table.items():
+        alpha, beta = (float(x) for x in shoulder_angles(_raised(elevation, toward)))
+        got = tuple(int(strength.strength_category(alpha, beta,
+                                                   Settings(strength_reading=reading)))
+                    for reading in ("split", "horizontal"))
+        assert got == expected, (elevation, toward)
+    assert table[(90.0, "sideways")] == (1, 2)          # the readings do differ
+
+
+def test_the_split_reading_is_continuous_where_the_arm_hangs():
+    """Why split is the default: swinging a nearly hanging arm by a degree changes nothing
+    under split, but moves S_H across its whole range under the horizontal reading."""
+    from reach_addon.core.arm import shoulder_angles
+
+    swings = [np.array([np.sin(np.radians(1.0)) * np.cos(p), np.sin(np.radians(1.0)) * np.sin(p),
+                        -np.cos(np.radians(1.0))]) for p in np.radians(np.arange(0, 360, 30))]
+    split, horizontal = [], []
+    for u in swings:
+        alpha, beta = (float(x) for x in shoulder_angles(u))
+        split.append(strength_horizontal(strength.strength_angles(alpha, beta, "split")[0]))
+        horizontal.append(strength_horizontal(
+            strength.strength_angles(alpha, beta, "horizontal")[0]))
+    assert max(split) - min(split) < 0.5
+    assert max(horizontal) - min(horizontal) > 20.0
+
+
+def test_the_reading_reaches_the_planner_float_and_array_paths_alike():
+    """ik.solve scores one wrist with floats and many with arrays; under the horizontal
+    reading both give the f_R of strength_category at the angles they return."""
+    from reach_addon.core.ik import solve
+    from reach_addon.samples import standard_arm
+
+    arm = standard_arm()
+    s = Settings(strength_reading="horizontal")
+    rng = np.random.default_rng(5)
+    wrists = arm.shoulder + rng.uniform(-0.5, 0.5, (12, 3)) * arm.arm_length
+    many = solve(arm, wrists, s)
+    checked = 0
+    for i, w in enumerate(wrists):
+        one = solve(arm, w[None], s)
+        valid = np.flatnonzero(one.valid[0])
+        if not len(valid):
+            continue
+        expected = strength.strength_category(one.alpha[0, valid], one.beta[0, valid], s)
+        np.testing.assert_array_equal(np.asarray(one.f_r)[0, valid], expected)
+        np.testing.assert_array_equal(np.asarray(many.f_r)[i, valid], expected)
+        checked += 1
+    assert checked >= 6
+    split = solve(arm, wrists, Settings())
+    assert not np.array_equal(np.asarray(split.f_r)[split.valid], np.asarray(many.f_r)[many.valid])

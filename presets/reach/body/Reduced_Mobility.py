@@ -18,5 +18,5 @@ reach.elevation_max = 140.0
 reach.chest_rotation = True
 reach.chest_rotation_max = 30.0
 reach.table1_arm_length_m = 0.58
-reach.table1_fade_start_m = 0.5
+reach.table1_hand_point = 1.0
 reach.chest_phase_delay = 0.25

@@ -6,6 +6,7 @@ reach = bpy.context.scene.reach.settings
 
 reach.preferred_level_h = 54.65
 reach.preferred_level_v = 44.8689
+reach.strength_reading = 'split'
 reach.weight_alpha = 1.0
 reach.weight_beta = 1.0
 reach.weight_gamma = 1.5

@@ -5,6 +5,7 @@ reach = bpy.context.scene.reach.settings
 
 reach.preferred_level_h = 44.3
 reach.preferred_level_v = 28.4643
+reach.strength_reading = 'split'
 reach.weight_alpha = 1.0
 reach.weight_beta = 1.0
 reach.weight_gamma = 1.5
