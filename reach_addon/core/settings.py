@@ -207,8 +207,9 @@ class Settings:
         24, "Poses per position", "Most ranked poses tested for collision at one wrist "
         "position before it is declared blocked", "search", 1, 720)
     guided_fallback: bool = _f(
-        True, "Guided fallback", "When the straight best-first search finds no path, search "
-        "again through the workspace's guiding nodes", "search")
+        True, "Other route", "When the best-first search finds no path, search once more "
+        "the other way: through the workspace's guiding nodes after a straight search, "
+        "straight after a guided one", "search")
     chase_nodes_per_frame: int = _f(
         60, "Chase nodes per frame", "Search budget for each frame of a chase", "search",
         1, 100000)

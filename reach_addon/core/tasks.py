@@ -2,7 +2,8 @@
 
 * ``reach`` — collision-free reach: best-first search straight toward one target. If that
   finds no path (and the target is not out of reach or inside an obstacle) and
-  ``Settings.guided_fallback`` is on, the search is repeated through guiding nodes.
+  ``Settings.guided_fallback`` is on, the search is repeated through guiding nodes (and a
+  guided search that finds none is repeated straight).
 * ``sequence`` — rotation reach: several targets in order, each reach starting where the
   last ended; body rotation engages (Table 1) as the targets move round to the side.
 * ``guided`` — guided reach: the search follows the guiding nodes of the workspace grid.
@@ -342,8 +343,12 @@ class Planner:
         # A target known to be unreachable still gets a closest approach, on a shorter leash.
         limits = {} if diagnosis is None else {"stall_budget": max(20, s.stall_budget // 4)}
         result = yield from self.search_steps(start, target, guided, chunk, **limits)
-        if not result.success and not guided and diagnosis is None and s.guided_fallback:
-            retry = yield from self.search_steps(start, target, True, chunk)
+        if not result.success and diagnosis is None and s.guided_fallback:
+            # The other route, the hand still continuous: through the guiding nodes after a
+            # straight search, straight after a guided one (a guided search can pass every
+            # guiding node and still stall in the last approach, which the straight one
+            # makes from another side).
+            retry = yield from self.search_steps(start, target, not guided, chunk)
             retry.nodes_searched += result.nodes_searched
             retry.search_time_s += result.search_time_s
             if retry.success or retry.closest_distance < result.closest_distance:
