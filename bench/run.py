@@ -8,6 +8,9 @@ to ``bench/results.json`` and a readable ``bench/results.md``:
    Blender), each timed from a fresh planner: search time, grid preprocessing (the
    workspace, built once per planner, as the paper's), nodes searched / in solution, path
    length, time per node and the speed-up over the paper's times.
+   **Table 1**: reaches baked over directions at both rows of Table 1 on the demo
+   character, the chest's turn at arrival read from the evaluated bones and plotted against
+   the table (``bench/table1.png``, :mod:`bench.table1`).
 2. **OMPL race** (:mod:`bench.ompl_race`): RRTConnect + simplification in the same joint
    space with the same collision test, start and goal.
 3. **Chase / live re-plan**: time per target update (:mod:`bench.live_bench`).
@@ -104,6 +107,18 @@ def table2(runs: int):
         log(f"  {name:15s} {1000 * med:8.1f} ms (paper {1000 * paper_t:.0f} ms, "
             f"{row['speedup_vs_paper']:.0f}×), {row['nodes_searched']} nodes (paper {paper_n})")
     return out
+
+
+# --- 1b. Table 1 -----------------------------------------------------------------------------
+
+def table1():
+    """The chest's turn at arrival on the demo character against Table 1, and the plot."""
+    from bench import table1 as sweep
+
+    result = sweep.main(ROOT / "bench")
+    log(f"  {result['reached']}/{result['reaches']} reached; largest difference from Table 1 "
+        f"{result['max_abs_error_deg']:.2f}°; wrote bench/table1.png")
+    return {"table1": result}
 
 
 # --- 2. OMPL --------------------------------------------------------------------------------
@@ -337,6 +352,17 @@ def markdown(results) -> str:
             f"{r['nodes_searched']} | {r['paper_nodes_searched']} | {r['nodes_in_solution']} | "
             f"{r['paper_nodes_in_solution']} | {r['path_length_arm_lengths']:.2f} | "
             f"{r['paper_path_length_arm_lengths']:.2f} | {1000 * r['time_per_node_ms']:.0f} |")
+    if results.get("table1"):
+        t = results["table1"]
+        lines += ["", "## Table 1 on baked reaches (the demo character; `bench/table1.png`)", "",
+                  "| row | directions | reached | chest at arrival − Table 1, ° (min … max) |",
+                  "|---|---|---|---|"]
+        for row in sorted({p["row_m"] for p in t["points"]}):
+            mine = [p for p in t["points"] if p["row_m"] == row]
+            errors = [p["error_deg"] for p in mine if p["success"]]
+            lines.append(f"| {100 * row:.0f} cm | {mine[0]['direction_deg']:.0f}–"
+                         f"{mine[-1]['direction_deg']:.0f}° | {len(errors)}/{len(mine)} | "
+                         + (f"{min(errors):+.2f} … {max(errors):+.2f} |" if errors else "– |"))
     lines += ["", "## The hand (same plans)", "",
               "| task | plan ms (spread) | frames | wrist turn °/frame (max) | hand turn °/frame "
               "in space (max) | wrist bend ° mean / max | frames added | over the bound | "
@@ -392,8 +418,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--skip", action="append", default=[],
-                        choices=("table2", "ompl", "chase", "bake", "scaling", "gather",
-                                 "batch"))
+                        choices=("table2", "table1", "ompl", "chase", "bake", "scaling",
+                                 "gather", "batch"))
     parser.add_argument("--output", default=str(ROOT / "bench"))
     args = parser.parse_args(argv)
     results = {"reach_version": __version__, "blender_version": bpy.app.version_string,
@@ -402,6 +428,7 @@ def main(argv=None) -> int:
                            "cores": os.cpu_count(), "python": platform.python_version(),
                            "system": platform.platform()}}
     steps = [("table2", "Table 2", lambda: {"table2": table2(args.runs)}),
+             ("table1", "Table 1 on baked reaches (bench/table1.png)", table1),
              ("ompl", "OMPL race", lambda: {"ompl": ompl(args.runs)}),
              ("chase", "chase / live re-plan", chase_updates),
              ("bake", "bake", lambda: bake_1000(args.runs)),

@@ -305,8 +305,14 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
         stats["mean_wrist_bend_deg"] = sum(r.stats["mean_wrist_bend_deg"] * r.stats["frames"]
                                            for r in results) / max(frames, 1)
         rows.append((name, ok, stats))
+        chest = _chest_against_table1(armature, outcome, frame) if name == "rotation" else []
+        for c in chest:
+            print(f"{'':15s} chest at '{c['target']}': {c['chest_yaw_deg']:5.1f}° "
+                  f"(Table 1: {c['table1_deg']:5.1f}° at {c['direction_deg']:.0f}°, "
+                  f"{100 * c['table1_distance_m']:.0f} cm)", file=out, flush=True)
         reports.append({"task": name, "success": ok, "frame_start": frame, "frame_end": end,
-                        "targets": [r.to_dict() for r in results], **stats})
+                        "targets": [r.to_dict() for r in results], **stats,
+                        **({"chest_vs_table1": chest} if chest else {})})
         if render:
             renders[name] = render_outcome(bpy.context, outcome, out_dir, still=f"{name}.png",
                                            video=None)["still"]
@@ -336,6 +342,39 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     print(f"\nsaved {blend}, report.json" + (", stills and demo.mp4" if render else "") +
           f" in {out_dir} ({report['total_time_s']:.0f} s)", file=out, flush=True)
     return 0 if all(ok for _n, ok, _s in rows) else 1
+
+
+def _chest_against_table1(armature, outcome, frame_start):
+    """For each reached target of a task: the chest's turn at arrival, read from the
+    evaluated bones (:mod:`reach_addon.blender.measure`), beside Table 1's value at the
+    wrist's direction and distance as Blender shows them."""
+    import bpy
+
+    from .blender import measure
+    from .core.torso import chest_rotation_deg, table1_distance
+
+    scene, info = bpy.context.scene, outcome.rig
+    bones, side, settings = info.bones, info.side, outcome.request.settings
+    scene.frame_set(frame_start)
+    axes = measure.body_axes(armature, bones.chest, bones.arms["right"].upper_arm,
+                             bones.arms["left"].upper_arm)
+    reference = measure.bone_matrix(armature, bones.keyed_chest)
+    out = []
+    for r in outcome.results:
+        if not r.success:
+            continue
+        scene.frame_set(r.frame_end)
+        wrist = measure.bone_head(armature, bones.arms[side].hand)
+        direction = axes.direction_deg(wrist, side)
+        distance = float(table1_distance(axes.distance(wrist), info.arm.arm_length,
+                                         info.arm.hand_length, settings))
+        out.append({"target": r.target, "direction_deg": direction,
+                    "table1_distance_m": distance,
+                    "chest_yaw_deg": measure.yaw_deg(
+                        measure.bone_matrix(armature, bones.keyed_chest), reference, axes, side),
+                    "table1_deg": float(chest_rotation_deg(direction, distance,
+                                                           settings.chest_rotation_max))})
+    return out
 
 
 def table2_text(rows) -> str:
