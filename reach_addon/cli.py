@@ -56,7 +56,9 @@ class Interrupted(BaseException):
 @contextmanager
 def _interruptible():
     """Turn SIGTERM and SIGINT into :class:`Interrupted` while the block runs (on the main
-    thread only: Python handles signals there), then put the previous handlers back."""
+    thread only: Python handles signals there), then put the previous handlers back. A
+    signal whose handler the host installed in C (the Blender program's own;
+    ``signal.getsignal`` gives None) is left to the host: Python could not put it back."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -64,7 +66,8 @@ def _interruptible():
     def handler(signum, _frame):
         raise Interrupted(signum)
 
-    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGINT)}
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGINT)
+                if signal.getsignal(s) is not None}
     try:
         yield
     finally:
@@ -268,6 +271,7 @@ def _bake_open_file(args, scene_path, output, bones, written) -> int:
         bake_closest=args.bake_closest)
 
     t0 = time.perf_counter()
+    pipeline.validate(bpy.context, request, bake=True)      # bad input: before any output
     print(f"planning {len(request.targets)} target(s) for '{request.armature}' ({request.task})",
           flush=True)
     outcome = pipeline.run(bpy.context, request, bake=True)
