@@ -24,6 +24,14 @@ places:
      ``wrist_side_max``) every ``Settings.hand_grid_step`` degrees of bend (side bends 2.5
      times wider); it holds the search's hand samples. The start state is the rig's own
      hand (anywhere, even outside the range), joined to the grid by a chain of states.
+     One more state per frame is the frame's *own* hand, the one the validated path
+     carries there (:class:`~reach_addon.core.motion.PathSampler`): continuous along the
+     path and clear by construction, so that slowing down along the path always has a
+     bounded, clear sequence to offer. A frame sampled between two of the path's poses
+     may bring it within the margin (the arm's angles interpolated); there it counts as
+     clear if it keeps half the margin (as between keys), at a cost above any bounded
+     sequence of turns (:attr:`HandPass.LOOSE_COST`), so the full margin wins wherever
+     some choice keeps it.
    * **Constraints.** A state must be clear of the obstacles and the body at its frame
      (:meth:`ConfigurationGenerator.hands_clear`); a transition may turn the hand, relative
      to the forearm, by at most ``Settings.hand_turn_speed`` / fps degrees, and its whole
@@ -45,7 +53,12 @@ places:
      two keys, frames are inserted between them: on the validated path at the arc
      lengths between (so the arm slows through the tight spot instead of sweeping
      through it), or, where that did not help, holds of both keys (the arm waits while
-     the hand turns). At most ``Settings.slowdown_budget`` × frames are added; past that
+     the hand turns). Where no choice exists into a frame but the own hand was lost at an
+     earlier one (it turned faster than the bound there, in place or with the arm, and
+     the branches left closed later), the frames are inserted where it was lost: a
+     branch shut at a pocket's edge is not reopened by slowing down at the edge (the
+     demo's guided reach on a real character lifted the bound there after 96 holds).
+     At most ``Settings.slowdown_budget`` × frames are added; past that
      (or where frames are tied to the clock, as in a chase) the bound is lifted for that
      transition, and ``unbounded_hand_turns`` / ``touching_transitions`` report it.
 
@@ -162,6 +175,8 @@ class HandPass:
         # contact, checked with that (thinner arm's) generator (core.contact)
         self.escape = escape if self.arcs is not None else None
         self._clear: set = set()
+        self._coefs: dict = {}     # id(pose) -> the states' coefficients there
+        self._loose: set = set()   # ids of poses whose own hand keeps only half the margin
 
     def _gen(self, k):
         if self.escape is not None and self.arcs[min(k, len(self.arcs) - 1)] < self.escape[1]:
@@ -209,11 +224,19 @@ class HandPass:
         for _round in range(64 + 4 * len(poses)):
             path, fail = self._dp(poses, grid, feasible, banned, lifted)
             if path is None:
+                fail, reachable, lost = fail
+                if lost is not None and slow_down(lost - 1, self._own_need(poses, lost)):
+                    # the motion's own hand, bounded and clear up to frame lost - 1, could
+                    # not follow into frame `lost` (too fast a turn, in place or with the
+                    # arm): the branch the DP was left with failed later, at `fail`, where
+                    # no slowing down can mend it. Slow down where the own hand was lost:
+                    # poses between, on the path, so it turns more slowly.
+                    continue
                 # no bounded, clear choice into frame `fail`: slow down there (as many
                 # frames as the least turn needed takes at the bound), else lift the bound
                 # (poses between first; where those did not help, the arm waits)
-                fail, reachable = fail
-                gap = grid.turn[np.ix_(reachable, feasible[fail])]
+                n_grid = len(grid.angles)
+                gap = grid.turn[np.ix_(reachable[:n_grid], feasible[fail][:n_grid])]
                 need = math.ceil(float(gap.min()) / self.bound - 1e-9) - 1 if gap.size else 1
                 hold = id(poses[fail - 1]) in refined or id(poses[fail]) in refined
                 if not slow_down(fail - 1, max(1, need), hold):
@@ -238,20 +261,63 @@ class HandPass:
             while (problem := self._between(poses, grid, path, skip)) is not None:
                 accepted.add(problem[0])
                 skip.add(problem[0])
-        hands = [tuple(grid.angles[i]) for i in path] if path is not None else \
-            [p.hand for p in poses]
+        hands = [self._angles(p, grid, i) for p, i in zip(poses, path)] \
+            if path is not None else [p.hand for p in poses]
         return self._report(poses, hands, inserted, len(lifted), sorted(accepted))
 
     # --- the pieces -------------------------------------------------------------------
     def _feasible(self, k, pose: Pose, grid: HandGrid) -> np.ndarray:
-        clear = self._gen(k).hands_clear(pose.joints, pose.bend, pose.config.body_rotation,
-                                         grid.coefficients)
+        """Which states are clear at frame ``k`` (``pose``): the grid's, then the pose's
+        own hand (the last state, :meth:`_coefficients`). The own hand counts as clear
+        where it is clear with half the margin (it is the validated path's, sampled
+        between two of its poses, :class:`~reach_addon.core.motion.PathSampler`), but
+        costs :attr:`LOOSE_COST` there (:attr:`_loose`)."""
+        gen = self._gen(k)
+        coefficients = self._coefficients(pose, grid)
+        clear = gen.hands_clear(pose.joints, pose.bend, pose.config.body_rotation,
+                                coefficients)
+        if not clear[-1]:
+            clear[-1] = gen.between_keys().hands_clear(
+                pose.joints, pose.bend, pose.config.body_rotation, coefficients[-1:])[0]
+            if clear[-1]:
+                self._loose.add(id(pose))
         if self.escape is not None and self.arcs[min(k, len(self.arcs) - 1)] < self.escape[1]:
             # on the way out of a start in contact the hand keeps the escape's own, which
             # only ever gets farther from what it touched: the states nearest it
-            turn = wrist_turn(grid.coefficients, np.array(hand_coefficients(*pose.hand)))
+            turn = wrist_turn(coefficients, coefficients[-1])
             clear &= turn <= max(float(turn.min()), 0.5 * self.settings.hand_grid_step) + 1e-9
         return clear
+
+    #: Cost of a frame whose own hand (the validated path's) is chosen where only half
+    #: the margin is kept: more than any bounded sequence of turns costs, so the full
+    #: margin wins wherever some bounded, clear choice keeps it.
+    LOOSE_COST = 1e6
+
+    def _coefficients(self, pose: Pose, grid: HandGrid) -> np.ndarray:
+        """The states' coefficients at ``pose`` (S + 1, 3): the grid's, then the pose's
+        own hand, the one the validated path carries (by construction clear and continuous
+        along it, turning in place where it must), so that slowing down along the path
+        always has a bounded, clear way to offer the DP."""
+        c = self._coefs.get(id(pose))
+        if c is None:
+            c = np.vstack([grid.coefficients, [hand_coefficients(*pose.hand)]])
+            self._coefs[id(pose)] = c
+        return c
+
+    def _angles(self, pose: Pose, grid: HandGrid, state: int) -> tuple:
+        """The wrist's two angles of ``state`` at ``pose``."""
+        if state >= len(grid.angles):
+            return (float(pose.hand[0]), float(pose.hand[1]))
+        return tuple(grid.angles[state])
+
+    def _own_need(self, poses, k: int) -> int:
+        """Frames to insert before frame ``k`` so that the own hand turns within the
+        bounds (relative to the forearm and in space) from frame k - 1."""
+        a, b = poses[k - 1], poses[k]
+        rel = float(wrist_turn(np.array(hand_coefficients(*a.hand)),
+                               np.array(hand_coefficients(*b.hand))))
+        turn = max(rel / self.bound, frame_turn(a, b) / self.space_bound)
+        return max(1, math.ceil(turn - 1e-9) - 1)
 
     #: Least weight of the ease at the very start of a move (a turn there costs at most
     #: 1 / EASE_FLOOR² times more than at full speed).
@@ -278,7 +344,7 @@ class HandPass:
         o = self._dirs.get(id(pose))
         if o is None:
             axes = self._gen(0).hand_axes(pose.joints, pose.bend)     # rows f, p, h
-            d = grid.coefficients @ axes
+            d = self._coefficients(pose, grid) @ axes
             h = axes[2]
             g = h[None, :] - (d @ h)[:, None] * d
             g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
@@ -288,23 +354,42 @@ class HandPass:
 
     def _dp(self, poses, grid: HandGrid, feasible, banned, lifted):
         """(least-cost state path (a state index per frame), None), or (None, (k,
-        reachable)) with the first frame ``k`` no bounded, clear state can reach and the
-        mask of the states reachable at frame k - 1."""
+        reachable, lost)) with the first frame ``k`` no bounded, clear state can reach,
+        the mask of the states reachable at frame k - 1, and the frame (≤ k) where the own
+        hand (the last state) last stopped being reachable though clear there, or None.
+
+        States: the grid's, then each frame's own hand (:meth:`_coefficients`)."""
         s = self.settings
-        n_states = len(grid.angles)
+        n_grid = len(grid.angles)
+        own = n_grid
         ratio = grid.turn / self.bound
-        edge = np.where(grid.turn <= self.bound + 1e-9, ratio * ratio, np.inf)
-        free = ratio * ratio
-        node = s.wrist_relax_weight * (grid.bend / 45.0) ** 2
-        cost = np.full(n_states, np.inf)
+        # edges between the states at k - 1 and at k: the grid's among themselves here,
+        # the own hands' (which change from frame to frame) filled in per frame
+        edge = np.empty((n_grid + 1, n_grid + 1))
+        edge[:n_grid, :n_grid] = np.where(grid.turn <= self.bound + 1e-9, ratio * ratio, np.inf)
+        free = np.empty((n_grid + 1, n_grid + 1))
+        free[:n_grid, :n_grid] = ratio * ratio
+        node = np.append(s.wrist_relax_weight * (grid.bend / 45.0) ** 2, 0.0)
+        cost = np.full(n_grid + 1, np.inf)
         cost[grid.start] = 0.0
-        back = np.zeros((len(poses), n_states), dtype=np.int64)
-        cols = np.arange(n_states)
+        if np.allclose(poses[0].hand, grid.angles[grid.start]):
+            cost[own] = 0.0
+        back = np.zeros((len(poses), n_grid + 1), dtype=np.int64)
+        cols = np.arange(n_grid + 1)
         space_cos = math.cos(math.radians(self.space_bound)) - 1e-12
+        lost = None
+        prev_c = self._coefficients(poses[0], grid)
         for k in range(1, len(poses)):
+            c = self._coefficients(poses[k], grid)
+            turn_in = wrist_turn(grid.coefficients, c[own]) / self.bound   # grid -> own
+            turn_out = wrist_turn(prev_c[own], c) / self.bound             # own -> all
             if k in lifted:
+                free[:n_grid, own] = turn_in * turn_in
+                free[own] = turn_out * turn_out
                 m = cost[:, None] + free
             else:
+                edge[:n_grid, own] = np.where(turn_in <= 1.0 + 1e-9, turn_in * turn_in, np.inf)
+                edge[own] = np.where(turn_out <= 1.0 + 1e-9, turn_out * turn_out, np.inf)
                 # the hand's whole orientation in space may turn no faster either (so no
                 # bone of the hand, finger or thumb, turns faster): the forearm's own turn
                 # and roll count there, and the hand turns against them where it can
@@ -321,12 +406,20 @@ class HandPass:
                 if i >= 0:
                     m[i, j] = np.inf
             arg = np.argmin(m, axis=0)
+            bend_own = math.degrees(math.acos(max(-1.0, min(1.0, float(c[own, 0])))))
+            node[own] = s.wrist_relax_weight * (bend_own / 45.0) ** 2 + \
+                (self.LOOSE_COST if id(poses[k]) in self._loose else 0.0)
             best = m[arg, cols] + node
             best[~feasible[k]] = np.inf
+            if np.isfinite(cost[own]) and not np.isfinite(best[own]) and feasible[k][own]:
+                lost = k
+            elif np.isfinite(best[own]) or not feasible[k][own]:
+                lost = None
             if not np.isfinite(best).any():
-                return None, (k, np.isfinite(cost))
+                return None, (k, np.isfinite(cost), lost)
             back[k] = arg
             cost = best
+            prev_c = c
         path = [int(np.argmin(cost))]
         for k in range(len(poses) - 1, 0, -1):
             path.append(int(back[k, path[-1]]))
@@ -348,7 +441,7 @@ class HandPass:
             if hand_key in self._clear:
                 continue
             problem = self._gen(k + 1).transition_problem(
-                a, b, grid.angles[path[k]], grid.angles[path[k + 1]], n,
+                a, b, self._angles(a, grid, path[k]), self._angles(b, grid, path[k + 1]), n,
                 arm=key not in self._clear)
             if problem == "arm":
                 return k, "arm"

@@ -9,7 +9,11 @@ from hypothesis import strategies as st
 
 from geometry import HANGING, arm_penetration, obstacles, standard_arm, triangles_of
 from reach_addon.core import Planner, Settings, Task
-from reach_addon.core.arm import forward_kinematics, hand_angles, hand_direction
+from reach_addon.core.arm import ArmConfig, forward_kinematics, hand_angles, hand_direction
+from reach_addon.core.collision import Obstacles
+from reach_addon.core.generator import ConfigurationGenerator, hand_coefficients
+from reach_addon.core.hand import plan_hand
+from reach_addon.core.motion import time_path
 from reach_addon.demo import WORKPLACE, demo_tasks
 
 FPS = 24.0
@@ -83,3 +87,59 @@ def test_the_motion_starts_from_the_rigs_own_hand():
     assert s.max_wrist_turn_deg_per_frame <= 360.0 / FPS + 1e-6
     # free space: the hand relaxes back to neutral by the end of the reach
     assert abs(plan.poses[-1].hand[0]) <= 5.0 + 1e-6 and abs(plan.poses[-1].hand[1]) <= 12.5
+
+
+class _Pocket(ConfigurationGenerator):
+    """No obstacles, but hand directions cleared by a rule on the wrist's progress ``u``
+    along a straight reach and the hand's bend ``b`` in the elbow's plane: everything at
+    first; then, with the whole margin, only the hand bent up (b ≥ 30°) while, with half
+    of it, bent down by 30-40° too (where the path's own hand, bent down 35°, passes);
+    then either way; at the end only bent down."""
+
+    def __init__(self, arm, settings, a, b, loose=False):
+        super().__init__(arm, Obstacles(None), settings)
+        self.a, self.b, self.loose = a, b, loose
+
+    def between_keys(self):
+        return _Pocket(self.arm, self.settings, self.a, self.b, loose=True)
+
+    def hands_clear(self, joints, bend, body_rotation, coefficients):
+        c = np.atleast_2d(np.asarray(coefficients, dtype=float))
+        ab = self.b - self.a
+        u = float(np.dot(np.asarray(joints[3]) - self.a, ab) / np.dot(ab, ab))
+        b = np.degrees(np.arctan2(c[:, 1], c[:, 0]))
+        if u < 0.3:
+            return np.ones(len(c), dtype=bool)
+        if u < 0.45:
+            return (b >= 30.0) | ((b <= -30.0) & (b >= -40.0) if self.loose else False)
+        if u < 0.7:
+            return np.abs(b) >= 30.0
+        return b <= -30.0
+
+
+def test_slowing_down_follows_the_paths_own_hand():
+    """The DP loses the path's own hand where it turns faster than the bound (here in
+    place, early) and later, where the only branch it kept closes, finds no bounded, clear
+    choice that slowing down there could give: it slows down where the own hand was lost
+    instead, and the hand stays bounded and clear (it used to lift the bound)."""
+    arm = standard_arm()
+    s = Settings()
+    c0 = np.array([0.0, 20.0, 30.0, -20.0, 60.0])
+    c1 = np.array([0.0, 40.0, 60.0, 0.0, 70.0])
+    plain = ConfigurationGenerator(arm, Obstacles(None), s)
+    ends = [plain.config_pose(ArmConfig.from_array(c)) for c in (c0, c1)]
+    gen = _Pocket(arm, s, ends[0].wrist, ends[1].wrist)
+    dense = []
+    for t in np.linspace(0.0, 1.0, 41):
+        config = ArmConfig.from_array((1 - t) * c0 + t * c1)
+        if t == 0.2:          # the hand turns in place, down 35°, before the pocket
+            dense.append(gen.config_pose(config))
+        dense.append(gen.config_pose(config, (0.0, 0.0) if t < 0.2 else (-35.0, 0.0)))
+    poses, arcs, sampler = time_path(gen, dense, 24)
+    report = plan_hand(gen, poses, FPS, arcs=arcs, sampler=sampler)
+    assert report.unbounded_turns == 0 and not report.unclear_transitions
+    assert report.max_wrist_turn_deg <= s.hand_turn_speed / FPS + 1e-6
+    assert report.max_hand_turn_deg <= s.hand_space_turn_speed / FPS + 1e-6
+    for p in report.poses:
+        assert gen.between_keys().hands_clear(
+            p.joints, p.bend, 0.0, [hand_coefficients(*p.hand)])[0]
