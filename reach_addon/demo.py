@@ -250,7 +250,7 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
 
     import bpy
 
-    from . import __version__
+    from . import __version__, atomic
     from .blender import pipeline
     from .blender import rig as rig_mod
     from .blender.render import render_outcome
@@ -323,7 +323,7 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     scene.frame_start, scene.frame_end = 1, frame - 1
     scene.frame_set(1)
     blend = out_dir / "demo.blend"
-    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    atomic.save_blend(blend)
     if render:
         print(f"{'':15s} rendering demo.mp4 ({frame - 1} frames)", file=out, flush=True)
         renders["video"] = render_outcome(bpy.context, outcome, out_dir, still=None,
@@ -336,7 +336,7 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
                                             "nodes_in_solution", "path_length_arm_lengths"), v))
                                for k, v in PAPER_TABLE2.items()},
               "total_time_s": time.perf_counter() - t_start}
-    (out_dir / "report.json").write_text(json.dumps(report, indent=2))
+    atomic.write_text(out_dir / "report.json", json.dumps(report, indent=2))
     print(file=out)
     print(table2_text(rows), file=out)
     print(f"\nsaved {blend}, report.json" + (", stills and demo.mp4" if render else "") +
