@@ -45,7 +45,7 @@ How the comparison is made fair
 * **Same yardstick.** Both paths are interpolated linearly in joint space, densely enough
   that the wrist moves at most 0.002 arm lengths between samples (Reach's between its
   frames, OMPL's between its waypoints), and every sample is measured the same way: wrist
-  path length in arm lengths, mean strength category f_R (``core.strength.f_r``) and
+  path length in arm lengths, mean strength category f_R (``core.strength.strength_category``) and
   contacts found by an independent check (below).
 
 The independent check
@@ -88,7 +88,7 @@ from reach_addon.core import Planner, Task
 from reach_addon.core import ik
 from reach_addon.core.arm import forward_kinematics
 from reach_addon.core.numeric import SCALAR
-from reach_addon.core.strength import f_r
+from reach_addon.core.strength import strength_category
 
 #: Keys of the dictionary :func:`race` returns (the numbers are plain Python floats/ints).
 KEYS = ("task", "reach_time_s", "ompl_time_s", "reach_path_length", "ompl_path_length",
@@ -459,7 +459,7 @@ class PathMeasure:
         joints = joints_of(arm, dense)
         wrists = joints[:, 3]
         travel = float(np.linalg.norm(np.diff(wrists, axis=0), axis=1).sum()) if len(dense) > 1 else 0.0
-        levels = f_r(dense[:, 1], dense[:, 2], st.preferred_level_h, st.preferred_level_v)
+        levels = strength_category(dense[:, 1], dense[:, 2], st)
         hits, arm_hits, least = independent_check(arm, arm.to_world_points(joints), self.tris,
                                                   self.include_hand, CLEARANCE_HORIZON * length)
         return {"path_length": travel / length, "mean_f_r": float(np.mean(levels)),

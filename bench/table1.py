@@ -43,19 +43,19 @@ def sweep(context, armature, package, directions=DIRECTIONS, rows=ROWS, side="ri
         return importlib.import_module(f"{package.__name__}.{name}")
 
     measure, pipeline, rig = (module(f"blender.{m}") for m in ("measure", "pipeline", "rig"))
+    table1_distance = module("core.torso").table1_distance
     settings = settings or module("core").Settings()
     scene = context.scene
     scene.frame_set(1)
     info = rig.build(armature, side)
     bones, arm = info.bones, info.arm
-    arms = bones.arms
-    axes = measure.body_axes(armature, bones.chest, arms["right"].upper_arm,
-                             arms["left"].upper_arm)
-    chest = bones.keyed_chest
-    reference = measure.bone_matrix(armature, chest)
+    axes = measure.body_axes_of(armature, bones)
+    reference = measure.bone_matrix(armature, bones.keyed_chest)
     start = {pb.name: pb.matrix_basis.copy() for pb in armature.pose.bones}
+    # the wrist's distance from the spine axis that reads a row (table1_distance inverted)
     scale = settings.table1_arm_length_m / arm.arm_length
-    reach = settings.table1_hand_point * arm.hand_length
+    wrist_distance = {row: row / scale - settings.table1_hand_point * arm.hand_length
+                      for row in rows}
     out = []
     for row in rows:
         for direction in directions:
@@ -64,7 +64,7 @@ def sweep(context, armature, package, directions=DIRECTIONS, rows=ROWS, side="ri
                 pb.matrix_basis = start[pb.name]
             scene.frame_set(1)
             target = bpy.data.objects.new(f"Table1 {row} {direction}", None)
-            target.location = axes.point(direction, row / scale - reach,
+            target.location = axes.point(direction, wrist_distance[row],
                                          -drop * arm.arm_length, side)
             scene.collection.objects.link(target)
             request = pipeline.Request(armature=armature.name, targets=[target.name],
@@ -72,17 +72,17 @@ def sweep(context, armature, package, directions=DIRECTIONS, rows=ROWS, side="ri
                                        settings=settings, draw=False)
             result = pipeline.run(context, request, bake=True).results[0]
             scene.frame_set(result.frame_end)
-            wrist = measure.bone_head(armature, arms[side].hand)
+            at = measure.arrival(armature, bones, side, axes, reference)
             out.append({
                 "row_m": row, "direction_deg": float(direction), "success": result.success,
                 "arm_length": arm.arm_length, "hand_length": arm.hand_length,
                 "reason": result.reason,
-                "wrist_direction_deg": axes.direction_deg(wrist, side),
-                "wrist_distance": axes.distance(wrist),
-                "table1_distance_m": (axes.distance(wrist) + reach) * scale,
-                "target_error": (wrist - target.location).length / arm.arm_length,
-                "chest_yaw_deg": measure.yaw_deg(measure.bone_matrix(armature, chest),
-                                                 reference, axes, side),
+                "wrist_direction_deg": at["wrist_direction_deg"],
+                "wrist_distance": at["wrist_distance"],
+                "table1_distance_m": float(table1_distance(at["wrist_distance"], arm.arm_length,
+                                                           arm.hand_length, settings)),
+                "target_error": (at["wrist"] - target.location).length / arm.arm_length,
+                "chest_yaw_deg": at["chest_yaw_deg"],
             })
             bpy.data.objects.remove(target)
     armature.animation_data_clear()

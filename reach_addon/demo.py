@@ -356,22 +356,19 @@ def _chest_against_table1(armature, outcome, frame_start):
     scene, info = bpy.context.scene, outcome.rig
     bones, side, settings = info.bones, info.side, outcome.request.settings
     scene.frame_set(frame_start)
-    axes = measure.body_axes(armature, bones.chest, bones.arms["right"].upper_arm,
-                             bones.arms["left"].upper_arm)
+    axes = measure.body_axes_of(armature, bones)
     reference = measure.bone_matrix(armature, bones.keyed_chest)
     out = []
     for r in outcome.results:
         if not r.success:
             continue
         scene.frame_set(r.frame_end)
-        wrist = measure.bone_head(armature, bones.arms[side].hand)
-        direction = axes.direction_deg(wrist, side)
-        distance = float(table1_distance(axes.distance(wrist), info.arm.arm_length,
+        at = measure.arrival(armature, bones, side, axes, reference)
+        direction = at["wrist_direction_deg"]
+        distance = float(table1_distance(at["wrist_distance"], info.arm.arm_length,
                                          info.arm.hand_length, settings))
         out.append({"target": r.target, "direction_deg": direction,
-                    "table1_distance_m": distance,
-                    "chest_yaw_deg": measure.yaw_deg(
-                        measure.bone_matrix(armature, bones.keyed_chest), reference, axes, side),
+                    "table1_distance_m": distance, "chest_yaw_deg": at["chest_yaw_deg"],
                     "table1_deg": float(chest_rotation_deg(direction, distance,
                                                            settings.chest_rotation_max))})
     return out

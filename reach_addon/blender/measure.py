@@ -81,3 +81,21 @@ def yaw_deg(matrix: Matrix, reference: Matrix, axes: BodyAxes, side: str) -> flo
     turn = matrix.to_3x3().normalized() @ reference.to_3x3().normalized().inverted()
     f = turn @ axes.forward
     return math.degrees(math.atan2(f.dot(axes.side(side)), f.dot(axes.forward)))
+
+
+def body_axes_of(armature, bones) -> BodyAxes:
+    """:func:`body_axes` of a figure whose bones are named by a rig's bone map (its chest
+    and both upper arms)."""
+    return body_axes(armature, bones.chest, bones.arms["right"].upper_arm,
+                     bones.arms["left"].upper_arm)
+
+
+def arrival(armature, bones, side: str, axes: BodyAxes, chest_reference: Matrix) -> dict:
+    """Where the ``side`` arm's wrist is at the current frame (the hand bone's head: world
+    position, horizontal direction and distance from the spine axis) and how far the keyed
+    chest has turned about the vertical since ``chest_reference`` (its world matrix then)."""
+    wrist = bone_head(armature, bones.arms[side].hand)
+    return {"wrist": wrist, "wrist_direction_deg": axes.direction_deg(wrist, side),
+            "wrist_distance": axes.distance(wrist),
+            "chest_yaw_deg": yaw_deg(bone_matrix(armature, bones.keyed_chest), chest_reference,
+                                     axes, side)}

@@ -9,8 +9,6 @@ rows, at the direction and distance of the wrist where Blender shows it, not fro
 planner's numbers; the chest's turn is read from the evaluated chest bone.
 """
 
-import math
-
 import bpy
 import numpy as np
 import pytest
@@ -58,7 +56,6 @@ def test_baked_chest_rotation_follows_table1(fresh, addon, kind):
     arm_length = np.linalg.norm(elbow - shoulder) + np.linalg.norm(wrist - elbow)
     assert points[0]["arm_length"] == pytest.approx(arm_length, rel=0.01)
 
-    errors = []
     for p in points:
         assert p["success"], p
         assert p["target_error"] < 0.01, p                      # the wrist on the target
@@ -67,9 +64,7 @@ def test_baked_chest_rotation_follows_table1(fresh, addon, kind):
         # the sweep's targets map to the rows
         assert distance == pytest.approx(p["row_m"], abs=0.01)
         expected = table1(p["wrist_direction_deg"], distance, settings.chest_rotation_max)
-        errors.append(p["chest_yaw_deg"] - expected)
         assert p["chest_yaw_deg"] == pytest.approx(expected, abs=2.0), (p, expected)
     # the sweep spans the table: from no turn at all to the cap's side of 40°
     yaws = [p["chest_yaw_deg"] for p in points]
     assert min(yaws) < 10.0 and max(yaws) > 40.0
-    assert max(abs(e) for e in errors) < 2.0 and math.isfinite(sum(errors))
