@@ -20,6 +20,10 @@ to ``bench/results.json`` and a readable ``bench/results.md``:
    geometry-nodes scatter of 10,000 instances in front of a real character.
 5. **Batch throughput**: a 200-task study on 1 and 2 local worker processes (one run each:
    it takes minutes).
+6. **Tight scenes** (:mod:`bench.tight`, issue 14): 240 generated cubbies, slots, holes and
+   gaps sized to six arms' limb thickness; OMPL (20 s a scene) says which have a path, and
+   the table gives Reach's share of those (goal ≥ 99 %) and both median times; per scene in
+   ``bench/tight.json`` (one run: it takes most of an hour).
 """
 
 from __future__ import annotations
@@ -331,6 +335,19 @@ def batch_throughput():
             "batch_speedup_2proc": walls[1] / walls[2]}
 
 
+# --- 6. tight scenes ---------------------------------------------------------------------------------
+
+def tight_scenes(folder: Path):
+    try:
+        import ompl  # noqa: F401
+    except ImportError as exc:
+        log(f"  tight scenes skipped: {exc} (pip install -r requirements-bench.txt)")
+        return {}
+    from bench import tight
+
+    return {"tight": tight.bench_step(folder, log=log)}
+
+
 # --- report ------------------------------------------------------------------------------------------
 
 def markdown(results) -> str:
@@ -398,6 +415,10 @@ def markdown(results) -> str:
                   "obstacle by an independent check (capsules of the arm and of the hand to its "
                   "far end, exact distances), (n) of them with the arm, the rest with the hand "
                   "alone."]
+    if results.get("tight"):
+        from bench import tight
+
+        lines += ["", tight.markdown(results["tight"]).rstrip("\n")]
     lines += ["", "## Other figures", ""]
     for k in ("chase_update_ms_p50", "chase_update_ms_p95", "bake_1000x8_ms",
               "bake_1000_frames_ms", "bake_bones", "gather_10k_instances_ms",
@@ -419,7 +440,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--skip", action="append", default=[],
                         choices=("table2", "table1", "ompl", "chase", "bake", "scaling",
-                                 "gather", "batch"))
+                                 "gather", "batch", "tight"))
     parser.add_argument("--output", default=str(ROOT / "bench"))
     args = parser.parse_args(argv)
     results = {"reach_version": __version__, "blender_version": bpy.app.version_string,
@@ -435,7 +456,9 @@ def main(argv=None) -> int:
              ("scaling", "obstacle scaling", lambda: {"scaling": scaling(args.runs)}),
              ("gather", "obstacles from a 10,000-instance scatter",
               lambda: gather_scatter(args.runs)),
-             ("batch", "batch throughput", batch_throughput)]
+             ("batch", "batch throughput", batch_throughput),
+             ("tight", "tight scenes against OMPL (bench/tight.json)",
+              lambda: tight_scenes(Path(args.output)))]
     results.setdefault("ompl", [])
     for key, title, fn in steps:
         if key in args.skip:
