@@ -85,9 +85,8 @@ from functools import lru_cache
 import numpy as np
 
 from reach_addon.core import Planner, Task
-from reach_addon.core import ik
-from reach_addon.core.arm import forward_kinematics
-from reach_addon.core.numeric import SCALAR
+from reach_addon.core.sampling import JOINT_NAMES, StateValidity, joints_of, pose_row
+from reach_addon.core.sampling import JointSpace as CoreJointSpace
 from reach_addon.core.strength import strength_category
 
 #: Keys of the dictionary :func:`race` returns (the numbers are plain Python floats/ints).
@@ -104,50 +103,11 @@ DENSE_SPACING = 0.002
 CHASE_WAYPOINTS = 4
 #: The independent check reports clearances up to this far (arm lengths); beyond, "far".
 CLEARANCE_HORIZON = 0.05
-#: Joint order of a configuration row here: the core's five angles, then the hand's two.
-JOINT_NAMES = ("body", "alpha", "beta", "gamma", "elbow", "wrist_bend", "wrist_side")
+# --- the joint space: the core's sampling planner's (core.sampling), with OMPL's view -------
 
-
-# --- the joint space -----------------------------------------------------------------------
-
-class JointSpace:
-    """The seven joints (degrees), their limits and the lever-arm metric OMPL plans in.
-
-    ``scale[i]`` turns degrees into OMPL coordinates: radians × lever arm, the lever being
-    the farthest the joint can carry the wrist, in arm lengths — the chest turns the wrist
-    about the spine axis (shoulder offset + arm), α and β swing the whole arm (1), γ and the
-    elbow swing the forearm; the wrist angles move only the hand, by its length.
-    """
-
-    def __init__(self, arm, settings):
-        self.arm = arm
-        self.settings = settings
-        s, length = settings, arm.arm_length
-        chest = s.chest_rotation_max if s.chest_rotation else 0.0
-        limits = [(-chest, chest), (s.alpha_min, s.alpha_max), (s.beta_min, s.beta_max),
-                  (s.gamma_min, s.gamma_max), (s.elbow_min, s.elbow_max),
-                  (-s.wrist_bend_max, s.wrist_bend_max), (-s.wrist_side_max, s.wrist_side_max)]
-        # OMPL needs each lower bound strictly below its upper bound: a joint held fixed
-        # by the settings gets a sliver of room.
-        self.lo = np.array([lo if hi > lo else lo - 1e-6 for lo, hi in limits])
-        self.hi = np.array([hi if hi > lo else hi + 1e-6 for lo, hi in limits])
-        spine = float(np.hypot(arm.shoulder[0], arm.shoulder[1]))
-        fore = arm.forearm_length / length
-        hand = max(arm.hand_length / length, 0.05)
-        self.lever = np.array([(spine + length) / length, 1.0, 1.0, fore, fore, hand, hand])
-        self.scale = np.radians(1.0) * self.lever
-
-    def coordinates(self, q) -> np.ndarray:
-        """OMPL coordinates of configurations ``q`` (..., 7) in degrees."""
-        return np.asarray(q, dtype=float) * self.scale
-
-    def angles(self, x) -> np.ndarray:
-        """Degrees of OMPL coordinates ``x`` (..., 7)."""
-        return np.asarray(x, dtype=float) / self.scale
-
-    def distance(self, qa, qb) -> float:
-        """OMPL's distance between two configurations: about the wrist travel (arm lengths)."""
-        return float(np.linalg.norm(self.coordinates(qb) - self.coordinates(qa)))
+class JointSpace(CoreJointSpace):
+    """The seven joints, their limits and the lever-arm metric
+    (:class:`reach_addon.core.sampling.JointSpace`), as an OMPL state space."""
 
     def ompl_space(self):
         """A bounded ``RealVectorStateSpace`` whose motion checks are a core step apart."""
@@ -164,130 +124,17 @@ class JointSpace:
         return space
 
 
-def pose_row(pose) -> np.ndarray:
-    """A core :class:`~reach_addon.core.arm.Pose` as a configuration row (7,), degrees."""
-    return np.concatenate([pose.config.as_array(), np.asarray(pose.hand, dtype=float)])
-
-
-def joints_of(arm, q) -> np.ndarray:
-    """Canonical joint positions (N, 5, 3) of configuration rows (N, 7): the core's forward
-    kinematics, with the hand turned by its two wrist angles as in
-    :func:`reach_addon.core.arm.hand_direction`."""
-    q = np.atleast_2d(np.asarray(q, dtype=float))
-    joints, bend = forward_kinematics(arm, q[:, :5])
-    s, e, w = joints[:, 1], joints[:, 2], joints[:, 3]
-    u = (e - s) / arm.upper_arm_length
-    f = (w - e) / arm.forearm_length
-    h = np.cross(u, bend)
-    h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-12)
-    p = np.cross(h, f)
-    fb, fs = np.radians(q[:, 5:6]), np.radians(q[:, 6:7])
-    d = f * np.cos(fb) * np.cos(fs) + p * np.sin(fb) * np.cos(fs) + h * np.sin(fs)
-    joints[:, 4] = w + arm.hand_length * d
-    return joints
-
-
-def joints_of_one(arm, q) -> list:
-    """:func:`joints_of` for one configuration on plain floats (OMPL's validity checker calls
-    it thousands of times; numpy costs about a microsecond per call on tiny arrays).
-    Returns five [x, y, z] lists, canonical frame."""
-    body, alpha, beta, gamma, flex, wb, ws = (float(v) for v in q)
-    theta = math.radians(math.hypot(alpha, beta))
-    phi = math.atan2(beta, alpha)
-    st = math.sin(theta)
-    ux, uy, uz = st * math.cos(phi), st * math.sin(phi), -math.cos(theta)
-    k = 1.0 / max(1.0 - uz, 1e-12)
-    rx, ry, rz = -ux * uy * k, -uz + ux * ux * k, uy           # swing reference
-    ax, ay, az = -ux, -uy, -uz                                  # twist axis -u
-    cx, cy, cz = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx
-    g = math.radians(gamma)
-    cg, sg = math.cos(g), math.sin(g)
-    bx, by, bz = rx * cg + cx * sg, ry * cg + cy * sg, rz * cg + cz * sg
-    e = math.radians(flex)
-    ce, se = math.cos(e), math.sin(e)
-    fx, fy, fz = ux * ce + bx * se, uy * ce + by * se, uz * ce + bz * se
-    hx, hy, hz = uy * bz - uz * by, uz * bx - ux * bz, ux * by - uy * bx
-    hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
-    hx, hy, hz = hx / hn, hy / hn, hz / hn
-    px, py, pz = hy * fz - hz * fy, hz * fx - hx * fz, hx * fy - hy * fx
-    b1, b2 = math.radians(wb), math.radians(ws)
-    kf, kp, kh = math.cos(b1) * math.cos(b2), math.sin(b1) * math.cos(b2), math.sin(b2)
-    dx, dy, dz = fx * kf + px * kp + hx * kh, fy * kf + py * kp + hy * kh, fz * kf + pz * kp + hz * kh
-    t = math.radians(body)
-    c, s = math.cos(t), math.sin(t)
-    l1, l2, lh = arm.upper_arm_length, arm.forearm_length, arm.hand_length
-    st0, sh0 = arm.sternum.tolist(), arm.shoulder.tolist()
-    sternum = [c * st0[0] + s * st0[1], -s * st0[0] + c * st0[1], st0[2]]
-    shoulder = [c * sh0[0] + s * sh0[1], -s * sh0[0] + c * sh0[1], sh0[2]]
-    elbow = [shoulder[0] + l1 * (c * ux + s * uy), shoulder[1] + l1 * (-s * ux + c * uy),
-             shoulder[2] + l1 * uz]
-    wrist = [elbow[0] + l2 * (c * fx + s * fy), elbow[1] + l2 * (-s * fx + c * fy),
-             elbow[2] + l2 * fz]
-    hand = [wrist[0] + lh * (c * dx + s * dy), wrist[1] + lh * (-s * dx + c * dy),
-            wrist[2] + lh * dz]
-    return [sternum, shoulder, elbow, wrist, hand]
-
-
-class Validity:
-    """OMPL's state validity checker: would the core accept this configuration?
-
-    Legal (joint limits by the state bounds, the elevation limit and, if required, the elbow
-    side of Algorithm 1), clear of the body's own capsules as the configuration generator
-    tests them, and clear of the obstacles by the core's own :class:`CollisionChecker`
-    (arm and hand, with its clearance margin). ``calls`` counts the states checked.
-    """
+class Validity(StateValidity):
+    """OMPL's state validity checker: the core's own test of a configuration
+    (:class:`reach_addon.core.sampling.StateValidity`, which the core's sampling fallback
+    uses), on OMPL's coordinates. ``calls`` counts the states checked."""
 
     def __init__(self, planner: Planner, space: JointSpace):
-        self.arm = planner.arm
-        self.settings = planner.settings
-        self.checker = planner.generator.checker
-        self.space = space
+        super().__init__(planner.arm, planner.settings, planner.generator.checker, space)
         self.scale = space.scale.tolist()
-        self.elbow_rule = planner.settings.elbow_side == "require"
-        self.waist = tuple(planner.arm.waist.tolist())
-        self.capsules = [(np.asarray(c.a, float).tolist(), np.asarray(c.b, float).tolist(),
-                          float(c.radius), bool(c.turns_with_chest))
-                         for c in planner.arm.body_capsules]
-        self.calls = 0
-
-    def body_capsules(self, body: float) -> list:
-        """:func:`reach_addon.core.ik.body_capsules_at` on plain floats: the body's capsules
-        with the chest turned by ``body`` degrees, as (a, b, centre, half length, radius)."""
-        t = math.radians(body)
-        c, s = math.cos(t), math.sin(t)
-        out = []
-        for a, b, r, turns in self.capsules:
-            if turns and body != 0.0:
-                a = [c * a[0] + s * a[1], -s * a[0] + c * a[1], a[2]]
-                b = [c * b[0] + s * b[1], -s * b[0] + c * b[1], b[2]]
-            out.append((a, b, [0.5 * (a[i] + b[i]) for i in range(3)], 0.5 * math.dist(a, b), r))
-        return out
 
     def __call__(self, state) -> bool:
-        self.calls += 1
         return self.valid([state[i] / k for i, k in enumerate(self.scale)])
-
-    def valid(self, q) -> bool:
-        """Is configuration ``q`` (7 angles, degrees) valid?"""
-        arm, st = self.arm, self.settings
-        if math.hypot(q[1], q[2]) > st.elevation_max:
-            return False
-        sternum, shoulder, elbow, wrist, hand = joints = joints_of_one(arm, q)
-        if self.elbow_rule:
-            nx, ny, nz, degenerate = ik.side_normal(wrist, shoulder, self.waist, m=SCALAR)
-            side = ((elbow[0] - shoulder[0]) * nx + (elbow[1] - shoulder[1]) * ny
-                    + (elbow[2] - shoulder[2]) * nz)
-            if not (side > 0 or degenerate):
-                return False
-        if arm.body_capsules:
-            caps = self.body_capsules(q[0])
-            mid = [0.5 * (shoulder[i] + elbow[i]) for i in range(3)]
-            if ik.segment_hits_body(mid, elbow, arm.upper_arm_radius, caps) or \
-                    ik.segment_hits_body(elbow, wrist, arm.forearm_radius, caps) or \
-                    (self.checker.check_hand and
-                     ik.segment_hits_body(wrist, hand, arm.hand_radius, caps)):
-                return False
-        return not self.checker.collides(arm.to_world_points(np.array(joints)), include_hand=True)
 
 
 # --- the independent check -----------------------------------------------------------------

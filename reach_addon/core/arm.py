@@ -100,6 +100,8 @@ class ArmModel:
     body_capsules: tuple = ()
     side: str = "right"
     name: str = "arm"
+    #: metres per figure unit (Blender's unit scale), for messages in centimetres
+    metres_per_unit: float = 1.0
 
     def __post_init__(self):
         label = f"arm '{self.name}'"

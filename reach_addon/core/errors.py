@@ -15,11 +15,15 @@ from __future__ import annotations
 import numpy as np
 
 #: Why a plan failed. Each is a distinct, documented outcome (never raised).
-OUT_OF_REACH = "out_of_reach"
-TARGET_IN_OBSTACLE = "target_in_obstacle"
+OUT_OF_REACH = "out_of_reach"              # too high or too low even stepping, or joint limits
+NEEDS_LEAN = "needs_lean"                  # beyond the arm; leaning the trunk would reach it
+NEEDS_STEP = "needs_step"                  # beyond the arm and a lean; a step closer would
+TARGET_IN_OBSTACLE = "target_in_obstacle"  # inside an obstacle (or the character's body)
+ARM_DOES_NOT_FIT = "arm_does_not_fit"      # in free space, but the arm or hand has no room
 NO_PATH = "no_path"
 START_IN_COLLISION = "start_in_collision"
-REASONS = (OUT_OF_REACH, TARGET_IN_OBSTACLE, NO_PATH, START_IN_COLLISION)
+REASONS = (OUT_OF_REACH, NEEDS_LEAN, NEEDS_STEP, TARGET_IN_OBSTACLE, ARM_DOES_NOT_FIT, NO_PATH,
+           START_IN_COLLISION)
 
 
 class ReachError(ValueError):

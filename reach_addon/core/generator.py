@@ -13,17 +13,35 @@ from __future__ import annotations
 
 import copy
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from . import ik
 from .arm import ArmConfig, ArmModel, Pose, forward_kinematics, pose_from_config
 from .collision import CollisionChecker, Obstacles, point_segment_distance
-from .errors import OUT_OF_REACH, TARGET_IN_OBSTACLE
+from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
+                     TARGET_IN_OBSTACLE)
 from .strength import strength_category
 from .torso import ChestPath
 
 
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Why a target cannot be reached (:meth:`ConfigurationGenerator.diagnose_target`):
+    ``reason`` (one of :data:`~reach_addon.core.errors.REASONS`), the ``obstacle`` and the
+    ``part`` of the arm in the way, the clearance or distance ``missing`` (figure units),
+    the target's ``distance`` from the shoulder and the trunk lean that would reach it."""
+
+    reason: str
+    obstacle: str | None = None
+    part: str | None = None
+    missing: float = 0.0
+    distance: float = 0.0
+    lean_deg: float = 0.0
+    above: bool = False
 
 
 def hand_coefficients(bend_deg: float, side_deg: float) -> tuple:
@@ -438,28 +456,106 @@ class ConfigurationGenerator:
     def pose_collides(self, pose: Pose) -> bool:
         return self.checker.collides(self.arm.to_world_points(pose.joints))
 
-    def diagnose_target(self, wrist):
-        """Why a wrist position can never be reached, or None if some pose there is legal
-        and clear. Returns (reason, detail): ``OUT_OF_REACH`` with the distance from the
-        shoulder, or ``TARGET_IN_OBSTACLE`` with the obstacle's name."""
+    def diagnose_target(self, wrist) -> Diagnosis | None:
+        """Why a wrist position can never be reached, or None if some legal pose there is
+        clear, hand included. A :class:`Diagnosis`:
+
+        * ``TARGET_IN_OBSTACLE``: the target is inside a closed obstacle (or every legal
+          pose there passes through the character's own body);
+        * ``ARM_DOES_NOT_FIT``: the target is in free space but no legal pose there keeps
+          the arm (or, with the arm clear, the hand at any wrist angle) clear; ``missing``
+          is the clearance the best pose lacks (figure units, margin included), ``part`` the
+          segment and ``obstacle`` what it touches;
+        * ``NEEDS_LEAN`` / ``NEEDS_STEP`` / ``OUT_OF_REACH``: no legal arm pose puts the
+          wrist there (:meth:`_beyond_reach`)."""
         wrist = np.asarray(wrist, dtype=float)
-        world = self.arm.to_world_points(wrist)
+        arm, checker = self.arm, self.checker
+        world = arm.to_world_points(wrist)
         if self.obstacles.point_inside(world):
-            return TARGET_IN_OBSTACLE, self.obstacles.enclosing_owner(world)
-        sol = ik.solve(self.arm, wrist[None], self.settings)
+            return Diagnosis(TARGET_IN_OBSTACLE, obstacle=self.obstacles.enclosing_owner(world))
+        sol = ik.solve(arm, wrist[None], self.settings)
         legal = np.flatnonzero(sol.legal[0])
         if legal.size == 0:
-            return OUT_OF_REACH, float(np.linalg.norm(wrist - sol.shoulder[0]))
+            return self._beyond_reach(wrist, sol)
+        body = float(sol.body[0])
         joints = sol.joints(0, legal)
-        clear_of_body = ~ik.self_collision(self.arm, float(sol.body[0]), joints,
-                                           include_hand=False)
-        hit = ("arm", "the body itself")
-        for j in self.arm.to_world_points(joints[clear_of_body]):
-            hit = self.checker.first_hit(j, include_hand=False)
-            if hit is None:
+        clear_of_body = ~ik.self_collision(arm, body, joints, include_hand=False)
+        if not clear_of_body.any():
+            return Diagnosis(TARGET_IN_OBSTACLE, obstacle="the character's own body")
+        horizon = 0.5 * arm.arm_length
+        best = (-math.inf, "arm", "an obstacle")
+        hands = self.fine_hand_coefficients()
+        for n in np.flatnonzero(clear_of_body):
+            j = joints[n]
+            hit = checker.first_hit(arm.to_world_points(j), include_hand=False)
+            if hit is not None:
+                arm_only = np.vstack([j[:4], j[3:4]])
+                c = checker.clearance(arm.to_world_points(arm_only), horizon)
+                if c > best[0]:
+                    best = (c, hit[0], hit[1])
+                continue
+            if not self._check_hand:
                 return None
-        # Every legal pose with the wrist there touches something.
-        return TARGET_IN_OBSTACLE, hit[1]
+            bend = sol.bend_at(0, int(legal[n]))
+            if self.hands_clear(j, bend, body, hands).any():
+                return None
+            axes = self.hand_axes(j, bend)
+            for coefficients in hands:
+                full = j.copy()
+                full[4] = j[3] + arm.hand_length * (np.asarray(coefficients) @ axes)
+                w = arm.to_world_points(full)
+                c = checker.clearance(w, horizon)
+                if c > best[0]:
+                    hit = checker.first_hit(w)
+                    best = (c, "hand", hit[1] if hit else "the character's own body")
+        clearance, part, obstacle = best
+        missing = checker.margin - clearance if math.isfinite(clearance) else math.nan
+        return Diagnosis(ARM_DOES_NOT_FIT, obstacle=obstacle, part=part, missing=missing)
+
+    def fine_hand_coefficients(self) -> list:
+        """Hand directions (their coefficients) finer than the search's samples, for asking
+        whether any wrist angle fits: bends every two ``hand_grid_step`` and sides every
+        third of the side range, both ends included."""
+        s = self.settings
+        nb = max(1, int(math.ceil(2 * s.wrist_bend_max / (2 * s.hand_grid_step))))
+        bends = np.linspace(-s.wrist_bend_max, s.wrist_bend_max, nb + 1)
+        sides = np.linspace(-s.wrist_side_max, s.wrist_side_max, 7)
+        return [hand_coefficients(float(b), float(d)) for b in bends for d in sides]
+
+    def _beyond_reach(self, wrist, sol) -> Diagnosis:
+        """No legal arm pose puts the wrist at ``wrist``. Beyond the straight arm's reach
+        from the shoulder: ``NEEDS_LEAN`` if leaning the trunk toward it (about the waist,
+        at most ``Settings.lean_max``) brings it within reach, else ``NEEDS_STEP`` if its
+        height is within the arm's reach of the shoulder's (a step closer would do), else
+        ``OUT_OF_REACH`` (too high or too low). Within the straight arm's reach (too close,
+        or behind the back): ``OUT_OF_REACH`` by the joint limits."""
+        arm = self.arm
+        shoulder = sol.shoulder[0]
+        distance = float(np.linalg.norm(wrist - shoulder))
+        reach = arm.max_reach
+        if distance <= reach:
+            return Diagnosis(OUT_OF_REACH, distance=distance, missing=0.0)
+        waist = np.asarray(arm.waist, dtype=float)
+        toward = np.array([wrist[0] - waist[0], wrist[1] - waist[1], 0.0])
+        if np.linalg.norm(toward) < 1e-9:
+            toward = np.array([0.0, 1.0, 0.0])
+        toward /= np.linalg.norm(toward)
+        axis = np.cross([0.0, 0.0, 1.0], toward)
+        v = shoulder - waist
+        for lean in np.arange(1.0, self.settings.lean_max + 0.5, 1.0):
+            t = math.radians(lean)
+            moved = waist + v * math.cos(t) + np.cross(axis, v) * math.sin(t) + \
+                axis * float(axis @ v) * (1.0 - math.cos(t))
+            if np.linalg.norm(wrist - moved) <= reach:
+                return Diagnosis(NEEDS_LEAN, distance=distance, missing=distance - reach,
+                                 lean_deg=float(lean))
+        height = float(wrist[2] - shoulder[2])
+        if abs(height) < reach:
+            horizontal = float(np.hypot(wrist[0] - shoulder[0], wrist[1] - shoulder[1]))
+            return Diagnosis(NEEDS_STEP, distance=distance,
+                             missing=horizontal - math.sqrt(reach * reach - height * height))
+        return Diagnosis(OUT_OF_REACH, distance=distance, missing=abs(height) - reach,
+                         above=height > 0)
 
     def start_problem(self, pose: Pose):
         """None if a start pose is usable, else (segment, obstacle) of its first contact or

@@ -326,6 +326,10 @@ class LiveSession:
             if free.success or free.closest_distance < result.closest_distance - gen.step_length:
                 result = free
             result.nodes_searched, result.search_time_s = nodes, elapsed
+        if not result.success and diagnosis is None and s.sampling_fallback:
+            # as the reach task does: the sampling planner where the search gave up
+            result = yield from self.planner._sampling(start, target_c, 10 * NODES_PER_SLICE,
+                                                       result)
         if prefix:
             result.path = prefix + list(result.path)
         self._searcher = None

@@ -95,6 +95,11 @@ class SearchResult:
     closest_distance: float
     target: np.ndarray
     guides: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    #: what found the path: "best-first" (the paper's search, straight or guided) or
+    #: "sampling" (:mod:`~reach_addon.core.sampling`, where the search gave up)
+    method: str = "best-first"
+    #: states the sampling planner tested (its own count, beside nodes_searched)
+    states_tested: int = 0
 
     @property
     def nodes_in_solution(self) -> int:
@@ -312,6 +317,16 @@ class BestFirstSearch:
         return SearchResult(self.success, None if self.success else self.reason,
                             self.path_to(end), self.nodes_searched, self.elapsed,
                             self.closest_distance, self.target, self.guides)
+
+
+def drain(steps):
+    """Run a step generator (a planner that yields its progress) to the end and return its
+    value."""
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
 
 
 def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int,

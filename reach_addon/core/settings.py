@@ -110,6 +110,10 @@ class Settings:
         "Where Table 1's reach distance is measured, as a share of the hand's length beyond "
         "the wrist: 1 the fingertips (default), 0.4 the centre of a grip, 0 the wrist",
         "body", 0.0, 1.0)
+    lean_max: float = _f(
+        45.0, "Lean limit", "Farthest trunk lean (about the waist) that a target beyond the "
+        "arm's reach is reported as 'reachable by leaning' for; farther, by stepping. Reach "
+        "plans no lean: it says what would reach the target", "body", 0.0, 90.0, "deg")
     chest_phase_delay: float = _f(
         0.25, "Chest phase delay", "Fraction of a reach's progress toward its target before "
         "the chest starts to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)
@@ -210,6 +214,37 @@ class Settings:
         True, "Other route", "When the best-first search finds no path, search once more "
         "the other way: through the workspace's guiding nodes after a straight search, "
         "straight after a guided one", "search")
+    sampling_fallback: bool = _f(
+        True, "Sampling fallback", "When the best-first search (both routes, hand kept and "
+        "hand free) finds no path to a target some clear pose reaches, search the joint "
+        "space with a bidirectional sampling planner (core.sampling), complete in the limit",
+        "search")
+    sampling_budget: int = _f(
+        30000, "Sampling budget", "Most arm states the sampling planner tests for one target "
+        "(counted, not timed, so the answer is the same on any machine)", "search",
+        100, 10000000)
+    sampling_seed: int = _f(0, "Sampling seed", "Seed of the sampling planner's random "
+                            "numbers (same seed, same path)", "search", 0, 2 ** 31 - 1)
+    sampling_range: float = _f(
+        0.15, "Sampling reach", "Longest extension of a sampling tree toward a random state, "
+        "in arm lengths of wrist travel (RRT-Connect's range; a few times the step)",
+        "search", 0.01, 2.0, "arm lengths")
+    sampling_near_share: float = _f(
+        0.5, "Samples near the target", "Share of the sampling planner's random states drawn "
+        "with the wrist near the target (through the IK) rather than uniformly over the "
+        "joints: the narrow passage of a reach is where the hand goes in", "search", 0.0, 1.0)
+    sampling_near_radius: float = _f(
+        0.3, "Near radius", "Radius about the target of those wrist positions", "search",
+        0.01, 2.0, "arm lengths")
+    sampling_goals: int = _f(
+        12, "Goal poses", "Most goal configurations (clear IK solutions at the target) the "
+        "sampling planner grows its goal tree from", "search", 1, 200)
+    sampling_chest_slack: float = _f(
+        15.0, "Chest slack", "How far beyond its values at the start and at the target the "
+        "sampling planner may turn the chest", "search", 0.0, 180.0, "deg")
+    sampling_shortcuts: int = _f(
+        100, "Sampling shortcuts", "Random shortcut attempts on a sampled path before the "
+        "greedy pass", "search", 0, 100000)
     chase_nodes_per_frame: int = _f(
         60, "Chase nodes per frame", "Search budget for each frame of a chase", "search",
         1, 100000)

@@ -16,9 +16,12 @@ Input targets are in **world space**; the returned poses are in the canonical ar
 (``Plan.world_joints()`` gives world space). Everything is deterministic: the same task,
 arm, obstacles and settings give the same poses.
 
-Targets that cannot be reached are answered, not forced: the plan fails with reason
-``out_of_reach``, ``target_in_obstacle`` or ``no_path`` (or ``start_in_collision`` for a
-start pose that already touches something) and carries the closest-approach motion.
+Targets that cannot be reached are answered, not forced: the plan fails with one of
+:data:`~reach_addon.core.errors.REASONS` — ``needs_lean``, ``needs_step`` or
+``out_of_reach`` beyond the arm, ``target_in_obstacle``, ``arm_does_not_fit`` (free space
+the arm or hand has no room in, by how much), ``no_path`` (after the best-first search and
+the sampling fallback), ``start_in_collision`` — and carries the closest-approach motion,
+clear of everything.
 """
 
 from __future__ import annotations
@@ -32,12 +35,14 @@ import numpy as np
 from .arm import ArmConfig, ArmModel, Pose
 from .collision import Obstacles
 from .contact import depth_message, escape, start_clearance
-from .errors import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
-                     ReachError, require_finite)
+from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH,
+                     START_IN_COLLISION, TARGET_IN_OBSTACLE, ReachError, require_finite)
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
 from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
+from .sampling import sampling_steps
 from .search import BestFirstSearch, SearchResult, chase_step
+from .search import drain
 from .settings import Settings
 from .workspace import Workspace, build_workspace
 
@@ -108,6 +113,8 @@ class Stats:
     inserted_frames: int = 0
     unbounded_hand_turns: int = 0
     touching_transitions: int = 0
+    # states the sampling fallback (core.sampling) tested, beyond the nodes searched
+    sampling_states: int = 0
 
     @property
     def mean_f_r(self) -> float:
@@ -123,6 +130,7 @@ class Stats:
                      "max_wrist_bend_deg"):
             setattr(self, name, max(getattr(self, name), getattr(other, name)))
         for name in ("inserted_frames", "unbounded_hand_turns", "touching_transitions",
+                     "sampling_states",
                      "search_time_s", "preprocess_time_s", "nodes_searched",
                      "nodes_in_solution", "path_length_arm_lengths",
                      "motion_path_length_arm_lengths", "frames",
@@ -157,6 +165,9 @@ class Segment:
     stats: Stats
     search_path: np.ndarray       # world wrist positions of the searched solution path
     guiding_nodes: np.ndarray     # world positions
+    #: what found the path: "best-first" (the paper's search) or "sampling" (the
+    #: fallback of core.sampling); for a chase, "chase"
+    method: str = "best-first"
 
 
 @dataclass
@@ -231,7 +242,7 @@ class Planner:
     # --- searching ---------------------------------------------------------------------
     def search(self, start: Pose, target_c, guided: bool = False, **limits) -> SearchResult:
         """One best-first search (canonical target), through guiding nodes if ``guided``."""
-        return _drain(self.search_steps(start, target_c, guided, **limits))
+        return drain(self.search_steps(start, target_c, guided, **limits))
 
     def search_steps(self, start: Pose, target_c, guided: bool = False, chunk: int = 0,
                      **limits):
@@ -251,7 +262,7 @@ class Planner:
     # --- tasks -------------------------------------------------------------------------
     def plan(self, task: Task) -> Plan:
         """Plan ``task`` from its start configuration (see the module docstring)."""
-        return _drain(self.plan_steps(task))
+        return drain(self.plan_steps(task))
 
     def plan_steps(self, task: Task, chunk: int = 50):
         """:meth:`plan` as a generator, for callers that must stay responsive (a modal
@@ -371,20 +382,83 @@ class Planner:
                 result = free
             else:
                 result.nodes_searched, result.search_time_s = free.nodes_searched, free.search_time_s
+        sampled = False
+        if not result.success and diagnosis is None and s.sampling_fallback:
+            result = yield from self._sampling(start, target, chunk, result)
+            sampled = True
         if self.has_workspace and not had_workspace:
             stats.preprocess_time_s = self._workspace.build_time_s
 
+        seg_poses, hand, wrist_length = self._motion(task, result, first, start, target, way_out)
+        contact = first_contact(gen, seg_poses, hand, way_out is not None) \
+            if result.success else None
+        if contact is not None and s.sampling_fallback and not sampled:
+            # The search's path is clear, but the hand cannot follow it clear at every
+            # instant (a hand the search left free flips between samples in a tight
+            # place): the sampling planner keeps the hand continuous and checked.
+            retry = yield from self._sampling(start, target, chunk, result)
+            if retry.method == "sampling":
+                result = retry
+                seg_poses, hand, wrist_length = self._motion(task, result, first, start,
+                                                             target, way_out)
+                contact = first_contact(gen, seg_poses, hand, way_out is not None)
+
         stats.search_time_s = result.search_time_s
         stats.nodes_searched = result.nodes_searched
+        stats.sampling_states = result.states_tested
         stats.nodes_in_solution = result.nodes_in_solution
         stats.path_length_arm_lengths = result.path_length() / length
 
-        reason, message = None, f"reached '{name}'"
+        success, reason, message = result.success, None, f"reached '{name}'"
+        if result.method == "sampling":
+            message += " (sampling planner: the best-first search found no way in)"
         if not result.success:
             reason, message = self._failure(name, result, diagnosis, start)
+        elif contact is not None:
+            # never call a motion that touches something a success: keep the frames
+            # before the first contact as the closest approach, and say so
+            frame, depth = contact
+            success, reason = False, NO_PATH
+            message = (f"found a path to '{name}' but the {depth[0]} cannot follow it clear "
+                       f"of '{depth[1]}' (from frame {frame} of the reach); try a smaller "
+                       "clearance, a larger sampling budget, or move the obstacle")
+            seg_poses = seg_poses[:max(1, frame)]
+            hand.poses = seg_poses
+            hand.unclear_transitions = [k for k in hand.unclear_transitions
+                                        if k < len(seg_poses) - 1]
+        self._motion_stats(stats, seg_poses, wrist_length, hand)
+        seg = Segment(i, name, np.asarray(target_w, float), success, reason, message,
+                      frame_start, frame_start + len(seg_poses) - 1, stats,
+                      arm.to_world_points(np.array([p.wrist for p in result.path])),
+                      arm.to_world_points(result.guides) if len(result.guides) else np.zeros((0, 3)),
+                      result.method)
+        return seg, seg_poses
 
-        gen = gen.for_reach(start, target)
-        dense = shortcut(gen, result.path) if s.smoothing else list(result.path)
+    def _sampling(self, start: Pose, target, chunk: int, result: SearchResult):
+        """The sampling planner (:mod:`~reach_addon.core.sampling`) from ``start``: its
+        result if it finds a path, else ``result``; the counts of both are kept."""
+        view = self.generator.for_reach(start, target)
+        sampled = yield from _sampling_progress(sampling_steps(view, start, target, chunk))
+        if sampled.success:
+            sampled.states_tested = sampled.nodes_searched
+            sampled.nodes_searched = result.nodes_searched
+            sampled.search_time_s += result.search_time_s
+            return sampled
+        result.states_tested += sampled.nodes_searched
+        result.search_time_s += sampled.search_time_s
+        return result
+
+    def _motion(self, task: Task, result: SearchResult, first: Pose, start: Pose, target,
+                way_out):
+        """The frames of one reach along a search's path: shortcut smoothing, minimum-jerk
+        timing and the hand pass. Returns (poses, the hand pass's report, the wrist's path
+        length in arm lengths)."""
+        s, length = self.settings, self.arm.arm_length
+        gen = self.generator.for_reach(start, target)
+        # a sampled path is already shortcut in joint space (its poses are not the IK's, so
+        # the wrist-space shortcuts could only join them one by one)
+        dense = shortcut(gen, result.path) if s.smoothing and result.method != "sampling" \
+            else list(result.path)
         lead = [] if way_out is None else way_out.poses[:-1]
         dense = lead + dense
         wrist_length = wrist_path_length(dense) / length
@@ -404,31 +478,59 @@ class Planner:
         loose = None if way_out is None or sampler is None else \
             (way_out.generator, float(sampler.cum[len(lead)]))
         hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler, escape=loose)
-        seg_poses = hand.poses
-        self._motion_stats(stats, seg_poses, wrist_length, hand)
-        seg = Segment(i, name, np.asarray(target_w, float), result.success, reason, message,
-                      frame_start, frame_start + len(seg_poses) - 1, stats,
-                      arm.to_world_points(np.array([p.wrist for p in result.path])),
-                      arm.to_world_points(result.guides) if len(result.guides) else np.zeros((0, 3)))
-        return seg, seg_poses
+        return hand.poses, hand, wrist_length
 
     def _failure(self, name: str, result: SearchResult, diagnosis, start: Pose):
-        length = self.arm.arm_length
+        """(reason, message) of a failed reach: the diagnosis's
+        (:meth:`ConfigurationGenerator.diagnose_target`), else ``no_path``."""
+        arm = self.arm
+        length = arm.arm_length
         gap = result.closest_distance / length
-        if diagnosis is not None and diagnosis[0] == OUT_OF_REACH:
+        closest = f"closest approach {gap:.2f} arm lengths"
+
+        def size(x):     # figure units, as centimetres and arm lengths
+            return f"{100.0 * x * arm.metres_per_unit:.1f} cm, {x / length:.3f} arm lengths"
+
+        d = diagnosis
+        if d is None:
+            return NO_PATH, (
+                f"no collision-free path to target '{name}' within {result.nodes_searched} "
+                f"tested positions and {result.states_tested} sampled states ({closest}); "
+                "try the guided task, a larger sampling budget or a smaller clearance")
+        if d.reason == NEEDS_LEAN:
+            return NEEDS_LEAN, (
+                f"target '{name}' is out of reach by {size(d.missing)} without leaning "
+                f"({d.distance / length:.2f} arm lengths from the shoulder): leaning the trunk "
+                f"about {d.lean_deg:.0f}° would reach it, which Reach does not plan "
+                f"({closest}); move the target or the character closer")
+        if d.reason == NEEDS_STEP:
+            return NEEDS_STEP, (
+                f"target '{name}' is out of reach even leaning {self.settings.lean_max:.0f}° "
+                f"({d.distance / length:.2f} arm lengths from the shoulder): a step of "
+                f"{size(d.missing)} closer would reach it ({closest}); move the character")
+        if d.reason == OUT_OF_REACH:
+            if d.missing <= 0:
+                where = "no legal arm pose puts the wrist there (joint limits)"
+            elif d.above:
+                where = f"{size(d.missing)} above what the arm reaches from the shoulder"
+            else:
+                where = (f"{size(d.missing)} below what the arm reaches from the shoulder, and "
+                         f"leaning {self.settings.lean_max:.0f}° does not bring it within reach: "
+                         "only crouching or kneeling would")
             return OUT_OF_REACH, (
-                f"target '{name}' is out of reach: {diagnosis[1] / length:.2f} arm lengths "
-                f"from the shoulder, the arm reaches 1.00 (closest approach {gap:.2f} arm "
-                "lengths short); move the target or the character closer")
-        if diagnosis is not None and diagnosis[0] == TARGET_IN_OBSTACLE:
-            return TARGET_IN_OBSTACLE, (
-                f"target '{name}' is inside or against obstacle '{diagnosis[1]}': no pose "
-                f"puts the wrist there without touching it (closest approach {gap:.2f} arm "
-                "lengths); move the target clear of it or lower the clearance")
-        return NO_PATH, (
-            f"no collision-free path to target '{name}' within {result.nodes_searched} "
-            f"tested positions (closest approach {gap:.2f} arm lengths); try the guided "
-            "task, a larger node budget or a smaller clearance")
+                f"target '{name}' is out of reach: {where} ({closest}); move the target")
+        if d.reason == ARM_DOES_NOT_FIT:
+            radius = {"hand": arm.hand_radius, "upper arm": arm.upper_arm_radius}.get(
+                d.part, arm.forearm_radius)
+            return ARM_DOES_NOT_FIT, (
+                f"the {d.part} does not fit at target '{name}' (the target is in free space): "
+                f"its best pose there lacks {size(d.missing)} of room against '{d.obstacle}' "
+                f"(the {d.part}'s radius is {size(radius)}, the clearance "
+                f"{size(self.settings.clearance * length)}); widen the gap, move the target or "
+                "lower the clearance")
+        return TARGET_IN_OBSTACLE, (
+            f"target '{name}' is inside obstacle '{d.obstacle}': no pose puts the wrist there "
+            f"({closest}); move the target out of it")
 
     def _motion_stats(self, stats: Stats, poses, motion_length: float,
                       hand: HandReport | None = None):
@@ -479,11 +581,41 @@ class Planner:
                 message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
                            "lengths behind); raise the chase speed limit or the nodes per frame")
         seg = Segment(0, name, task.targets[-1], success, reason, message, 0, len(poses) - 1,
-                      stats, arm.to_world_points(np.array(path)), np.zeros((0, 3)))
+                      stats, arm.to_world_points(np.array(path)), np.zeros((0, 3)), "chase")
         total = Stats()
         total.add(stats)
         total.frames = len(poses)
         return Plan(task, arm, s, poses, [seg], total, self._workspace)
+
+
+def first_contact(generator, poses, hand: HandReport, escaping: bool = False):
+    """Where a motion first touches an obstacle: (frame, (part, obstacle)) of the first key
+    whose arm or hand comes into contact (no margin) or the first pair of keys that touch
+    as they interpolate (at half the clearance, :meth:`ConfigurationGenerator.transition_problem`,
+    as the hand pass reports them); None if it never does. ``escaping``: the motion starts
+    in contact and moves out of it (:mod:`~reach_addon.core.contact`); its first keys in
+    contact, up to the first clear one, are that escape and do not count."""
+    arm = generator.arm
+    checker = generator.checker
+    touching = [checker.clearance(arm.to_world_points(p.joints), 0.5 * arm.arm_length) < 0.0
+                for p in poses]
+    first = 0
+    if escaping:
+        while first < len(poses) and touching[first]:
+            first += 1
+    unclear = sorted(k for k in hand.unclear_transitions if k >= first)
+    bad = unclear[0] + 1 if unclear else len(poses)
+    for k in range(first, bad):
+        if touching[k]:
+            world = arm.to_world_points(poses[k].joints)
+            return k, checker.first_hit(world) or ("arm", "an obstacle")
+    if unclear:
+        k = unclear[0]
+        world = arm.to_world_points(poses[k + 1].joints)
+        part = generator.transition_problem(poses[k], poses[k + 1]) or "hand"
+        return k + 1, (part, (generator.between_keys().checker.first_hit(world)
+                              or (part, "an obstacle"))[1])
+    return None
 
 
 def escape_frames(way_out, steps_per_frame: int, frames: int) -> list:
@@ -508,15 +640,6 @@ def escape_of(way_out, poses):
     return way_out.generator, float(end)
 
 
-def _drain(steps):
-    """Run a step generator to the end and return its value."""
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            return done.value
-
-
 def _progress(steps, index: int, count: int, name: str):
     """Re-yield a segment's search progress as (fraction of the whole task, message)."""
     while True:
@@ -525,6 +648,17 @@ def _progress(steps, index: int, count: int, name: str):
         except StopIteration as done:
             return done.value
         yield (index + min(0.95, nodes / 2000.0)) / count, f"reaching '{name}': {nodes} positions"
+
+
+def _sampling_progress(steps):
+    """Re-yield the sampling planner's states tested as the search's progress (states are
+    cheaper than searched positions: ten count as one)."""
+    while True:
+        try:
+            states = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield states // 10
 
 
 def plan(task: Task, arm: ArmModel, obstacles: Obstacles | None, settings: Settings | None = None,

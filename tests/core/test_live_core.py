@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from geometry import HANGING, arm_penetration, obstacles, standard_arm, triangles_of
-from reach_addon.core import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
+from reach_addon.core import (NEEDS_STEP, NO_PATH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
                               Planner, ReachError, Settings, Task)
 from reach_addon.core.live import (CLOSEST, REACHED, LiveSession, chase_steps,
                                    workspace_steps)
-from reach_addon.core.tasks import _drain
+from reach_addon.core.search import drain
 from reach_addon.core.workspace import build_workspace
 from reach_addon.demo import WORKPLACE, demo_tasks
 
@@ -160,8 +160,8 @@ def test_out_of_reach_gets_the_closest_approach_and_says_why(arm):
     start = arm.to_world_points(session.pose.wrist)
     shown = follow(session, [far], triangles_of(WALL))
     st = session.status
-    assert st.state == CLOSEST and st.reason == OUT_OF_REACH
-    assert "far cup" in st.message and "out of reach" in st.message
+    assert st.state == CLOSEST and st.reason == NEEDS_STEP
+    assert "far cup" in st.message and "out of reach" in st.message and "step" in st.message
     wrist = shown[-1][1][3]
     # as close as it legally can: the arm nearly straight toward the target
     assert np.linalg.norm(wrist - far) < np.linalg.norm(start - far) - 0.5 * arm.arm_length
@@ -277,7 +277,7 @@ def test_chase_with_one_planner_is_the_chase_task(arm):
     task = dict(demo_tasks())["chase"]
     planner = Planner(arm, obstacles(WORKPLACE))
     reference = Planner(arm, obstacles(WORKPLACE)).plan(task)
-    ours = _drain(chase_steps([planner] * len(task.targets), task))
+    ours = drain(chase_steps([planner] * len(task.targets), task))
     assert ours.success == reference.success and ours.message == reference.message
     assert len(ours.poses) == len(reference.poses)
     for a, b in zip(ours.poses, reference.poses):
@@ -317,7 +317,7 @@ def test_chase_avoids_an_obstacle_that_moves_in(arm):
     scenes = box_scenes(joints[45, 2] + [0.0, 0.0, -0.05], np.full(3, 0.04), 30)
     assert min(arm_penetration(arm, joints[f], triangles_of(scenes[f])) for f in range(60)) < 0, \
         "without re-sampling, the chase runs into the box"
-    p = _drain(chase_steps(planners_for(arm, scenes), task))
+    p = drain(chase_steps(planners_for(arm, scenes), task))
     assert p.success, p.message
     moving = p.world_joints()
     for f in range(60):
@@ -329,6 +329,6 @@ def test_an_obstacle_that_lands_on_the_arm_fails_the_chase_by_name(arm):
     task = sweep_task()
     joints = Planner(arm, None).plan(task).world_joints()
     scenes = box_scenes(joints[30, 1] + 0.6 * (joints[30, 2] - joints[30, 1]), np.full(3, 0.04), 30)
-    p = _drain(chase_steps(planners_for(arm, scenes), task))
+    p = drain(chase_steps(planners_for(arm, scenes), task))
     assert not p.success and p.reason == START_IN_COLLISION
     assert "'Slab'" in p.message and "frame 30" in p.message

@@ -14,8 +14,9 @@ import pytest
 
 from bench import ompl_race as race_mod
 from bench.ompl_race import (JointSpace, Validity, densify, independent_check, joints_of,
-                             joints_of_one, pose_row, race_targets, segment_triangle_distance,
+                             pose_row, race_targets, segment_triangle_distance,
                              workplace_triangles)
+from reach_addon.core.sampling import joints_of_one
 from geometry import HANGING, arm_penetration, point_triangle_distance, segment_clearance
 from reach_addon.core import Planner, Settings, ik
 from reach_addon.core.arm import ArmConfig, pose_from_config

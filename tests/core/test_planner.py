@@ -9,7 +9,8 @@ import pytest
 
 from geometry import (HANGING, arm_penetration, obstacles, shelf, standard_arm, table,
                       triangles_of)
-from reach_addon.core import (NO_PATH, OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
+from reach_addon.core import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH,
+                              START_IN_COLLISION, TARGET_IN_OBSTACLE,
                               ArmConfig, Obstacles, Planner, ReachError, Settings, Task, plan)
 from reach_addon.core.motion import minimum_jerk
 
@@ -136,7 +137,7 @@ def test_chase_reach_follows_a_moving_target(arm):
 def test_target_out_of_reach_gets_the_closest_approach(arm):
     far = np.array([-0.3, -1.6, 1.4])
     p = plan(Task("reach", far[None], HANGING, names=("Lamp",)), arm, None)
-    assert not p.success and p.reason == OUT_OF_REACH
+    assert not p.success and p.reason == NEEDS_STEP
     assert "Lamp" in p.message and "out of reach" in p.message
     wrists = p.wrist_trajectory()
     assert len(p.poses) > 2
@@ -155,7 +156,7 @@ def test_target_inside_an_obstacle(arm):
 
 def test_no_path_within_the_node_budget(arm):
     p = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(WALL),
-             Settings(node_budget=10, guided_fallback=False))
+             Settings(node_budget=10, guided_fallback=False, sampling_fallback=False))
     assert not p.success and p.reason == NO_PATH
     assert p.stats.nodes_searched == 10
     check_plan(p, WALL)
@@ -276,3 +277,93 @@ def test_a_plan_consumed_in_slices_is_the_same_plan(arm):
     assert all(0 <= f <= 1 for f, _msg in progress)
     whole = Planner(arm, obstacles(WALL)).plan(Task("reach", BEHIND_WALL[None], HANGING))
     assert np.array_equal(sliced.world_joints(), whole.world_joints())
+
+
+# --- reasons a user can act on ---------------------------------------------------------------
+
+def shoulder_of(arm):
+    return arm.to_world_points(arm.shoulder)
+
+
+@pytest.mark.parametrize("beyond, reason, words", [
+    (0.25, NEEDS_LEAN, "leaning the trunk about"),     # a quarter arm length past the hand
+    (1.50, NEEDS_STEP, "a step of"),
+])
+def test_beyond_the_arm_says_whether_leaning_or_a_step_would_reach(arm, beyond, reason, words):
+    forward = np.array([0.0, -1.0, 0.0])                 # the figure faces -Y
+    target = shoulder_of(arm) + forward * (1.0 + beyond) * arm.arm_length
+    p = plan(Task("reach", target[None], HANGING, names=("Box",)), arm, None)
+    assert not p.success and p.reason == reason, p.message
+    assert "'Box' is out of reach" in p.message and words in p.message
+    # the distance missing, in centimetres, from the geometry (the figure is in metres)
+    missing_cm = 100 * (np.linalg.norm(target - shoulder_of(arm)) - arm.max_reach)
+    if reason == NEEDS_LEAN:
+        assert f"{missing_cm:.1f} cm" in p.message
+
+
+def test_a_target_too_high_is_out_of_reach_by_its_height(arm):
+    target = shoulder_of(arm) + np.array([0.0, 0.0, 1.5 * arm.arm_length])
+    p = plan(Task("reach", target[None], HANGING, names=("Lamp",)), arm, None)
+    assert not p.success and p.reason == OUT_OF_REACH
+    assert f"{100 * 0.5 * arm.arm_length:.1f} cm" in p.message and "above" in p.message
+
+
+def cubby(centre, opening, depth, wall=0.02):
+    """An open-fronted box (toward +Y, the figure) with a square opening of side
+    ``opening``, the front face at ``centre``."""
+    x, y, z = centre
+    h = opening / 2
+    return [((x - h - wall, y - depth - wall, z - h - wall), (x + h + wall, y - depth, z + h + wall)),
+            ((x - h - wall, y - depth, z - h - wall), (x - h, y, z + h + wall)),
+            ((x + h, y - depth, z - h - wall), (x + h + wall, y, z + h + wall)),
+            ((x - h, y - depth, z - h - wall), (x + h, y, z - h)),
+            ((x - h, y - depth, z + h), (x + h, y, z + h + wall))]
+
+
+def test_an_arm_that_does_not_fit_says_by_how_much(arm):
+    s = Settings()
+    room = arm.forearm_radius + s.clearance * arm.arm_length      # what the forearm needs
+    opening = 2 * room - 0.01                                     # 5 mm short each side
+    scene = {"Cubby": cubby((-0.25, -0.25, 1.15), opening, 0.40)}
+    target = np.array([-0.25, -0.33, 1.15])                       # in free space, 8 cm in
+    p = plan(Task("reach", target[None], HANGING, names=("Jar",)), arm, obstacles(scene), s)
+    assert not p.success and p.reason == ARM_DOES_NOT_FIT, p.message
+    assert "in free space" in p.message and "'Cubby'" in p.message and "'Jar'" in p.message
+    lacks = float(p.message.split("lacks ")[1].split(" cm")[0])
+    assert lacks >= 0.5 - 0.05            # at least the 5 mm each side a centred arm lacks
+    check_plan(p, scene)
+
+
+def test_the_sampling_fallback_finds_the_way_into_a_cubby(arm):
+    # 1.6 times the room the hand and forearm need: the best-first search gives up in the
+    # opening; the sampling planner finds the way, clear at every frame and between frames
+    s = Settings()
+    room = max(arm.forearm_radius, arm.hand_radius) + s.clearance * arm.arm_length
+    opening = 2 * room * 1.6
+    scene = {"Cubby": cubby((-0.25, -0.25, 1.05 + opening / 2), opening, 0.40)}
+    target = np.array([-0.25, -0.33, 1.05 + opening / 2])
+    task = Task("reach", target[None], HANGING, names=("Jar",))
+    greedy = plan(task, arm, obstacles(scene), s.replace(sampling_fallback=False))
+    assert not greedy.success and greedy.reason == NO_PATH
+    p = plan(task, arm, obstacles(scene), s)
+    assert p.success, p.message
+    assert p.segments[0].method == "sampling" and "sampling planner" in p.segments[0].message
+    assert p.stats.sampling_states > 0
+    assert np.linalg.norm(p.wrist_trajectory()[-1] - target) <= s.goal_tolerance * arm.arm_length
+    check_plan(p, scene)
+    tris = triangles_of(scene)
+    dense = between_frames(p, 4)
+    for joints in dense:
+        assert arm_penetration(arm, joints, tris) >= 0.0
+    again = plan(task, arm, obstacles(scene), s)
+    np.testing.assert_array_equal(again.world_joints(), p.world_joints())   # deterministic
+
+
+def between_frames(p, n):
+    """World joints at ``n`` - 1 instants between each pair of frames, the five angles and
+    the wrist's two interpolated linearly (as the keys are)."""
+    from reach_addon.core.sampling import joints_of
+    rows = np.array([np.concatenate([q.config.as_array(), q.hand]) for q in p.poses])
+    t = np.arange(1, n) / n
+    mids = (rows[:-1, None] * (1 - t)[None, :, None] + rows[1:, None] * t[None, :, None])
+    return p.arm.to_world_points(joints_of(p.arm, mids.reshape(-1, 7)))
