@@ -177,13 +177,15 @@ def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
         st = r.stats
         tasks.append({
             "target": r.target, "arm": r.arm, "success": r.success, "reason": r.reason,
-            "message": r.message, "frame_start": r.frame_start, "frame_end": r.frame_end,
+            "message": r.message, "method": r.method,
+            "frame_start": r.frame_start, "frame_end": r.frame_end,
             "bones_keyed": r.bones_keyed,
             **{k: st[k] for k in ("search_time_s", "preprocess_time_s", "nodes_searched",
                                   "nodes_in_solution", "path_length_arm_lengths")},
             "mean_f_r": st["mean_f_r"], "strength_categories": st["strength_categories"],
             "min_clearance_arm_lengths": st["min_clearance_arm_lengths"],
             "frames": st["frames"], "planning_time_s": st["planning_time_s"],
+            "sampling_states": st["sampling_states"],
         })
     return {
         "reach_version": __version__, "blender_version": bpy.app.version_string,

@@ -65,6 +65,9 @@ class TaskResult:
     frame_end: int
     bones_keyed: list
     stats: dict
+    #: what found the path: "best-first" (the paper's search), "sampling" (the fallback
+    #: where it gave up) or "chase"
+    method: str = "best-first"
 
     def to_dict(self) -> dict:
         return dict(self.__dict__)
@@ -305,7 +308,7 @@ def _results(info, plans, keyed, request):
             out.append(TaskResult(
                 seg.name, info.side, seg.success, seg.reason, seg.message,
                 first + seg.frame_start, first + seg.frame_end,
-                list(keyed) if baked else [], stats))
+                list(keyed) if baked else [], stats, seg.method))
     return out
 
 

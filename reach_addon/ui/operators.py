@@ -237,10 +237,14 @@ def result_lines(props) -> list:
     for t in res.get("tasks", []):
         st = t["stats"]
         head = f"{t['target']}: " + ("reached" if t["success"] else t["reason"].replace("_", " "))
+        if t["success"] and t.get("method") == "sampling":
+            head += " (sampling planner)"
         lines.append(head)
         lines.append(f"  frames {t['frame_start']}–{t['frame_end']}, "
                      f"search {st['search_time_s'] * 1000:.0f} ms")
         lines.append(f"  nodes {st['nodes_searched']} searched, {st['nodes_in_solution']} in path")
+        if st.get("sampling_states"):
+            lines.append(f"  sampling: {st['sampling_states']} states tested")
         lines.append(f"  path {st['path_length_arm_lengths']:.2f} arm lengths, "
                      f"mean f_R {st['mean_f_r']:.2f}")
         if "mean_wrist_bend_deg" in st:

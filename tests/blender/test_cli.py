@@ -17,7 +17,8 @@ from test_bake import SKIN_CHAIN, snapshot_keys, world_heads
 
 ROOT = Path(__file__).resolve().parents[2]
 CLI_RIGS = ("quaternius", "gomakehuman", "metarig")
-REPORT_TASK_KEYS = {"target", "arm", "success", "reason", "frame_start", "frame_end",
+REPORT_TASK_KEYS = {"target", "arm", "success", "reason", "method", "sampling_states",
+                    "frame_start", "frame_end",
                     "bones_keyed", "search_time_s", "preprocess_time_s", "nodes_searched",
                     "nodes_in_solution", "path_length_arm_lengths"}
 
@@ -83,6 +84,7 @@ def test_bake_round_trip_on_real_rigs(scenes, tmp_path, kind):
         assert REPORT_TASK_KEYS <= set(task)
         assert task["success"] and task["reason"] is None and task["arm"] == "right"
         assert task["nodes_searched"] >= task["nodes_in_solution"] > 0
+        assert task["method"] in ("best-first", "sampling")
     first, second = report["tasks"]
     # each target its own reach from the same pose, baked one after the other
     assert first["frame_start"] == 1, "starts at the file's current frame"
