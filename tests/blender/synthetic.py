@@ -45,6 +45,19 @@ Options:
 - ``clavicle=False``: no clavicle (nor ``shoulder``) bones; the upper arms hang off the chest.
 - ``twist=True``: add the twist bones (names from the map, else ``<upper arm>_twist`` and
   ``<forearm>_twist``); they deform like the arm bones.
+- ``palms=N`` (N ≥ 2): no hand bone; the hand is N sibling palm bones directly under the
+  forearm (``Palm1.R`` … ``PalmN.R``, or the map's ``palm_R`` with ``{i}``), all with their
+  heads at the wrist and fanned across the hand's plane (:func:`palm_joints`), each
+  carrying a finger of ``fingers`` bones (``Finger1.R``, ``Finger1_2.R``, …; the map's
+  ``finger_R`` with ``{i}`` and ``{k}``). From the wrist to the middle fingertip the hand
+  is as long as the single hand bone would be (``hand_tip``), the palms ``PALM_SHARE`` of it.
+- ``proportions="robot"``: a robot with rigid parts (:data:`ROBOT`): on the same 1.75 m
+  body, an arm (shoulder to wrist) 0.41 of the height, the forearm 2.4 times the upper arm,
+  the hand half the forearm, thick box skins (upper arm, forearm, hand: radii 0.16, 0.25
+  and 0.35 of their lengths as the rig adapter reads them), a thin torso (boxes 5 cm from
+  the spine) and the arms hanging at its sides (80° below the horizontal, the forearm bent
+  forward as usual). :data:`ROBOT_NAMES` names its bones as such a character does
+  (``UpperArmR``, ``LowerArmR``, ``Palm1R`` …).
 """
 
 from __future__ import annotations
@@ -64,6 +77,29 @@ SHOULDER_Z = 1.42
 SHOULDER_HALF_WIDTH = 0.18
 
 _TORSO = {"hips": (0.95, 1.05), "chest": (1.25, 1.45), "neck": (1.45, 1.58), "head": (1.58, 1.75)}
+
+#: Proportions of a robot character with rigid box parts, as the rig adapter read them from
+#: it (its own units: upper arm 0.58, forearm 1.38 — 2.4 times the upper arm —, hand 0.68;
+#: skin radii 0.09, 0.35, 0.24), put on the standard body with its arm (shoulder to wrist)
+#: 0.41 of the height, hanging at its sides. ``skin``: half-widths of the skin boxes per
+#: role (a box's corners stand √2 half-widths from its bone, which is what the rig adapter
+#: reads as the radius); ``torso_skin``: the same for the hips, spine, chest, neck and head.
+ROBOT = {
+    "arm_lengths": (0.21, 0.50),
+    "arm_drop_deg": 80.0,
+    "shoulder_half_width": SHOULDER_HALF_WIDTH,
+    "hand_length": 0.245,
+    "skin": {"upper_arm": 0.023, "forearm": 0.09, "hand": 0.065, "palm": 0.065, "finger": 0.03},
+    "torso_skin": 0.05,
+}
+PROPORTIONS = {None: {"arm_lengths": ARM_LENGTHS, "hand_length": HAND_LENGTH,
+                      "arm_drop_deg": ARM_DROP_DEG, "shoulder_half_width": SHOULDER_HALF_WIDTH},
+               "robot": ROBOT}
+#: Share of the hand (wrist to fingertips) taken by the palms when ``palms`` is set; the
+#: fingers take the rest.
+PALM_SHARE = 0.6
+#: Angle (degrees) between neighbouring palms in the hand's plane when ``palms`` is set.
+PALM_FAN_DEG = 12.0
 
 
 # --- name maps --------------------------------------------------------------------------------
@@ -141,6 +177,14 @@ PLAIN = {"hips": "Pelvis", "spine": "Spine", "chest": "Chest", "neck": "Neck", "
          "hand_L": "Left_Hand", "thigh_L": "thigh.l", "shin_L": "Left_Shin", "foot_L": "foot.l",
          "toe_L": "Left_Toe"}
 
+# A robot character's names: no separator before the side letter; the hand is numbered palms.
+ROBOT_NAMES = {"hips": "Hips", "spine": "Abdomen", "chest": "Torso", "neck": "Neck", "head": "Head",
+               **_sided(lambda t: {"clavicle": f"Shoulder{t}", "upper_arm": f"UpperArm{t}",
+                                   "forearm": f"LowerArm{t}", "hand": f"Hand{t}",
+                                   "palm": "Palm{i}" + t, "finger": "Finger{i}_{k}" + t,
+                                   "thigh": f"UpperLeg{t}", "shin": f"LowerLeg{t}",
+                                   "foot": f"Foot{t}", "toe": f"Toe{t}"})}
+
 # Blender's default names, numbered in the order bones are usually extruded (spine up, then
 # the left limbs before the right ones): nothing says which bone is what or which side.
 _NUMBERED_ORDER = ("hips", "spine", "chest", "neck", "head",
@@ -172,23 +216,61 @@ def _unit(v):
     return v / np.linalg.norm(v)
 
 
-def arm_joints(tag: str) -> dict:
-    """Sternum, shoulder, elbow, wrist and hand tip of side ``tag`` (R/L), standing, metres."""
+def arm_joints(tag: str, proportions=None) -> dict:
+    """Sternum, shoulder, elbow, wrist and hand tip of side ``tag`` (R/L), standing, metres
+    (``proportions``: None for the standard adult, or a key of :data:`PROPORTIONS`)."""
+    lengths = PROPORTIONS[proportions]["arm_lengths"]
+    hand_length = PROPORTIONS[proportions]["hand_length"]
     s = SIDES[tag]
-    shoulder = np.array([s * SHOULDER_HALF_WIDTH, 0.0, SHOULDER_Z])
-    drop = math.radians(ARM_DROP_DEG)
+    shoulder = np.array([s * PROPORTIONS[proportions]["shoulder_half_width"], 0.0, SHOULDER_Z])
+    drop = math.radians(PROPORTIONS[proportions]["arm_drop_deg"])
     d1 = np.array([s * math.cos(drop), 0.0, -math.sin(drop)])
     bend = math.radians(ELBOW_BEND_DEG)
     d2 = _unit(math.cos(bend) * d1 + math.sin(bend) * np.array([0.0, -1.0, 0.0]))
-    elbow = shoulder + ARM_LENGTHS[0] * d1
-    wrist = elbow + ARM_LENGTHS[1] * d2
+    elbow = shoulder + lengths[0] * d1
+    wrist = elbow + lengths[1] * d2
     return {"sternum": np.array([s * 0.02, -0.03, 1.40]), "clavicle_end": np.array([s * 0.05, -0.02, 1.42]),
             "shoulder": shoulder, "elbow": elbow, "wrist": wrist,
-            "hand_tip": wrist + HAND_LENGTH * d2}
+            "hand_tip": wrist + hand_length * d2}
 
 
-def _segments(names: dict, *, clavicle: bool, twist: bool) -> list:
-    """(role key, head, tail, parent role key) for every skeleton bone, parents first."""
+def palm_name(names: dict, tag: str, i: int) -> str:
+    """Name of palm ``i`` (1-based) of side ``tag`` for ``palms=N``."""
+    return names.get(f"palm_{tag}", "Palm{i}." + tag).format(i=i)
+
+
+def finger_name(names: dict, tag: str, i: int, k: int) -> str:
+    """Name of bone ``k`` (1-based) of the finger on palm ``i`` for ``palms=N``."""
+    default = "Finger{i}." + tag if k == 1 else "Finger{i}_{k}." + tag
+    return names.get(f"finger_{tag}", default).format(i=i, k=k)
+
+
+def palm_joints(tag: str, n: int, fingers: int = 1, proportions=None) -> list:
+    """[(palm head, palm tail, [finger joints …])] of the ``n`` palms of side ``tag``
+    (standing, metres): every head at the wrist, each palm ``PALM_SHARE`` of the hand
+    long, fanned ``PALM_FAN_DEG`` apart about the hand's axis in the plane of the elbow's
+    bend (so the middle palm of an odd number lies along the forearm), each finger
+    carrying on straight from its palm, the rest of the hand long, in ``fingers`` bones."""
+    j = arm_joints(tag, proportions)
+    wrist = j["wrist"]
+    length = float(np.linalg.norm(j["hand_tip"] - wrist))
+    axis = _unit(j["hand_tip"] - wrist)
+    plane = np.cross(_unit(j["elbow"] - j["shoulder"]), axis)   # the elbow's hinge
+    across = _unit(np.cross(plane, axis))
+    out = []
+    for i in range(n):
+        a = math.radians(PALM_FAN_DEG * (i - 0.5 * (n - 1)))
+        d = math.cos(a) * axis + math.sin(a) * across
+        tail = wrist + PALM_SHARE * length * d
+        step = (1.0 - PALM_SHARE) * length / fingers
+        out.append((wrist, tail, [tail + step * k * d for k in range(fingers + 1)]))
+    return out
+
+
+def _segments(names: dict, *, clavicle: bool, twist: bool, palms: int = 0, fingers: int = 1,
+              proportions=None) -> list:
+    """(role key, head, tail, parent role key) for every skeleton bone, parents first. The
+    palms and fingers of ``palms=N`` have keys ``palm#<i>_<tag>`` and ``finger#<i>#<k>_<tag>``."""
     segs = []
     if "root" in names:
         segs.append(("root", (0, 0, 0), (0, 0.2, 0), None))
@@ -207,7 +289,7 @@ def _segments(names: dict, *, clavicle: bool, twist: bool) -> list:
     segs.append(("neck", (0, 0, _TORSO["neck"][0]), (0, 0, _TORSO["neck"][1]), "chest"))
     segs.append(("head", (0, 0, _TORSO["head"][0]), (0, 0, _TORSO["head"][1]), "neck"))
     for tag, s in SIDES.items():
-        j = arm_joints(tag)
+        j = arm_joints(tag, proportions)
         parent = "chest"
         if clavicle and f"clavicle_{tag}" in names:
             if f"shoulder_{tag}" in names:
@@ -229,7 +311,15 @@ def _segments(names: dict, *, clavicle: bool, twist: bool) -> list:
                 parent = f"{role}_{tag}"
             if twist:
                 segs.append((f"{role}_twist_{tag}", mid, head + 0.75 * (tail - head), f"{role}_{tag}"))
-        segs.append((f"hand_{tag}", j["wrist"], j["hand_tip"], parent))
+        if palms:
+            for i, (head, tail, finger) in enumerate(palm_joints(tag, palms, fingers, proportions), 1):
+                segs.append((f"palm#{i}_{tag}", head, tail, parent))
+                above = f"palm#{i}_{tag}"
+                for k in range(1, fingers + 1):
+                    segs.append((f"finger#{i}#{k}_{tag}", finger[k - 1], finger[k], above))
+                    above = f"finger#{i}#{k}_{tag}"
+        else:
+            segs.append((f"hand_{tag}", j["wrist"], j["hand_tip"], parent))
         x = s * 0.09
         segs.append((f"thigh_{tag}", (x, 0, 0.93), (x, -0.01, 0.50), "hips"))
         segs.append((f"shin_{tag}", (x, -0.01, 0.50), (x, 0.02, 0.08), f"thigh_{tag}"))
@@ -241,6 +331,13 @@ def _segments(names: dict, *, clavicle: bool, twist: bool) -> list:
 def _bone_name(names: dict, key: str) -> str:
     if key.startswith("spine#"):
         return names["spine"][int(key[6:])]
+    if key.startswith("palm#"):
+        i, tag = key[5:].split("_")
+        return palm_name(names, tag, int(i))
+    if key.startswith("finger#"):
+        rest, tag = key[7:].split("_")
+        i, k = rest.split("#")
+        return finger_name(names, tag, int(i), int(k))
     if key in names:
         return names[key]
     role, _, tag = key.rpartition("_")          # twist bones missing from the map
@@ -271,13 +368,19 @@ def to_world(p, *, facing="-Y", lying=False) -> np.ndarray:
 # --- building ---------------------------------------------------------------------------------
 
 def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, decoy=None,
-             clavicle=True, twist=False, name="Humanoid", skin_radius=0.04):
+             clavicle=True, twist=False, name="Humanoid", skin_radius=0.04, palms=0, fingers=1,
+             proportions=None):
     """Build the humanoid (see the module docstring) in the current scene; returns the
     armature object, active and in Object Mode."""
     if decoy not in (None, "ik", "twin", "driver"):
         raise ValueError(f"unknown decoy {decoy!r}")
+    if proportions not in PROPORTIONS:
+        raise ValueError(f"unknown proportions {proportions!r}")
+    if palms and (palms < 2 or decoy is not None):
+        raise ValueError("palms needs 2 or more palms and no decoy")
     rot = object_rotation(facing)
-    segs = _segments(names, clavicle=clavicle, twist=twist)
+    segs = _segments(names, clavicle=clavicle, twist=twist, palms=palms, fingers=fingers,
+                     proportions=proportions)
     bone_of = {key: _bone_name(names, key) for key, *_ in segs}
 
     def local(p):   # construction metres → armature space
@@ -324,18 +427,33 @@ def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, dec
             c = arm.pose.bones[deform].constraints.new("COPY_TRANSFORMS")
             c.target, c.subtarget, c.influence = arm, control, 1.0
     if skin:
-        _add_skin(arm, [(bone_of[key], local(h), local(t)) for key, h, t, _p in segs],
-                  skin_radius / scale)
+        radii = {key: _skin_half_width(key, proportions, skin_radius) / scale for key, *_r in segs}
+        _add_skin(arm, [(bone_of[key], local(h), local(t), radii[key]) for key, h, t, _p in segs])
     bpy.context.view_layer.objects.active = arm
     bpy.context.view_layer.update()
     return arm
 
 
-def _add_skin(arm, bones, radius):
-    """One box per bone (armature space), an Armature modifier and a vertex group per bone."""
+def _skin_half_width(key: str, proportions, default: float) -> float:
+    """Half-width of the skin box of the bone with role key ``key``: ``default`` unless the
+    ``proportions`` give one for its role (the torso's bones: ``torso_skin``)."""
+    if proportions is None:
+        return default
+    p = PROPORTIONS[proportions]
+    role = key.split("#")[0]
+    if role in ("root", "hips", "spine", "chest", "neck", "head"):
+        return p["torso_skin"]
+    role = role.rsplit("_", 1)[0] if role.endswith(tuple(f"_{t}" for t in SIDES)) else role
+    role = role[:-2] if role.endswith("_2") else role
+    return p["skin"].get(role, default)
+
+
+def _add_skin(arm, bones):
+    """One box per bone (armature space; (name, head, tail, half-width)), an Armature
+    modifier and a vertex group per bone."""
     verts, faces, groups = [], [], []
     quads = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
-    for name, head, tail in bones:
+    for name, head, tail, radius in bones:
         axis = (tail - head).normalized()
         side = axis.orthogonal().normalized()
         third = axis.cross(side)
