@@ -513,14 +513,15 @@ class ConfigurationGenerator:
         return Diagnosis(ARM_DOES_NOT_FIT, obstacle=obstacle, part=part, missing=missing)
 
     def fine_hand_coefficients(self) -> list:
-        """Hand directions (their coefficients) finer than the search's samples, for asking
-        whether any wrist angle fits: bends every two ``hand_grid_step`` and sides every
+        """Hand directions (their coefficients) for asking whether any wrist angle fits: the
+        search's samples, then bends about every two ``hand_grid_step`` and sides every
         third of the side range, both ends included."""
         s = self.settings
         nb = max(1, int(math.ceil(2 * s.wrist_bend_max / (2 * s.hand_grid_step))))
         bends = np.linspace(-s.wrist_bend_max, s.wrist_bend_max, nb + 1)
         sides = np.linspace(-s.wrist_side_max, s.wrist_side_max, 7)
-        return [hand_coefficients(float(b), float(d)) for b in bends for d in sides]
+        fine = [hand_coefficients(float(b), float(d)) for b in bends for d in sides]
+        return [self._hand_coefficients[h] for h in self.hand_samples] + fine
 
     def _beyond_reach(self, wrist, sol) -> Diagnosis:
         """No legal arm pose puts the wrist at ``wrist``. Beyond the straight arm's reach

@@ -254,7 +254,7 @@ def test_the_sliced_workspace_is_the_workspace(arm, scene):
 def test_the_guided_fallback_builds_the_grid_in_slices(arm):
     # ten nodes cannot take the wrist round the crate (more than 40 steps): the straight
     # search fails, so the guided one runs, on a grid built over many updates
-    s = Settings(node_budget=10, stall_budget=10)
+    s = Settings(node_budget=10, stall_budget=10, sampling_fallback=False)
     session = LiveSession(arm, obstacles(WALL), s, HANGING, "cup")
     session.set_target(BEHIND_WALL)
     ticks = 0
@@ -269,6 +269,16 @@ def test_the_guided_fallback_builds_the_grid_in_slices(arm):
     assert not ref.success and session.status.reason == ref.reason == NO_PATH
     assert "cup" in session.status.message
     assert session.status.state == CLOSEST
+
+
+def test_live_mode_falls_back_on_the_sampling_planner_as_the_reach_task_does(arm):
+    s = Settings(node_budget=10, stall_budget=10)
+    session = LiveSession(arm, obstacles(WALL), s, HANGING, "cup")
+    shown = follow(session, [BEHIND_WALL], triangles_of(WALL))
+    ref = Planner(arm, obstacles(WALL), s).plan(Task("reach", BEHIND_WALL[None], HANGING))
+    assert ref.success and ref.segments[0].method == "sampling"
+    assert session.status.state == REACHED, session.status.message
+    assert np.linalg.norm(shown[-1][1][3] - BEHIND_WALL) <= s.goal_tolerance * arm.arm_length
 
 
 # --- chase with obstacles per frame ----------------------------------------------------------
