@@ -13,6 +13,11 @@ segment to the planned one:
 * chest: the chest rotation about the body's up axis through the chest bone's head;
 * clavicle: carried by the chest.
 
+A hand of several sibling palm bones (:func:`.rig.hand_group`) is keyed as one rigid body:
+every palm's target is its start matrix carried by the hand bone's own turn (the same
+rotation about the wrist they share), so the palms keep their placement relative to each
+other and their fingers follow them.
+
 So bone rolls, rest poses and axis conventions cancel out: whatever the rig, the bones end
 up where the plan puts them. A bone's local (channel) matrix is ``(M_p P⁻¹ B)⁻¹ D`` with
 ``B``/``P`` its own and its parent's rest matrices, ``D`` its target and ``M_p`` the
@@ -39,6 +44,7 @@ from mathutils import Euler, Matrix, Quaternion
 
 from ..core import ReachError
 from ..core.torso import spine_rotation_matrix
+from .rig import hand_group
 
 ROLE_ORDER = ("chest", "clavicle", "upper_arm", "forearm", "hand")
 
@@ -110,7 +116,9 @@ def local_matrices(armature, keyed, targets_arm, start_pose):
     """Channel (basis) matrices (F, 4, 4) of the keyed bones, hierarchy order.
 
     ``keyed``: role → bone name; ``targets_arm``: role → armature-space targets (F, 4, 4);
-    ``start_pose``: bone name → armature-space pose matrix at the start (every bone)."""
+    ``start_pose``: bone name → armature-space pose matrix at the start (every bone). The
+    keyed hand's palm siblings (:func:`.rig.hand_group`) are keyed too, right after it,
+    each carried rigidly by the hand's turn."""
     bones = armature.data.bones
     name_to_role = {name: role for role, name in keyed.items()}
     out = {}
@@ -118,18 +126,23 @@ def local_matrices(armature, keyed, targets_arm, start_pose):
         name = keyed.get(role)
         if name is None:
             continue
-        bone = bones[name]
-        rest = np.array(bone.matrix_local)
-        target = targets_arm[role]
-        if bone.parent is None:
-            parent_now = np.repeat(np.eye(4)[None], len(target), 0)
-            parent_rest = np.eye(4)
-        else:
-            parent_now = _parent_target(bone.parent, name_to_role, targets_arm, start_pose,
-                                        len(target))
-            parent_rest = np.array(bone.parent.matrix_local)
-        offset = np.linalg.inv(parent_rest) @ rest
-        out[name] = affine_inverse(parent_now @ offset) @ target
+        targets = {name: targets_arm[role]}
+        if role == "hand":
+            carry = targets_arm[role] @ np.linalg.inv(start_pose[name])[None]
+            for palm in hand_group(armature, name)[1:]:
+                targets[palm] = carry @ start_pose[palm][None]
+        for bone_name, target in targets.items():
+            bone = bones[bone_name]
+            rest = np.array(bone.matrix_local)
+            if bone.parent is None:
+                parent_now = np.repeat(np.eye(4)[None], len(target), 0)
+                parent_rest = np.eye(4)
+            else:
+                parent_now = _parent_target(bone.parent, name_to_role, targets_arm, start_pose,
+                                            len(target))
+                parent_rest = np.array(bone.parent.matrix_local)
+            offset = np.linalg.inv(parent_rest) @ rest
+            out[bone_name] = affine_inverse(parent_now @ offset) @ target
     return out
 
 
@@ -430,5 +443,6 @@ def bake(context, armature, info, plans, new_action=False) -> BakeResult:
                           np.ones((2, 1)), np.array([first, last], float), bone_name)
             armature.update_tag()
     context.view_layer.update()
-    order = [keyed[r] for r in ROLE_ORDER if r in keyed]
+    order = [n for r in ROLE_ORDER if r in keyed
+             for n in (hand_group(armature, keyed[r]) if r == "hand" else (keyed[r],))]
     return BakeResult(action.name, order, (first, last))

@@ -23,6 +23,13 @@ drives it). Rigify's generated rigs are recognised by their ``rig_id`` and the `
 switch: Reach reads joint positions from the ``ORG-`` chain (where the arm is) and keys the
 FK controls with the switch set to FK. Every bone can be overridden by name.
 
+A hand of several bones: some rigs (robots with rigid parts) have no single hand bone but
+sibling palm bones directly under the forearm, each carrying fingers (``Palm1.R`` …
+``Palm3.R``). The hand is then that group (:func:`hand_group`): the hand bone found as
+above and its siblings that carry bones of their own and start where it starts. The arm
+model treats the group as one hand (:func:`hand_shape`), and the bake keys every bone of
+it with the same turn, so the hand stays rigid.
+
 The body frame
 --------------
 Nothing about orientation or size is assumed. From the bones, in world space at the
@@ -447,6 +454,41 @@ def _find_neck(chest, arm_roots):
     return max(others, key=lambda c: (len(c.children_recursive), c.length), default=None)
 
 
+#: How far (in the hand bone's own lengths) a sibling's head may lie from the hand bone's
+#: head for the sibling to be a palm of the same hand (:func:`hand_group`).
+PALM_HEAD_TOLERANCE = 0.1
+
+
+def hand_group(armature, hand_name) -> tuple:
+    """The bones that make the hand whose (first) bone is ``hand_name``: that bone first,
+    then its palm siblings in the order of the parent's children. A sibling (another child
+    of the forearm) is a palm of the same hand when it carries bones of its own (fingers),
+    is no helper bone (twist, ik, mch, … see :data:`_HELPER`; nor a weapon or prop bone),
+    points away from the elbow and has its head within :data:`PALM_HEAD_TOLERANCE`
+    hand-bone lengths of the hand bone's head, the wrist they then share. A hand bone
+    without such siblings is a group of one (every rig with a hand bone). The group turns as
+    one rigid hand about that wrist."""
+    bones = armature.data.bones
+    hand = bones[hand_name]
+    parent = hand.parent
+    if parent is None:
+        return (hand_name,)
+    head = np.array(hand.head_local)
+    onward = head - np.array(parent.head_local)
+    tol = PALM_HEAD_TOLERANCE * max(hand.length, 1e-9)
+    out = [hand_name]
+    for c in parent.children:
+        if c.name == hand_name or not c.children or \
+                set(tokens(c.name)) & (_HELPER | {"weapon", "prop"}):
+            continue
+        if np.linalg.norm(np.array(c.head_local) - head) > tol:
+            continue
+        if (np.array(c.tail_local) - np.array(c.head_local)) @ onward <= 0.0:
+            continue
+        out.append(c.name)
+    return tuple(out)
+
+
 def _check_chain(armature, bmap):
     data = armature.data
     for side, arm in bmap.arms.items():
@@ -583,9 +625,10 @@ class RigInfo:
     start: ArmConfig
     joints_world: dict       # role -> world position at the start (shoulder, elbow, wrist)
     start_hand: tuple = (0.0, 0.0)   # the wrist's two angles at the start (core.arm.hand_angles)
+    hand_bones: tuple = ()   # the hand's bones (hand_group): the hand bone, then its palm siblings
 
 
-def hand_shape(armature, hand_name, forearm_len):
+def hand_shape(armature, hand_name, forearm_len, group=None):
     """The hand as the planner models it, read from the pose on screen: (axis, length,
     spread) in world space — the unit direction from the wrist to the mean of the finger
     joints (bone heads and tails below the hand, without helper bones such as FBX "_end"
@@ -593,14 +636,25 @@ def hand_shape(armature, hand_name, forearm_len):
     and the farthest joint from the axis. A hand with no fingers points along its bone and
     is 0.74 forearm long (Drillis & Contini), its spread 0.
 
+    ``group``: the hand's bones (:func:`hand_group`; default the hand bone alone). A hand
+    of several palm bones is measured the same way from the wrist they share over the
+    fingers of all of them: its axis points to the mean of all their finger joints (between
+    the palms, the middle of the hand), its length reaches the farthest fingertip along
+    that axis, and its spread is the outermost joint of any finger (the capsule covers the
+    fanned palms). Taking the palms' tails instead would end the hand at the knuckles and
+    leave the fingers outside its capsule.
+
     The direction the planner plans for is the one the bake turns, so the keyed hand is
     where the plan put it."""
     mw = np.array(armature.matrix_world)
     pb = armature.pose.bones[hand_name]
-    kids = [b for b in pb.children_recursive if not set(tokens(b.name)) & _HELPER]
+    group = group or (hand_name,)
+    kids = [b for n in group for b in armature.pose.bones[n].children_recursive
+            if not set(tokens(b.name)) & _HELPER]
     wrist = mw[:3, :3] @ np.array(pb.head) + mw[:3, 3]
     if not kids:
-        axis = mw[:3, :3] @ (np.array(pb.tail) - np.array(pb.head))
+        tails = np.mean([np.array(armature.pose.bones[n].tail) for n in group], axis=0)
+        axis = mw[:3, :3] @ (tails - np.array(pb.head))
         return axis / max(float(np.linalg.norm(axis)), 1e-12), 0.74 * forearm_len, 0.0
     pts = np.array([p for b in kids for p in (b.head, b.tail)]) @ mw[:3, :3].T + mw[:3, 3]
     rel = pts - wrist
@@ -648,7 +702,8 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
         return inv[:3, :3] @ p + inv[:3, 3]
 
     half = frame.shoulder_half_width
-    hand_axis, lh, spread = hand_shape(armature, arm_bones.hand, l2)
+    hands = hand_group(armature, arm_bones.hand)
+    hand_axis, lh, spread = hand_shape(armature, arm_bones.hand, l2, hands)
     sternum = canon(pos[arm_bones.clavicle]) if arm_bones.clavicle else \
         np.array([0.0, 0.35 * half, canon(shoulder)[2]])
     if np.linalg.norm(sternum - canon(shoulder)) < 0.05 * half:
@@ -656,7 +711,7 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     radii = (
         _skin_radius(armature, {arm_bones.upper_arm}, shoulder, elbow, 0.15 * l1),
         _skin_radius(armature, {arm_bones.forearm}, elbow, wrist, 0.14 * l2),
-        _skin_radius(armature, {arm_bones.hand}, wrist, wrist + hand_axis * lh, 0.18 * lh),
+        _skin_radius(armature, set(hands), wrist, wrist + hand_axis * lh, 0.18 * lh),
     )
     # the hand's capsule: its palm skin, or half the fingers' spread about its axis if more
     # (one capsule round a spread thumb would make the hand a ball that fits nowhere: the
@@ -680,7 +735,7 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     start_hand = hand_angles(joints[2] - joints[1], bend, joints[3] - joints[2],
                              inv[:3, :3] @ hand_axis)
     return RigInfo(armature.name, bmap, frame, arm, side, start,
-                   {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}, start_hand)
+                   {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}, start_hand, hands)
 
 
 def _check_armature(armature):
