@@ -40,7 +40,8 @@ whose object transform has a negative determinant: its right-side bones are on t
 left, and the arm's canonical-to-world map is a reflection). The canonical arm frame of the
 core has its origin on the spine axis (the line through the chest bone's head along up) at
 shoulder height, x toward the reaching arm's side. Body capsules (chest, pelvis, head) are
-sized in proportion to the shoulder half-width; arm capsule radii come from the skin when
+sized in proportion to the shoulder half-width, and narrowed where the arm's own start pose
+passes through them (:func:`clear_of_start`); arm capsule radii come from the skin when
 there is one (75th percentile of vertex distances to each segment), else from proportions.
 
 Scale: any uniform scale, and mirroring, of the armature object or its parents is measured
@@ -60,6 +61,7 @@ import numpy as np
 
 from ..core import ArmConfig, ArmModel, Capsule, ReachError, config_from_joints
 from ..core.arm import forward_kinematics, hand_angles
+from ..core.collision import segment_distance
 
 ROLES = ("clavicle", "upper_arm", "forearm", "hand")
 SIDES = ("right", "left")
@@ -668,6 +670,43 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     return axis, length, spread
 
 
+#: Room (arm lengths) left between the arm in its start pose and a body capsule that had to
+#: be narrowed for it (:func:`clear_of_start`): one search step (``Settings.step``).
+START_BODY_GAP = 0.02
+#: The least a body capsule is narrowed to, as a share of its proportional radius.
+MIN_BODY_RADIUS = 0.25
+
+
+def clear_of_start(capsules, segments, arm_length):
+    """The body capsules, each one that the arm's own start pose passes through narrowed
+    until the arm clears it by :data:`START_BODY_GAP` arm lengths (never below
+    :data:`MIN_BODY_RADIUS` of its radius). A capsule the start pose clears, or touches by
+    less than 10⁻⁴ arm lengths (a pose the planner left right at it, read back from the
+    bones), is unchanged: on a rig whose arm starts clear of its body nothing changes.
+
+    ``segments``: (a, b, radius) of the arm's parts the planner keeps out of the body — the
+    elbow half of the upper arm, the forearm and the hand — in the start pose (canonical
+    frame, the chest unturned, as the capsules are).
+
+    Why. The capsules are sized from the shoulder width alone (a human's torso between the
+    shoulders); the planner refuses every pose whose forearm, hand or upper arm (elbow half)
+    passes through one, and does not test the start pose itself. A figure whose arm rests
+    closer to its spine than a human's, or whose forearm is much thicker (a robot with rigid
+    parts: a forearm 2.4 times the upper arm, its radius 0.18 arm lengths, hanging at its
+    side), starts inside them: every position the search tries near the start is refused
+    and it gives up after about a hundred positions (``no_path``) wherever the target is, and a
+    chase never leaves the start. The pose on screen is one the character's body allows, so
+    the body cannot be wider there than the arm lets it be."""
+    out = []
+    for c in capsules:
+        gap = min(float(segment_distance(a, b, c.a, c.b)) - r for a, b, r in segments) - c.radius
+        if gap < -1e-4 * arm_length:
+            radius = max(c.radius + gap - START_BODY_GAP * arm_length, MIN_BODY_RADIUS * c.radius)
+            c = Capsule(c.name, c.a, c.b, radius, c.turns_with_chest)
+        out.append(c)
+    return tuple(out)
+
+
 def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     """Read ``armature`` at the current frame into the core's model of one arm.
 
@@ -724,6 +763,12 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
         Capsule("pelvis", (0, 0, -3.4 * h), (0, 0, -1.6 * h), 0.74 * h, False),
         Capsule("head", (0, 0.1 * h, 0.8 * h), (0, 0.1 * h, 1.6 * h), 0.53 * h, True),
     )
+    hand_end = canon(wrist) + inv[:3, :3] @ hand_axis * lh
+    capsules = clear_of_start(capsules, (
+        (0.5 * (canon(shoulder) + canon(elbow)), canon(elbow), radii[0]),
+        (canon(elbow), canon(wrist), radii[1]),
+        (canon(wrist), hand_end, radii[2]),
+    ), l1 + l2)
     arm = ArmModel(
         sternum=sternum, shoulder=canon(shoulder), waist=np.array([0.0, 0.0, -2.4 * h]),
         upper_arm_length=l1, forearm_length=l2, hand_length=lh,

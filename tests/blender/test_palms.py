@@ -144,7 +144,7 @@ def bend_hand(arm, forearm, palms, degrees):
 
 
 @pytest.mark.parametrize("key, proportions, bent", (("plain", None, 0.0), ("mixamo", None, 30.0),
-                                                    ("robot", None, 30.0)))
+                                                    ("robot", "robot", 30.0)))
 def test_the_palms_turn_together(fresh, addon, key, proportions, bent):
     """A reach round a plate; on two rigs from a hand bent 30° at the start (the plan
     brings it back toward neutral as it goes), on the other as straight as it is built (the
