@@ -53,6 +53,7 @@ and what was measured.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 
@@ -774,13 +775,21 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
         upper_arm_length=l1, forearm_length=l2, hand_length=lh,
         upper_arm_radius=radii[0], forearm_radius=radii[1], hand_radius=radii[2],
         to_world=to_world, body_capsules=capsules, side=side,
-        name=f"{armature.name} {side} arm")
+        name=f"{armature.name} {side} arm", metres_per_unit=_metres_per_unit(armature))
     start = config_from_joints(arm, canon(elbow), canon(wrist), 0.0)
     joints, bend = forward_kinematics(arm, start.as_array())
     start_hand = hand_angles(joints[2] - joints[1], bend, joints[3] - joints[2],
                              inv[:3, :3] @ hand_axis)
     return RigInfo(armature.name, bmap, frame, arm, side, start,
                    {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}, start_hand, hands)
+
+
+def _metres_per_unit(armature) -> float:
+    """Metres per Blender unit in the armature's scene (its unit scale), for messages that
+    give lengths in centimetres; 1 when unset."""
+    scenes = list(getattr(armature, "users_scene", ())) or [bpy.context.scene]
+    scale = float(scenes[0].unit_settings.scale_length) if scenes[0] is not None else 1.0
+    return scale if math.isfinite(scale) and scale > 0 else 1.0
 
 
 def _check_armature(armature):

@@ -96,7 +96,7 @@ def test_target_is_the_armature(metarig):
 def test_target_inside_an_obstacle(addon, metarig):
     target, info = target_at(addon, metarig, (0.1, 0.6, 0.0))
     rigs.add_box("Cabinet", np.array(target.location), (0.3, 0.3, 0.3))
-    expect_error("inside or against obstacle 'Cabinet'", "Cup", "nothing was baked",
+    expect_error("inside obstacle 'Cabinet'", "Cup", "nothing was baked",
                  armature=metarig, target=target)
 
 
@@ -108,6 +108,19 @@ def test_target_out_of_reach_and_baking_the_closest_approach(addon, metarig):
     assert bpy.ops.reach.bake() == {"FINISHED"}          # asked for: baked, and said so
     keys = snapshot_keys(metarig)
     assert ('pose.bones["upper_arm.R"].rotation_quaternion', 0) in keys
+
+
+def test_a_target_just_beyond_the_arm_says_leaning_would_reach_it_in_scene_units(addon, metarig):
+    # 1.25 arm lengths straight ahead of the shoulder: a quarter arm length too far
+    target, info = target_at(addon, metarig, (0.0, 1.25, 0.0), name="Lamp")
+    length = info.arm.arm_length
+    beyond_cm = 100 * 0.25 * length                  # Blender units are metres by default
+    text = expect_error("'Lamp' is out of reach by", f"{beyond_cm:.1f} cm", "leaning",
+                        armature=metarig, target=target)
+    assert "arm lengths" in text
+    # a scene whose unit is a centimetre: the same distance is a hundredth as many cm
+    bpy.context.scene.unit_settings.scale_length = 0.01
+    expect_error(f"{beyond_cm / 100:.1f} cm", armature=metarig, target=target)
 
 
 def test_zero_scale_armature(addon, metarig):
