@@ -40,7 +40,7 @@ from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_R
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
 from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
-from .sampling import sampling_steps
+from .sampling import joints_of, pose_row, sampling_steps
 from .search import BestFirstSearch, SearchResult, chase_step
 from .search import drain
 from .settings import Settings
@@ -611,11 +611,22 @@ def first_contact(generator, poses, hand: HandReport, escaping: bool = False):
             return k, checker.first_hit(world) or ("arm", "an obstacle")
     if unclear:
         k = unclear[0]
-        world = arm.to_world_points(poses[k + 1].joints)
-        part = generator.transition_problem(poses[k], poses[k + 1]) or "hand"
-        return k + 1, (part, (generator.between_keys().checker.first_hit(world)
-                              or (part, "an obstacle"))[1])
+        return k + 1, _between_hit(generator, poses[k], poses[k + 1])
     return None
+
+
+def _between_hit(generator, a: Pose, b: Pose):
+    """(part, obstacle) of the first contact between two keys as they interpolate (the
+    instants of :meth:`ConfigurationGenerator.transition_problem`, at half the clearance)."""
+    n = max(2, generator.settings.instants_per_frame)
+    t = np.arange(1, n)[:, None] / n
+    rows = (1.0 - t) * pose_row(a) + t * pose_row(b)
+    checker = generator.between_keys().checker
+    for joints in generator.arm.to_world_points(joints_of(generator.arm, rows)):
+        hit = checker.first_hit(joints)
+        if hit is not None:
+            return hit
+    return (generator.transition_problem(a, b) or "hand", "the character's own body")
 
 
 def escape_frames(way_out, steps_per_frame: int, frames: int) -> list:
