@@ -13,6 +13,17 @@ and constraints all count) and the obstacles too: while none of them moves the c
 core's chase task; when one does (keys, a parent, a deforming modifier), each frame is
 planned against the obstacles of that frame (:func:`reach_addon.core.live.chase_steps`), a
 new BVH being built only for frames where the obstacles' signature changed.
+
+A reach, sequence or guided task plans one motion: where obstacles are animated (keys on
+them, their data, parents or constraint targets) past the start frame, the motion is
+planned against every place they take while it lasts — each moving obstacle sampled
+:data:`SWEEP_SAMPLES` times a frame over the motion's frames, added to the obstacles of
+the start frame — and planned again if the new motion lasts longer than what was swept.
+
+Targets carried by the character's own bones: one on a bone of the reaching arm (upper
+arm, forearm, hand or below) would move with the hand, so the arm is refused (with
+``auto``, the other arm is taken); one on a bone the chest carries (the neck, the head, the
+other arm) would move as the chest turns, so the chest is kept still for that request.
 """
 
 from __future__ import annotations
@@ -28,9 +39,13 @@ from ..core.live import chase_steps
 from . import bake as bake_mod
 from . import rig as rig_mod
 from . import viz
-from .scene import character_objects, gather_obstacles
+from .scene import character_objects, gather_pieces, obstacles_from_pieces, visit_obstacles
 
 TASKS = ("reach", "sequence", "guided", "chase")
+#: Instants per frame at which moving obstacles are sampled for a reach (frame, half way).
+SWEEP_SAMPLES = 2
+#: Most times a reach is planned again because its motion outlasted the swept frames.
+SWEEP_ROUNDS = 6
 
 
 @dataclass
@@ -195,12 +210,16 @@ def steps(context, request: Request, bake: bool = True):
         context.view_layer.update()
         first = np.array(targets[0].matrix_world.translation)
         info = rig_mod.build(armature, request.side, request.overrides, target=first)
+        info, settings = _carried_targets(armature, targets, info, request, first)
         yield 0.02, "reading the rig"
 
         fps = scene.render.fps / scene.render.fps_base
         names = tuple(t.name for t in targets)
         exclude = character_objects(armature, scene) | set(names)
-        obstacles = gather_obstacles(context, exclude, collection)
+        pieces = gather_pieces(context, exclude, collection)
+        obstacles = obstacles_from_pieces(pieces, collection)
+        moving = set() if request.task == "chase" else \
+            _moving_owners(context, exclude, collection, frame_start)
         yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
 
         frame_obstacles = None
@@ -221,7 +240,7 @@ def steps(context, request: Request, bake: bool = True):
                 tasks = [Task(request.task, positions, info.start, fps, request.duration_s,
                               names=names, start_hand=info.start_hand)]
 
-        planner = Planner(info.arm, obstacles, request.settings)
+        planner = Planner(info.arm, obstacles, settings)
         plans = []
         frame = frame_start
         for k, task in enumerate(tasks):
@@ -229,17 +248,29 @@ def steps(context, request: Request, bake: bool = True):
                 # Obstacles that move: each frame of the chase against its own obstacles.
                 planners = {id(obstacles): planner}
                 for o in frame_obstacles:
-                    planners.setdefault(id(o), Planner(info.arm, o, request.settings))
+                    planners.setdefault(id(o), Planner(info.arm, o, settings))
                 plan_steps = chase_steps([planners[id(o)] for o in frame_obstacles], task)
             else:
                 plan_steps = planner.plan_steps(task)
-            while True:
-                try:
-                    fraction, message = next(plan_steps)
-                except StopIteration as done:
-                    plan = done.value
-                    break
-                yield 0.05 + 0.85 * (k + fraction) / len(tasks), message
+            plan = yield from _progress(plan_steps, k, len(tasks))
+            if moving and plan.success:
+                # Obstacles that move while the arm does: plan against every place they
+                # take over the motion's frames, again if the motion outlasts them; then
+                # check each frame's pose against that frame's obstacles. (A motion that
+                # fails among the still obstacles fails among more.)
+                swept, covered = {}, frame - 1
+                for _round in range(SWEEP_ROUNDS):
+                    last = frame + len(plan.poses) - 1
+                    if last <= covered:
+                        break
+                    upto = frame + 2 * (len(plan.poses) - 1)
+                    swept.update(_sweep(context, exclude, collection, moving, covered + 1, upto))
+                    covered = upto
+                    scene.frame_set(frame_start)
+                    union = pieces + [p for ps in swept.values() for p in ps]
+                    planner = Planner(info.arm, obstacles_from_pieces(union), settings)
+                    plan = yield from _progress(planner.plan_steps(task), k, len(tasks))
+                _check_moving(plan, frame, swept, covered, moving, settings)
             plans.append((plan, frame))
             frame += len(plan.poses)
 
@@ -267,6 +298,147 @@ def steps(context, request: Request, bake: bool = True):
     finally:
         if scene.frame_current != original_frame:
             scene.frame_set(original_frame)
+
+
+def _progress(plan_steps, k: int, count: int):
+    """Drive a planner's steps for task ``k`` of ``count``, yielding the pipeline's
+    progress; returns the plan."""
+    while True:
+        try:
+            fraction, message = next(plan_steps)
+        except StopIteration as done:
+            return done.value
+        yield 0.05 + 0.85 * (k + fraction) / count, message
+
+
+def _carrying_bone(ob, armature, seen=None):
+    """The bone of ``armature`` that carries ``ob``: the bone it (or a parent of it, at any
+    depth, or the target of one of their constraints) is parented to or constrained to;
+    None if no bone of ``armature`` moves it."""
+    seen = set() if seen is None else seen
+    while ob is not None and ob.name not in seen:
+        seen.add(ob.name)
+        for c in getattr(ob, "constraints", ()):
+            other = getattr(c, "target", None)
+            if c.mute or c.influence <= 0.0 or other is None:
+                continue
+            if other == armature:
+                if getattr(c, "subtarget", ""):
+                    return c.subtarget
+            else:
+                bone = _carrying_bone(other, armature, seen)
+                if bone is not None:
+                    return bone
+        if ob.parent == armature:
+            return ob.parent_bone if ob.parent_type == "BONE" and ob.parent_bone else None
+        ob = ob.parent
+    return None
+
+
+def _under(armature, bone_name, names) -> bool:
+    """Is bone ``bone_name`` one of ``names`` or below one of them?"""
+    bone = armature.data.bones.get(bone_name)
+    while bone is not None:
+        if bone.name in names:
+            return True
+        bone = bone.parent
+    return False
+
+
+def _carried_targets(armature, targets, info, request, first):
+    """Targets carried by the character's bones (see the module doc). Returns the rig
+    (the other arm's, with ``auto``, when the chosen one carries a target) and the
+    settings (chest rotation off when the chest carries a target)."""
+    settings = request.settings
+    carried = [(t, b) for t in targets if (b := _carrying_bone(t, armature)) is not None]
+    if not carried:
+        return info, settings
+
+    def on_arm(rig):
+        a = rig.bones.arms[rig.side]
+        names = {a.upper_arm, a.forearm, a.hand} | {a.keyed(r) for r in ("upper_arm", "forearm",
+                                                                          "hand")}
+        return [(t, b) for t, b in carried if _under(armature, b, names)]
+
+    if on_arm(info) and request.side == "auto":
+        other = rig_mod.build(armature, "left" if info.side == "right" else "right",
+                              request.overrides, target=first)
+        if not on_arm(other):
+            info = other
+    held = on_arm(info)
+    if held:
+        t, b = held[0]
+        raise ReachError(f"target '{t.name}' is carried by bone '{b}' of the {info.side} arm, "
+                         "which the reach moves, so the hand could never arrive on it; parent "
+                         "it to something that stays still, or reach with the other arm")
+    a = info.bones.arms[info.side]
+    chest = {info.bones.chest, info.bones.keyed_chest, a.clavicle, a.keyed("clavicle")} - {None}
+    if settings.chest_rotation and any(_under(armature, b, chest) for _t, b in carried):
+        settings = settings.replace(chest_rotation=False)
+    return info, settings
+
+
+def _moving_owners(context, exclude, collection, frame) -> set:
+    """Owners of obstacle pieces animated after ``frame``: keys on the object or its data,
+    a parent or a constraint target (:func:`_animation_end`), of the owner or of the
+    object an instance comes from."""
+    moving = set()
+    for _piece, (owner, name) in visit_obstacles(context, lambda p, _ob: (p.owner, p.name),
+                                                 exclude, collection):
+        for n in {owner, name}:
+            end = _animation_end(bpy.data.objects.get(n))
+            if end is not None and end > frame:
+                moving.add(owner)
+    return moving
+
+
+def _sweep(context, exclude, collection, moving, f0, f1) -> dict:
+    """{(frame, sample): pieces of the ``moving`` obstacles} at :data:`SWEEP_SAMPLES`
+    instants of every frame f0..f1."""
+    scene = context.scene
+    out = {}
+    for f in range(f0, f1 + 1):
+        for k in range(SWEEP_SAMPLES):
+            scene.frame_set(f, subframe=k / SWEEP_SAMPLES)
+            out[(f, k)] = gather_pieces(context, exclude, collection, only=moving)
+    return out
+
+
+def _check_moving(plan, frame, swept, covered, moving, settings):
+    """Fail a successful ``plan`` (first frame ``frame``) whose pose on some frame touches
+    a moving obstacle where that obstacle is on that frame, or whose motion outlasted the
+    swept frames (what it meets after them is unknown). Contact on the first frames is
+    allowed while the arm leaves a contact it starts in, as with still obstacles."""
+    if not plan.success:
+        return
+    from ..core import NO_PATH
+    from ..core.collision import CollisionChecker
+
+    touching = settings.replace(clearance=0.0)
+    problem = None
+    if frame + len(plan.poses) - 1 > covered:
+        problem = "outlasts every frame swept"
+    else:
+        leaving = True
+        for i, joints in enumerate(plan.world_joints()):
+            at = swept.get((frame + i, 0), [])
+            hit = (CollisionChecker(plan.arm, obstacles_from_pieces(at), touching)
+                   .first_hit(joints) if at else None)
+            if hit is None:
+                leaving = False
+            elif not leaving:
+                problem = f"meets '{hit[1]}' at frame {frame + i} (its {hit[0]})"
+                break
+    if problem is None:
+        return
+    names = ", ".join(f"'{n}'" for n in sorted(moving))
+    for seg in plan.segments:
+        if seg.success:
+            seg.success, seg.reason = False, NO_PATH
+            seg.message = (f"{names} {'moves' if len(moving) == 1 else 'move'} while the arm "
+                           f"reaches for '{seg.name}' and the "
+                           f"best motion clear of every place they take {problem}; stop "
+                           "their animation during the reach, or move the target")
 
 
 def _sample_chase(context, target, exclude, collection, obstacles, f0, f1):

@@ -118,9 +118,19 @@ def gather_obstacles(context, exclude=(), collection=None, depsgraph=None) -> Ob
     ``collection``: if given, only objects in it (and its children) count; a collection
     whose objects have no faces is an error, since the user asked for those obstacles.
     """
+    return obstacles_from_pieces(gather_pieces(context, exclude, collection, depsgraph),
+                                 collection)
+
+
+def gather_pieces(context, exclude=(), collection=None, depsgraph=None, only=None) -> list:
+    """The obstacles' geometry as it is now, as plain data: [(label, world vertices (N, 3),
+    triangles (M, 3))] per piece, by the rules of :func:`visit_obstacles`. ``only``: if
+    given, the owner or object names whose pieces are read (the others are skipped)."""
     cache: dict = {}
 
     def read(piece, ob):
+        if only is not None and piece.owner not in only and piece.name not in only:
+            return None
         v, t = _triangles(ob, cache)
         if len(t) == 0:
             return None
@@ -131,7 +141,13 @@ def gather_obstacles(context, exclude=(), collection=None, depsgraph=None) -> Ob
                              "its transform and modifiers), or hide it")
         return world, t
 
-    pieces = visit_obstacles(context, read, exclude, collection, depsgraph)
+    return [(piece.label, v, t) for piece, (v, t) in
+            visit_obstacles(context, read, exclude, collection, depsgraph)]
+
+
+def obstacles_from_pieces(pieces, collection=None) -> Obstacles:
+    """One BVH of pieces [(label, world vertices, triangles)] (:func:`gather_pieces`; the
+    same label may come several times, as one obstacle at several instants)."""
     if not pieces:
         if collection is not None:
             raise ReachError(
@@ -141,8 +157,8 @@ def gather_obstacles(context, exclude=(), collection=None, depsgraph=None) -> Ob
     labels: dict[str, int] = {}
     verts, tris, owners = [], [], []
     offset = 0
-    for piece, (v, t) in pieces:
-        owner = labels.setdefault(piece.label, len(labels))
+    for label, v, t in pieces:
+        owner = labels.setdefault(label, len(labels))
         verts.append(v)
         tris.append(t + offset)
         owners.append(np.full(len(t), owner))

@@ -1,0 +1,136 @@
+"""Scenes the fuzz campaign (``bench/fuzz.py``) found wrong, fixed in the pipeline: an
+obstacle animated across a reach, and targets carried by the character's own bones. Each
+bake is checked by the campaign's independent check on Blender's evaluated bones."""
+
+import bpy
+import numpy as np
+import pytest
+import rigs
+import synthetic
+
+from bench import fuzz
+from bench.ompl_race import independent_check
+from reach_addon.blender import rig as rig_mod
+
+
+def humanoid():
+    arm = synthetic.humanoid(synthetic.MIXAMO, name="Rig")
+    info = rig_mod.build(arm, "right")
+    return arm, info
+
+
+def point(info, forward, side, up):
+    """World point from the right shoulder, in arm lengths along the body's axes (side:
+    toward the right arm)."""
+    f, length = info.frame, info.arm.arm_length
+    return info.joints_world["shoulder"] + length * (forward * f.forward + side * f.right
+                                                     + up * f.up)
+
+
+def bake(addon, arm, targets, **kw):
+    pipeline = addon.blender.pipeline
+    request = pipeline.Request(armature=arm.name, targets=[t.name for t in targets], **kw)
+    return pipeline.run(bpy.context, request)
+
+
+def contacts(arm, side, result, solids, subframes=3):
+    """Instants of ``result``'s frames (and ``subframes`` between each two) at which the
+    reaching arm or hand touches one of ``solids`` (object names), by the independent
+    check; and the wrist at the last frame."""
+    scene = bpy.context.scene
+    scene.frame_set(result.frame_start)
+    info = rig_mod.build(arm, side)
+    reader = fuzz.ArmReader(arm, info)
+    length = info.arm.arm_length
+    touching = []
+    for f in range(result.frame_start, result.frame_end + 1):
+        for k in range(subframes + 1 if f < result.frame_end else 1):
+            scene.frame_set(f, subframe=k / (subframes + 1))
+            tris = fuzz.solid_triangles(solids, 1e-10 * length ** 2)
+            if independent_check(info.arm, reader.joints(arm)[None], tris, True, 0.05 * length)[0]:
+                touching.append(f + k / (subframes + 1))
+    scene.frame_set(result.frame_end)
+    return touching, reader.joints(arm)[3], length
+
+
+def test_a_reach_stays_clear_of_an_obstacle_that_moves_into_its_path(fresh, addon):
+    arm, info = humanoid()
+    target = rigs.add_target("Cup", point(info, 0.75, 0.1, -0.15))
+    wrist = info.joints_world["wrist"]
+    path = np.array(target.location) - wrist
+    normal = path / np.linalg.norm(path)
+    across = np.cross(normal, info.frame.up)
+    across /= np.linalg.norm(across)
+    rot = np.column_stack([across, np.cross(normal, across), normal])
+    length = info.arm.arm_length
+    # a plate square across the straight path, half way; on frame 1 it is far to the side
+    plate = rigs.add_box("Plate", wrist + 0.5 * path, (0.3 * length, 0.3 * length,
+                                                       0.04 * length), rot)
+    across_path = np.array(plate.location)
+    plate.location = across_path + 1.5 * length * info.frame.right
+    plate.keyframe_insert("location", frame=1)
+    plate.location = across_path
+    plate.keyframe_insert("location", frame=4)
+    bpy.context.scene.frame_set(1)
+
+    outcome = bake(addon, arm, [target])
+    result = outcome.results[0]
+    assert result.success, result.message
+    touching, wrist_end, _ = contacts(arm, "right", result, ["Plate"])
+    assert not touching, f"the arm touches the moving plate at frames {touching}"
+    assert np.linalg.norm(wrist_end - np.array(target.location)) <= 0.006 * length
+
+
+def test_a_motion_an_obstacle_cannot_miss_fails_with_its_name(fresh, addon):
+    """A plate that comes down onto the hanging forearm at frame 3: no motion gets out of
+    its way in time, so the reach fails naming it (it succeeded, touched, before)."""
+    arm, info = humanoid()
+    target = rigs.add_target("Cup", point(info, 0.6, 0.3, 0.1))
+    length = info.arm.arm_length
+    elbow, wrist = info.joints_world["elbow"], info.joints_world["wrist"]
+    plate = rigs.add_box("Lid", 0.5 * (elbow + wrist), (0.5 * length, 0.5 * length,
+                                                       0.04 * length))
+    low = np.array(plate.location)
+    plate.location = low + 1.2 * length * info.frame.up
+    plate.keyframe_insert("location", frame=1)
+    plate.location = low
+    plate.keyframe_insert("location", frame=3)
+    bpy.context.scene.frame_set(1)
+
+    result = bake(addon, arm, [target]).results[0]
+    assert not result.success
+    assert result.reason in addon.core.REASONS and "'Lid'" in result.message
+
+
+def test_a_target_carried_by_the_reaching_hand_is_refused(fresh, addon):
+    arm, info = humanoid()
+    target = rigs.add_target("Ring", info.joints_world["wrist"])
+    hand = info.bones.arms["right"].hand
+    target.parent, target.parent_type, target.parent_bone = arm, "BONE", hand
+    bpy.context.view_layer.update()
+    target.matrix_world.translation = point(info, 0.6, 0.2, 0.0).tolist()
+    with pytest.raises(addon.core.ReachError, match=f"'Ring' is carried by bone '{hand}'"):
+        bake(addon, arm, [target], side="right")
+    # 'auto' takes the arm that does not carry it
+    outcome = bake(addon, arm, [target], side="auto")
+    assert outcome.rig.side == "left"
+
+
+def test_a_target_carried_by_the_other_hand_stays_put(fresh, addon):
+    """A cup held up by the left hand, out to the right, where a reach would turn the chest
+    (by 24°): the chest, which carries the left arm, is kept still, so the cup is where the
+    wrist arrives."""
+    arm, info = humanoid()
+    where = point(info, 0.0, 0.9, 0.2)
+    cup = rigs.add_target("Cup", where)
+    cup.parent, cup.parent_type = arm, "BONE"
+    cup.parent_bone = info.bones.arms["left"].hand
+    bpy.context.view_layer.update()
+    cup.matrix_world.translation = where.tolist()
+    bpy.context.view_layer.update()
+
+    result = bake(addon, arm, [cup], side="right").results[0]
+    assert result.success, result.message
+    touching, wrist_end, length = contacts(arm, "right", result, [])
+    gap = np.linalg.norm(wrist_end - np.array(cup.matrix_world.translation))
+    assert gap <= 0.006 * length, f"the wrist is {gap / length:.3f} arm lengths from the cup"
