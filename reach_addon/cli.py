@@ -39,6 +39,10 @@ from .core import ReachError, Settings
 from .core.settings import fields
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+#: The hand's figures of each task in the report (README, "The report").
+HAND_REPORT_KEYS = ("max_wrist_turn_deg_per_frame", "max_hand_turn_deg_per_frame",
+                    "mean_wrist_bend_deg", "max_wrist_bend_deg", "inserted_frames",
+                    "unbounded_hand_turns", "touching_transitions")
 
 
 class Interrupted(BaseException):
@@ -186,6 +190,7 @@ def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
             "min_clearance_arm_lengths": st["min_clearance_arm_lengths"],
             "frames": st["frames"], "planning_time_s": st["planning_time_s"],
             "sampling_states": st["sampling_states"],
+            **{k: st[k] for k in HAND_REPORT_KEYS if k in st},
         })
     return {
         "reach_version": __version__, "blender_version": bpy.app.version_string,

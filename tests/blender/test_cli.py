@@ -20,7 +20,11 @@ CLI_RIGS = ("quaternius", "gomakehuman", "metarig")
 REPORT_TASK_KEYS = {"target", "arm", "success", "reason", "method", "sampling_states",
                     "frame_start", "frame_end",
                     "bones_keyed", "search_time_s", "preprocess_time_s", "nodes_searched",
-                    "nodes_in_solution", "path_length_arm_lengths"}
+                    "nodes_in_solution", "path_length_arm_lengths",
+                    # the hand's figures, as the README's report lists them
+                    "max_wrist_turn_deg_per_frame", "max_hand_turn_deg_per_frame",
+                    "mean_wrist_bend_deg", "max_wrist_bend_deg", "inserted_frames",
+                    "unbounded_hand_turns", "touching_transitions"}
 
 
 def reach(*argv, timeout=300):
