@@ -63,10 +63,11 @@ Each side (:func:`plan_scene`)
   search short.
 * **Reach**: ``Planner(arm, obstacles, Settings()).plan(Task("reach", ...))``, timed around
   ``plan`` alone (the workspace grid, the paper's preprocessing, is built before and
-  reported apart). Its path (every frame, linearly interpolated in joint space so the
-  wrist moves at most 0.002 ``L`` between samples) is checked by ``ompl_race``'s
-  independent check: a success that touches an obstacle counts as a failure. The method
-  that found the path is ``plan.segments[0].method`` where the core reports one.
+  reported apart). Its path (every frame, linearly interpolated in joint space so that no
+  joint — elbow, wrist, the hand's far end — moves more than 0.002 ``L`` between samples)
+  is checked by ``ompl_race``'s independent check (actual contact, no margin): a success
+  that touches an obstacle counts as a failure. OMPL's path is checked the same way. The
+  method that found the path is ``plan.segments[0].method`` where the core reports one.
 
 Both sides get the same planner object (same obstacles, same checker) and the same clocks:
 ``time.perf_counter`` (the table's times) and ``time.process_time`` (CPU time, recorded
@@ -92,8 +93,8 @@ if str(ROOT) not in sys.path:
 
 import bpy  # noqa: E402,F401  (mathutils for the obstacles' BVH)
 
-from bench.ompl_race import (JointSpace, PathMeasure, Validity, _seed_ompl,  # noqa: E402
-                             pose_row)
+from bench.ompl_race import (CLEARANCE_HORIZON, DENSE_SPACING, JointSpace,  # noqa: E402
+                             Validity, _seed_ompl, independent_check, joints_of, pose_row)
 from reach_addon.core import Planner, Settings, Task  # noqa: E402
 from reach_addon.core import ik  # noqa: E402
 from reach_addon.core.arm import ArmConfig, ArmModel, Capsule  # noqa: E402
@@ -579,7 +580,7 @@ def plan_scene(scene: Scene, ompl_time_s: float, settings: Settings | None = Non
     planner = Planner(arm, scene.obstacles(), settings)
     space = JointSpace(arm, settings)
     validity = Validity(planner, space)
-    measure = PathMeasure(space, tris, planner.generator.checker.check_hand)
+    check_hand = planner.generator.checker.check_hand
     start = pose_row(planner.generator.config_pose(scene.start))
     out = scene.record()
 
@@ -592,7 +593,7 @@ def plan_scene(scene: Scene, ompl_time_s: float, settings: Settings | None = Non
         out.update(ompl_goals=len(goals), ompl_solved=ok, ompl_time_s=secs[0],
                    ompl_cpu_s=secs[1], ompl_validity_checks=checks, ompl_budget_s=ompl_time_s)
         if ok:
-            m = measure(path)
+            m = contacts(space, tris, path, check_hand)
             out.update(ompl_collisions=m["collisions"], ompl_min_clearance=m["min_clearance"])
 
     # Reach: the workspace grid first (preprocessing), then the plan.
@@ -606,7 +607,7 @@ def plan_scene(scene: Scene, ompl_time_s: float, settings: Settings | None = Non
                reach_method=getattr(seg, "method", "best-first") if plan.success else None,
                reach_time_s=secs, reach_cpu_s=cpu, reach_search_time_s=plan.stats.search_time_s,
                reach_nodes=plan.stats.nodes_searched, reach_frames=len(plan.poses))
-    m = measure(np.array([pose_row(p) for p in plan.poses]))
+    m = contacts(space, tris, np.array([pose_row(p) for p in plan.poses]), check_hand)
     out.update(reach_collisions=m["collisions"], reach_arm_collisions=m["arm_collisions"],
                reach_min_clearance=m["min_clearance"])
     out["reach_success"] = bool(plan.success and m["collisions"] == 0)
@@ -614,6 +615,45 @@ def plan_scene(scene: Scene, ompl_time_s: float, settings: Settings | None = Non
         out["reach_reason"] = "touches (independent check)"
     out["reach_message"] = plan.message if not plan.success else ""
     return out
+
+
+def densify_joints(space: JointSpace, path, spacing):
+    """Configurations (N, 7) along ``path`` (K, 7) by linear interpolation in joint space,
+    subdivided until no joint — elbow, wrist or the hand's far end — moves more than
+    ``spacing`` between samples. (``ompl_race.densify`` bounds the wrist alone, which leaves
+    a hand turning about a still wrist with few samples.)"""
+    path = np.atleast_2d(np.asarray(path, dtype=float))
+    if len(path) < 2:
+        return path
+    arm = space.arm
+    out = [path[:1]]
+    for qa, qb in zip(path[:-1], path[1:]):
+        if np.array_equal(qa, qb):
+            continue
+        n = max(1, int(math.ceil(space.distance(qa, qb) * arm.arm_length / spacing)))
+        while True:
+            seg = qa + np.linspace(0.0, 1.0, n + 1)[1:, None] * (qb - qa)
+            seg[-1] = qb
+            joints = joints_of(arm, np.concatenate([qa[None], seg]))[:, 2:]
+            if np.linalg.norm(np.diff(joints, axis=0), axis=2).max() <= spacing * (1 + 1e-9):
+                break
+            n *= 2
+        out.append(seg)
+    return np.concatenate(out)
+
+
+def contacts(space: JointSpace, tris, path, include_hand: bool) -> dict:
+    """``ompl_race``'s independent check of a joint-space path, densely interpolated
+    (:func:`densify_joints`, :data:`~bench.ompl_race.DENSE_SPACING` arm lengths): samples
+    touching an obstacle, those touching with the arm, least clearance (arm lengths)."""
+    arm = space.arm
+    length = arm.arm_length
+    dense = densify_joints(space, path, DENSE_SPACING * length)
+    world = arm.to_world_points(joints_of(arm, dense))
+    hits, arm_hits, least = independent_check(arm, world, tris, include_hand,
+                                              CLEARANCE_HORIZON * length)
+    return {"collisions": int(hits), "arm_collisions": int(arm_hits),
+            "min_clearance": least / length, "samples": int(len(dense))}
 
 
 # --- the run and its table -----------------------------------------------------------------
