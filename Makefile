@@ -5,6 +5,7 @@
 #               bake tests again on bpy 4.2 LTS and 4.5, and a real Blender binary (Debian's
 #               3.4.1) headless and in a GUI under Xvfb
 # Also: make bench (bench/results.md), make dist (the extension zip), make lint.
+# make fuzz: FUZZ_N generated scenes (default 10000) baked and checked, counts in bench/fuzz.json.
 # Set-up creates .venv (Python 3.11 + the bpy wheel) once; it needs network access to PyPI,
 # and apt-get (root or sudo) for the system packages of the binary tests.
 
@@ -27,7 +28,7 @@ MATRIX_TESTS := tests/blender/test_extension.py tests/blender/test_bake.py \
 	tests/blender/test_bad_input.py tests/blender/test_presets.py \
 	tests/blender/test_obstacle_types.py
 
-.PHONY: setup test demo bench lint dist clean system-deps matrix
+.PHONY: setup test demo bench lint dist clean system-deps matrix fuzz
 
 setup: $(STAMP)
 
@@ -65,6 +66,14 @@ bench: setup
 	$(PY) -m pip install --quiet -r requirements-bench.txt
 	$(PY) bench/run.py
 	$(PY) bench/readme.py
+
+# The fuzz campaign: seeded scenes baked as a user bakes them, each outcome checked
+# independently; one worker process per core. A fixed-seed subset runs in make test.
+FUZZ_N ?= 10000
+FUZZ_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+
+fuzz: setup
+	$(PY) bench/fuzz.py --count $(FUZZ_N) --jobs $(FUZZ_JOBS) --out bench/fuzz.json
 
 # The extension zip: manifest + package + bundled presets staged into one folder, then
 # validated and built by Blender's own tool.
