@@ -39,7 +39,8 @@ from ..core.live import chase_steps
 from . import bake as bake_mod
 from . import rig as rig_mod
 from . import viz
-from .scene import character_objects, gather_pieces, obstacles_from_pieces, visit_obstacles
+from .scene import (character_objects, finite, gather_pieces, obstacles_from_pieces,
+                    visit_obstacles)
 
 TASKS = ("reach", "sequence", "guided", "chase")
 #: Instants per frame at which moving obstacles are sampled for a reach (frame, half way).
@@ -128,6 +129,9 @@ def validate(context, request: Request, bake: bool):
         raise ReachError("no armature chosen; pick the character's armature")
     armature = _object(request.armature, "armature")
     rig_mod._check_armature(armature)
+    if not finite(np.array(armature.matrix_world)):
+        raise ReachError(f"armature '{armature.name}' has a NaN or infinite transform; fix its "
+                         "location, rotation and scale")
     if armature.name not in context.scene.objects:
         raise ReachError(f"armature '{armature.name}' is not in scene '{context.scene.name}'")
     if not request.targets:
@@ -138,7 +142,7 @@ def validate(context, request: Request, bake: bool):
             raise ReachError(f"the target '{t.name}' is the armature itself; pick the object to "
                              "reach for")
         m = np.array(t.matrix_world)
-        if not np.isfinite(m).all():
+        if not finite(m):
             raise ReachError(f"target '{t.name}' has a NaN or infinite transform; fix its location")
     if request.task == "reach" and request.side not in ("right", "left", "auto"):
         raise ReachError(f"arm must be right, left or auto, not '{request.side}'")

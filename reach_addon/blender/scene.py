@@ -36,6 +36,16 @@ from ..core import Obstacles, ReachError
 SURFACE_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "FONT", "META"})
 #: Custom property that marks objects Reach made (trajectory, markers): never obstacles.
 VIZ_TAG = "reach_viz"
+#: Coordinates at least this large are taken as infinite: Blender keeps an infinite value
+#: typed into a field as the largest single-precision float, 3.4e38 (times any parent's
+#: scale), which is finite to numpy but overflows the rig's and the planner's arithmetic.
+INFINITE = 1e30
+
+
+def finite(values) -> bool:
+    """Are all ``values`` numbers below :data:`INFINITE` in size (no NaN, no infinity)?"""
+    a = np.asarray(values, dtype=float)
+    return bool(np.isfinite(a).all() and (a.size == 0 or np.abs(a).max() < INFINITE))
 
 
 def character_objects(armature, scene) -> set:
@@ -136,7 +146,7 @@ def gather_pieces(context, exclude=(), collection=None, depsgraph=None, only=Non
             return None
         m = piece.matrix
         world = v @ m[:3, :3].T + m[:3, 3]
-        if not np.isfinite(world).all():
+        if not finite(world):
             raise ReachError(f"obstacle '{piece.label}' has NaN or infinite vertices (check "
                              "its transform and modifiers), or hide it")
         return world, t

@@ -134,3 +134,19 @@ def test_a_target_carried_by_the_other_hand_stays_put(fresh, addon):
     touching, wrist_end, length = contacts(arm, "right", result, [])
     gap = np.linalg.norm(wrist_end - np.array(cup.matrix_world.translation))
     assert gap <= 0.006 * length, f"the wrist is {gap / length:.3f} arm lengths from the cup"
+
+
+@pytest.mark.parametrize("what", ["target", "armature", "obstacle"])
+def test_an_infinite_location_is_refused_naming_the_object(fresh, addon, what):
+    """Blender keeps an infinite value typed into a field as 3.4e38: finite to numpy, it
+    overflowed the rig's arithmetic ('body capsule 'chest' is not finite', naming nothing)
+    or was planned for as a far target; it is refused as NaN is."""
+    arm, info = humanoid()
+    target = rigs.add_target("Cup", point(info, 0.6, 0.2, 0.0))
+    box = rigs.add_box("Crate", point(info, 0.6, 0.8, -0.5), (0.2, 0.2, 0.2))
+    ob = {"target": target, "armature": arm, "obstacle": box}[what]
+    ob.location = (float("inf"), 0.0, 0.0)
+    bpy.context.view_layer.update()
+    assert np.isfinite(np.array(ob.matrix_world)).all()      # Blender made it 3.4e38
+    with pytest.raises(addon.core.ReachError, match=f"'{ob.name}' has (a )?NaN or infinite"):
+        bake(addon, arm, [target])
