@@ -28,8 +28,9 @@ It shares no code with the planner. The baked file is opened and evaluated by Bl
 ``--subframes`` instants between frames. At each instant the arm's five joints are read
 from the evaluated bones — sternum (the clavicle's head), shoulder, elbow, wrist and the
 hand's far end, carried by their bones — and the four segments (clavicle, upper arm,
-forearm, hand; the rig model's radii) are measured against the triangles of the
-evaluated meshes of the scene's obstacles by exact segment–triangle distance in numpy
+forearm, hand; the rig model's radii; the hand left out only where the bake was told not
+to check it, ``--no-check-hand``) are measured against the triangles of the evaluated
+meshes of the scene's obstacles by exact segment–triangle distance in numpy
 (:func:`bench.ompl_race.independent_check`). Which objects are obstacles comes from the
 scene's description, by the README's rules (visible objects with faces, not the
 character, not a target), not from Reach's gathering. A start pose that already touches
@@ -799,9 +800,9 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
         manifest_targets.append({"name": ob.name, "ref": ref, "nan": t["nan"]})
         if t["nan"]:
             culprits.add(ob.name)
-            # Blender keeps NaN, but stores an infinite location as the largest float
-            # (3.4e38): a far, finite target, which a failure may answer
-            must_refuse = must_refuse or t["nan"] == "nan"
+            must_refuse = True
+        if parent is not None and parent["kind"] == "bone" and parent["role"].startswith("own"):
+            culprits.add(ob.name)   # carried by the reaching arm: refused, naming it
         if spec["task"] == "chase" and (parent is None or parent["kind"] != "moving"):
             culprits.add(ob.name)   # nothing moves it: a chase is refused, naming it
     bpy.context.view_layer.update()
@@ -925,7 +926,7 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
             pass    # its location is animated: the keys set it on every frame, NaN or not
         elif counts and o["nan"] and o["kind"] not in ("edges_only", "empty_mesh"):
             culprits.add(ob.name)
-            must_refuse = must_refuse or o["nan"] != "inf"
+            must_refuse = True
         if counts and o["kind"] not in NO_SURFACE and not o["nan"]:
             solids.append(ob.name)
             if o["animated"]:
@@ -967,7 +968,7 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
         value = float("nan") if spec["armature_nan"] == "nan" else float("inf")
         arm.location = (value, arm.location[1], arm.location[2])
         culprits.add(arm.name)
-        must_refuse = must_refuse or spec["armature_nan"] == "nan"
+        must_refuse = True
     for t, m in zip(spec["targets"], manifest_targets):
         if t["nan"]:
             ob = bpy.data.objects[m["name"]]
@@ -1176,6 +1177,7 @@ def verify(manifest: dict, report: dict, output: Path, subframes: int) -> list:
     problems = []
     horizon = 0.05 * length
     tolerance = (0.005 + 1e-4) * length
+    hand = bool(report.get("settings", {}).get("check_hand", True))   # off: the user's choice
     for task in tasks:
         fa, fb = int(task["frame_start"]), int(task["frame_end"])
         instants = [(f, k / (subframes + 1)) for f in range(fa, fb) for k in range(subframes + 1)]
@@ -1190,7 +1192,7 @@ def verify(manifest: dict, report: dict, output: Path, subframes: int) -> list:
             if movers:
                 tris = np.concatenate([static, solid_triangles(sorted(movers), min_area)])
             joints = reader.joints(arm)
-            hits, arm_hits, least = independent_check(info.arm, joints[None], tris, True, horizon)
+            hits, arm_hits, least = independent_check(info.arm, joints[None], tris, hand, horizon)
             if not hits:
                 leaving = False
             elif not leaving:
@@ -1263,9 +1265,11 @@ def classify(spec: dict, manifest: dict, runs: list, changed: list, keys: list,
         message = _refusal(runs[0]["stderr"])
         if not message:
             return "unclear_failure", "exit 2 without a message"
-        culprits = manifest["culprits"] or manifest["names"]
-        if not any(c in message for c in culprits):
-            wanted = manifest["culprits"] or "an object"
+        # The message names an object of the scene; where the scene has a fault of its
+        # own, the object at fault (or the armature, whose problems are found first).
+        wanted = manifest["culprits"] + [manifest["armature"]] if manifest["must_refuse"] \
+            else manifest["names"]
+        if not any(c in message for c in wanted):
             return "unclear_failure", f"refused without naming {wanted}: {message}"
         return "failure_with_reason", f"bad_input: {message}"
     report = runs[0]["report"]
