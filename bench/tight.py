@@ -606,7 +606,9 @@ def plan_scene(scene: Scene, ompl_time_s: float, settings: Settings | None = Non
     out.update(reach_planned=bool(plan.success), reach_reason=plan.reason,
                reach_method=getattr(seg, "method", "best-first") if plan.success else None,
                reach_time_s=secs, reach_cpu_s=cpu, reach_search_time_s=plan.stats.search_time_s,
-               reach_nodes=plan.stats.nodes_searched, reach_frames=len(plan.poses))
+               reach_nodes=plan.stats.nodes_searched,
+               reach_sampling_states=int(getattr(plan.stats, "sampling_states", 0)),
+               reach_frames=len(plan.poses))
     m = contacts(space, tris, np.array([pose_row(p) for p in plan.poses]), check_hand)
     out.update(reach_collisions=m["collisions"], reach_arm_collisions=m["arm_collisions"],
                reach_min_clearance=m["min_clearance"])
@@ -723,6 +725,7 @@ def _cell(rows) -> dict:
             "reach_touching": sum(1 for r in rows if r["reach_planned"] and r["reach_collisions"]),
             "reach_median_s": _median(r["reach_time_s"] for r in solved),
             "reach_median_success_s": _median(r["reach_time_s"] for r in reached),
+            "reach_median_search_s": _median(r["reach_search_time_s"] for r in solved),
             "ompl_median_s": _median(r["ompl_time_s"] for r in solved),
             "reach_median_cpu_s": _median(r.get("reach_cpu_s", math.nan) for r in solved),
             "ompl_median_cpu_s": _median(r.get("ompl_cpu_s", math.nan) for r in solved)}
@@ -744,8 +747,8 @@ def summary(rows) -> dict:
     total["goal_rate"] = GOAL_RATE
     total["goal_met"] = total["reach_rate"] is not None and total["reach_rate"] >= GOAL_RATE
     failures = [{k: r.get(k) for k in ("seed", "family", "kind", "arm", "factor",
-                                       "reach_reason", "reach_nodes", "reach_time_s",
-                                       "ompl_time_s")}
+                                       "reach_reason", "reach_nodes", "reach_sampling_states",
+                                       "reach_time_s", "ompl_time_s", "reach_message")}
                 for r in rows if r["ompl_solved"] and not r["reach_success"]]
     return {"cells": cells, "by_family": by_family, "by_arm": by_arm, "total": total,
             "failures": failures}
@@ -760,7 +763,7 @@ def _row(c) -> str:
     methods = ", ".join(f"{m} {n}" for m, n in sorted(c["reach_methods"].items())) or "–"
     return (f"| {c['family']} | {c['arm']} | {c['scenes']} | {c['ompl_solved']} | "
             f"{c['reach_solved']} ({rate}) | {methods} | {_ms(c['reach_median_s'])} | "
-            f"{_ms(c['ompl_median_s'])} |")
+            f"{_ms(c.get('reach_median_search_s'))} | {_ms(c['ompl_median_s'])} |")
 
 
 def markdown(result: dict) -> str:
@@ -770,13 +773,14 @@ def markdown(result: dict) -> str:
     lines = [f"## Tight scenes (issue 14: Reach on ≥ {100 * GOAL_RATE:.0f} % of what OMPL solves)",
              "",
              f"{t['scenes']} scenes from seed {result['seed']} (`bench/tight.py`, per scene in "
-             f"`bench/tight.json`); OMPL RRTConnect with {result['ompl_time_s']:g} s per scene "
-             "decides whether a path exists. Reach's column counts its successes among the "
+             f"`bench/tight.json`); OMPL RRTConnect with {result['ompl_time_s']:g} s of CPU time per "
+             "scene decides whether a path exists. Reach's column counts its successes among the "
              "scenes OMPL solved, a success touching an obstacle by the independent check "
-             "counted as a failure; medians over the scenes OMPL solved (Reach's whole plan, "
-             "OMPL's `solve`), in ms.", "",
+             "counted as a failure; medians over the scenes OMPL solved, in ms: Reach's whole "
+             "plan (search, smoothing, timing, the hand pass), its search alone, OMPL's "
+             "`solve` (no simplification).", "",
              "| family | arm | scenes | OMPL solved | Reach solved (of those) | by method | "
-             "Reach median ms | OMPL median ms |", "|---|---|---|---|---|---|---|---|"]
+             "Reach plan ms | Reach search ms | OMPL ms |", "|---|---|---|---|---|---|---|---|---|"]
     lines += [_row(c) for c in s["cells"]]
     lines += [_row(c).replace(f"| {c['family']} | all |", f"| **{c['family']}** | all |")
               for c in s["by_family"]]
@@ -793,21 +797,25 @@ def markdown(result: dict) -> str:
               f"{t['reach_touching']} plan(s) reported as reached touched an obstacle by the "
               "independent check."]
     if s["failures"]:
-        lines += ["", "Scenes OMPL solves and Reach does not:", "",
-                  "| seed | family | arm | gap factor | Reach's reason | nodes | Reach s | OMPL s |",
-                  "|---|---|---|---|---|---|---|---|"]
+        lines += ["", "Scenes OMPL solves and Reach does not (nodes: positions the best-first "
+                  "search tested; states: the sampling fallback's):", "",
+                  "| seed | family | arm | gap factor | Reach's reason | nodes | states | "
+                  "Reach s | OMPL s | Reach's message |", "|---|---|---|---|---|---|---|---|---|---|"]
         for f in s["failures"]:
+            message = (f.get("reach_message") or "").split(";")[0].replace("|", "/")
             lines.append(f"| {f['seed']} | {f['family']} ({f['kind']}) | {f['arm']} | "
                          f"{f['factor']:.2f} | {f['reach_reason']} | {f['reach_nodes']} | "
-                         f"{f['reach_time_s']:.2f} | {f['ompl_time_s']:.2f} |")
+                         f"{f.get('reach_sampling_states') or '–'} | {f['reach_time_s']:.2f} | "
+                         f"{f['ompl_time_s']:.2f} | {message} |")
     return "\n".join(lines) + "\n"
 
 
-def bench_step(folder: Path, log=print) -> dict:
+def bench_step(folder: Path, log=print, count: int = DEFAULT_COUNT,
+               ompl_time_s: float = DEFAULT_OMPL_TIME) -> dict:
     """``make bench``'s step: the full run, ``bench/tight.json``; returns what
     ``bench/run.py`` keeps in ``results.json`` (settings and summary)."""
     folder = Path(folder)
-    result = run(log=log, output=folder / "tight.json")
+    result = run(count, ompl_time_s=ompl_time_s, log=log, output=folder / "tight.json")
     t = result["summary"]["total"]
     rate = "–" if t["reach_rate"] is None else f"{100 * t['reach_rate']:.1f} %"
     log(f"  Reach {t['reach_solved']}/{t['ompl_solved']} of the scenes OMPL solved ({rate}); "
@@ -832,7 +840,14 @@ def main(argv=None) -> int:
     parser.add_argument("--no-rigs", action="store_true",
                         help="leave out the arms read from the real rigs")
     parser.add_argument("--output", default=str(ROOT / "bench" / "tight.json"))
+    parser.add_argument("--table", metavar="JSON",
+                        help="print the table of a finished run's JSON and plan nothing")
     args = parser.parse_args(argv)
+    if args.table:
+        result = json.loads(Path(args.table).read_text())
+        result["summary"] = summary(result["scenes"])
+        print(markdown(result))
+        return 0
     count = args.count or (QUICK_COUNT if args.quick else DEFAULT_COUNT)
     ompl_time = args.ompl_time or (QUICK_OMPL_TIME if args.quick else DEFAULT_OMPL_TIME)
     arms = tuple(args.arm or (SYNTHETIC_ARMS if args.no_rigs else ARMS))
