@@ -85,7 +85,8 @@ from functools import lru_cache
 import numpy as np
 
 from reach_addon.core import Planner, Task
-from reach_addon.core.sampling import JOINT_NAMES, StateValidity, joints_of, pose_row
+from reach_addon.core.sampling import (JOINT_NAMES, StateValidity, densify_rows, joints_of,
+                                      pose_row)
 from reach_addon.core.sampling import JointSpace as CoreJointSpace
 from reach_addon.core.strength import strength_category
 
@@ -259,25 +260,10 @@ def independent_check(arm, world_joints, tris, include_hand=True, horizon=math.i
 
 def densify(space: JointSpace, path, spacing):
     """Configurations (N, 7) along ``path`` (K, 7) by linear interpolation in joint space,
-    subdivided until the wrist moves at most ``spacing`` (figure units) between samples."""
-    path = np.atleast_2d(np.asarray(path, dtype=float))
-    if len(path) < 2:
-        return path
-    arm = space.arm
-    out = [path[:1]]
-    for qa, qb in zip(path[:-1], path[1:]):
-        if np.array_equal(qa, qb):
-            continue
-        n = max(1, int(math.ceil(space.distance(qa, qb) * arm.arm_length / spacing)))
-        while True:
-            seg = qa + np.linspace(0.0, 1.0, n + 1)[1:, None] * (qb - qa)
-            seg[-1] = qb
-            wrists = joints_of(arm, np.concatenate([qa[None], seg]))[:, 3]
-            if np.linalg.norm(np.diff(wrists, axis=0), axis=1).max() <= spacing * (1 + 1e-9):
-                break
-            n *= 2
-        out.append(seg)
-    return np.concatenate(out)
+    subdivided until no joint (elbow, wrist, the hand's far end) moves more than
+    ``spacing`` (figure units) between samples (:func:`reach_addon.core.sampling.densify_rows`:
+    a hand turning about a still wrist is sampled as densely as a moving wrist)."""
+    return densify_rows(space.arm, path, spacing)
 
 
 class PathMeasure:

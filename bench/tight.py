@@ -94,7 +94,8 @@ if str(ROOT) not in sys.path:
 import bpy  # noqa: E402,F401  (mathutils for the obstacles' BVH)
 
 from bench.ompl_race import (CLEARANCE_HORIZON, DENSE_SPACING, JointSpace,  # noqa: E402
-                             Validity, _seed_ompl, independent_check, joints_of, pose_row)
+                             Validity, _seed_ompl, densify, independent_check, joints_of,
+                             pose_row)
 from reach_addon.core import Planner, Settings, Task  # noqa: E402
 from reach_addon.core import ik  # noqa: E402
 from reach_addon.core.arm import ArmConfig, ArmModel, Capsule  # noqa: E402
@@ -619,38 +620,13 @@ def plan_scene(scene: Scene, ompl_time_s: float, settings: Settings | None = Non
     return out
 
 
-def densify_joints(space: JointSpace, path, spacing):
-    """Configurations (N, 7) along ``path`` (K, 7) by linear interpolation in joint space,
-    subdivided until no joint — elbow, wrist or the hand's far end — moves more than
-    ``spacing`` between samples. (``ompl_race.densify`` bounds the wrist alone, which leaves
-    a hand turning about a still wrist with few samples.)"""
-    path = np.atleast_2d(np.asarray(path, dtype=float))
-    if len(path) < 2:
-        return path
-    arm = space.arm
-    out = [path[:1]]
-    for qa, qb in zip(path[:-1], path[1:]):
-        if np.array_equal(qa, qb):
-            continue
-        n = max(1, int(math.ceil(space.distance(qa, qb) * arm.arm_length / spacing)))
-        while True:
-            seg = qa + np.linspace(0.0, 1.0, n + 1)[1:, None] * (qb - qa)
-            seg[-1] = qb
-            joints = joints_of(arm, np.concatenate([qa[None], seg]))[:, 2:]
-            if np.linalg.norm(np.diff(joints, axis=0), axis=2).max() <= spacing * (1 + 1e-9):
-                break
-            n *= 2
-        out.append(seg)
-    return np.concatenate(out)
-
-
 def contacts(space: JointSpace, tris, path, include_hand: bool) -> dict:
     """``ompl_race``'s independent check of a joint-space path, densely interpolated
-    (:func:`densify_joints`, :data:`~bench.ompl_race.DENSE_SPACING` arm lengths): samples
+    (:func:`~bench.ompl_race.densify`, :data:`~bench.ompl_race.DENSE_SPACING` arm lengths): samples
     touching an obstacle, those touching with the arm, least clearance (arm lengths)."""
     arm = space.arm
     length = arm.arm_length
-    dense = densify_joints(space, path, DENSE_SPACING * length)
+    dense = densify(space, path, DENSE_SPACING * length)
     world = arm.to_world_points(joints_of(arm, dense))
     hits, arm_hits, least = independent_check(arm, world, tris, include_hand,
                                               CLEARANCE_HORIZON * length)

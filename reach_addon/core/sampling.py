@@ -4,7 +4,7 @@ The best-first search of :mod:`~reach_addon.core.search` is fast and, by followi
 strongest pose at every wrist position, natural; but it is greedy. In a tight place (a
 cubby, a slot, a hole in a panel) the way in may need the elbow swung round or the hand
 turned first, which no sequence of strongest poses gives, and the search exhausts its
-budget or backtracks to the start. :func:`sampling_search` is then run over the same
+budget or backtracks to the start. :func:`sampling_steps` is then run over the same
 configurations with the same collision test: it is probabilistically complete (if a clear
 path exists it is found with a probability that tends to one as the budget grows).
 
@@ -57,7 +57,7 @@ from . import ik
 from .arm import ArmConfig, Pose, forward_kinematics
 from .errors import NO_PATH
 from .numeric import SCALAR
-from .search import SearchResult, drain
+from .search import SearchResult
 
 #: Joint order of a configuration row: the core's five angles, then the hand's two.
 JOINT_NAMES = ("body", "alpha", "beta", "gamma", "elbow", "wrist_bend", "wrist_side")
@@ -435,32 +435,33 @@ def near_target(arm, settings, target, radius: float):
     return near
 
 
-def subdivide(generator, rows: list, step: float) -> list:
-    """Rows (7,) along ``rows`` by linear interpolation, so that between neighbours the arm's
-    farthest-moving point (elbow, wrist or hand's end) moves at most ``step`` (figure
-    units), each arm angle at most the smoothness bound and the hand at most its turn per
-    step (``Settings.max_joint_step``, ``Settings.hand_step_turn``)."""
-    s, arm = generator.settings, generator.arm
-    out = [np.asarray(rows[0], dtype=float)]
+def densify_rows(arm, rows, spacing: float, max_arm_deg: float = math.inf,
+                 max_hand_deg: float = math.inf) -> np.ndarray:
+    """Configuration rows (N, 7) along ``rows`` (K, 7), by linear interpolation in joint
+    space (the ends kept, repeated rows dropped), each piece subdivided until between
+    neighbours no joint — elbow, wrist or the hand's far end — moves more than ``spacing``
+    (figure units), no arm angle more than ``max_arm_deg`` and neither wrist angle more than
+    ``max_hand_deg``. The sampling planner's path is made of neighbours this close (one
+    search step, within the smoothness bounds); the benchmarks check paths at this
+    spacing."""
+    rows = np.atleast_2d(np.asarray(rows, dtype=float))
+    out = [rows[:1]]
     for qa, qb in zip(rows[:-1], rows[1:]):
-        qa, qb = np.asarray(qa, dtype=float), np.asarray(qb, dtype=float)
+        if np.array_equal(qa, qb):
+            continue
         delta = qb - qa
-        n = max(1, int(math.ceil(max(np.abs(delta[:5]).max() / s.max_joint_step,
-                                     np.abs(delta[5:]).max() / s.hand_step_turn) - 1e-12)))
+        n = max(1, int(math.ceil(max(np.abs(delta[:5]).max() / max_arm_deg,
+                                     np.abs(delta[5:]).max() / max_hand_deg) - 1e-12)))
         while True:
-            seg = qa + np.linspace(0.0, 1.0, n + 1)[:, None] * delta
+            seg = qa + np.linspace(0.0, 1.0, n + 1)[1:, None] * delta
             seg[-1] = qb
-            moved = np.linalg.norm(np.diff(joints_of(arm, seg)[:, 2:5], axis=0), axis=2).max()
-            if moved <= step * (1 + 1e-9) or n >= 4096:
+            joints = joints_of(arm, np.vstack([qa[None], seg]))[:, 2:5]
+            moved = float(np.linalg.norm(np.diff(joints, axis=0), axis=2).max())
+            if moved <= spacing * (1 + 1e-9) or n >= 65536:
                 break
-            n = max(n + 1, int(math.ceil(n * moved / step)))
-        out.extend(seg[1:])
-    return out
-
-
-def sampling_search(generator, start: Pose, target):
-    """:func:`sampling_steps` run to the end."""
-    return drain(sampling_steps(generator, start, target))
+            n = max(n + 1, int(math.ceil(n * moved / spacing)))
+        out.append(seg)
+    return np.concatenate(out)
 
 
 def sampling_steps(generator, start: Pose, target, chunk: int = 0):
@@ -498,7 +499,7 @@ def sampling_steps(generator, start: Pose, target, chunk: int = 0):
         closest = float(np.linalg.norm(start.wrist - target))
         return SearchResult(False, NO_PATH, [start], tested, time.perf_counter() - t0, closest,
                             target, method="sampling")
-    rows = subdivide(generator, path, generator.step_length)
+    rows = densify_rows(arm, path, generator.step_length, s.max_joint_step, s.hand_step_turn)
     poses = [start] + [generator.config_pose(ArmConfig.from_array(q[:5]),
                                              (float(q[5]), float(q[6]))) for q in rows[1:]]
     closest = float(np.linalg.norm(poses[-1].wrist - target))

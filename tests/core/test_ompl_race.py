@@ -165,8 +165,14 @@ def test_densify_keeps_ends_and_spacing(planner, space):
     dense = densify(space, q, spacing)
     np.testing.assert_array_equal(dense[0], q[0])
     np.testing.assert_array_equal(dense[-1], q[-1])
-    wrists = joints_of(planner.arm, dense)[:, 3]
-    assert np.linalg.norm(np.diff(wrists, axis=0), axis=1).max() <= spacing * (1 + 1e-9)
+    # no joint (elbow, wrist, the hand's far end) moves farther than the spacing
+    joints = joints_of(planner.arm, dense)[:, 2:5]
+    assert np.linalg.norm(np.diff(joints, axis=0), axis=2).max() <= spacing * (1 + 1e-9)
+    # a hand turning about a still wrist is sampled as densely as a moving wrist
+    turn = np.array([q[0], q[0] + np.r_[0, 0, 0, 0, 0, 60.0, 0]])
+    hand = joints_of(planner.arm, densify(space, turn, spacing))[:, 4]
+    assert len(hand) > 10
+    assert np.linalg.norm(np.diff(hand, axis=0), axis=1).max() <= spacing * (1 + 1e-9)
 
 
 def test_chase_is_raced_through_evenly_spaced_frames():
