@@ -390,7 +390,8 @@ class Planner:
             stats.preprocess_time_s = self._workspace.build_time_s
 
         seg_poses, hand, wrist_length = self._motion(task, result, first, start, target, way_out)
-        contact = first_contact(gen, seg_poses, hand, way_out is not None) \
+        clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
+        contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None) \
             if result.success else None
         if contact is not None and s.sampling_fallback and not sampled:
             # The search's path is clear, but the hand cannot follow it clear at every
@@ -401,7 +402,8 @@ class Planner:
                 result = retry
                 seg_poses, hand, wrist_length = self._motion(task, result, first, start,
                                                              target, way_out)
-                contact = first_contact(gen, seg_poses, hand, way_out is not None)
+                clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
+                contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None)
 
         stats.search_time_s = result.search_time_s
         stats.nodes_searched = result.nodes_searched
@@ -426,7 +428,7 @@ class Planner:
             hand.poses = seg_poses
             hand.unclear_transitions = [k for k in hand.unclear_transitions
                                         if k < len(seg_poses) - 1]
-        self._motion_stats(stats, seg_poses, wrist_length, hand)
+        self._motion_stats(stats, seg_poses, wrist_length, hand, clearances[:len(seg_poses)])
         seg = Segment(i, name, np.asarray(target_w, float), success, reason, message,
                       frame_start, frame_start + len(seg_poses) - 1, stats,
                       arm.to_world_points(np.array([p.wrist for p in result.path])),
@@ -533,9 +535,9 @@ class Planner:
             f"({closest}); move the target out of it")
 
     def _motion_stats(self, stats: Stats, poses, motion_length: float,
-                      hand: HandReport | None = None):
+                      hand: HandReport | None = None, clearances=None):
         motion_stats(stats, self.arm, poses, [self.generator.checker] * len(poses),
-                     motion_length, hand)
+                     motion_length, hand, clearances)
 
     def _chase(self, task: Task, start: Pose, chunk: int):
         s, arm, gen = self.settings, self.arm, self.generator
@@ -588,17 +590,17 @@ class Planner:
         return Plan(task, arm, s, poses, [seg], total, self._workspace)
 
 
-def first_contact(generator, poses, hand: HandReport, escaping: bool = False):
+def first_contact(generator, poses, hand: HandReport, clearances, escaping: bool = False):
     """Where a motion first touches an obstacle: (frame, (part, obstacle)) of the first key
     whose arm or hand comes into contact (no margin) or the first pair of keys that touch
     as they interpolate (at half the clearance, :meth:`ConfigurationGenerator.transition_problem`,
-    as the hand pass reports them); None if it never does. ``escaping``: the motion starts
+    as the hand pass reports them); None if it never does. ``clearances``: each key's, from
+    :func:`pose_clearances`. ``escaping``: the motion starts
     in contact and moves out of it (:mod:`~reach_addon.core.contact`); its first keys in
     contact, up to the first clear one, are that escape and do not count."""
     arm = generator.arm
     checker = generator.checker
-    touching = [checker.clearance(arm.to_world_points(p.joints), 0.5 * arm.arm_length) < 0.0
-                for p in poses]
+    touching = [c < 0.0 for c in clearances]
     first = 0
     if escaping:
         while first < len(poses) and touching[first]:
@@ -681,12 +683,20 @@ def plan(task: Task, arm: ArmModel, obstacles: Obstacles | None, settings: Setti
     return planner.plan(task)
 
 
+def pose_clearances(arm: ArmModel, poses, checkers) -> list:
+    """Each pose's least clearance (figure units, no margin; ``inf`` beyond half an arm
+    length), measured by its own checker (one per pose: a chase against moving obstacles
+    has one obstacle set per frame)."""
+    horizon = 0.5 * arm.arm_length
+    return [checker.clearance(arm.to_world_points(p.joints), horizon)
+            for p, checker in zip(poses, checkers)]
+
+
 def motion_stats(stats: Stats, arm: ArmModel, poses, checkers, motion_length: float,
-                 hand: HandReport | None = None) -> None:
+                 hand: HandReport | None = None, clearances=None) -> None:
     """Fill the motion part of ``stats``: frames, strength categories and the least
-    clearance, each pose measured by its own checker (one per pose: a chase
-    against moving obstacles has one obstacle set per frame), and what the hand pass
-    reported."""
+    clearance (``clearances`` if already measured, else :func:`pose_clearances` with
+    ``checkers``), and what the hand pass reported."""
     length = arm.arm_length
     if hand is not None:
         stats.max_wrist_turn_deg_per_frame = hand.max_wrist_turn_deg
@@ -700,6 +710,7 @@ def motion_stats(stats: Stats, arm: ArmModel, poses, checkers, motion_length: fl
     stats.frames = len(poses)
     for p in poses:
         stats.strength_categories[max(0, min(2, int(p.f_r)))] += 1
-    for p, checker in zip(poses, checkers):
-        c = checker.clearance(arm.to_world_points(p.joints), 0.5 * length)
+    if clearances is None:
+        clearances = pose_clearances(arm, poses, checkers)
+    for c in clearances:
         stats.min_clearance_arm_lengths = min(stats.min_clearance_arm_lengths, c / length)
