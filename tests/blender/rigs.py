@@ -19,6 +19,15 @@ DATA = Path(__file__).resolve().parents[1] / "data" / "rigs"
 RIGS = ("cesium", "quaternius", "gomakehuman", "metarig", "rigify")
 
 
+def fcurves(action) -> list:
+    """Every F-curve of an action, whatever the action API: ``Action.fcurves`` (before 4.4)
+    or layers → strips → channelbags (slotted actions)."""
+    if hasattr(action, "layers"):
+        return [fc for layer in action.layers for strip in layer.strips
+                for bag in strip.channelbags for fc in bag.fcurves]
+    return list(action.fcurves)
+
+
 def empty_file():
     bpy.ops.wm.read_homefile(use_empty=True)
     return bpy.context.scene

@@ -41,11 +41,7 @@ def snapshot_keys(armature):
     if ad is None or ad.action is None:
         return {}
     action = ad.action
-    if hasattr(action, "layers"):
-        curves = [fc for layer in action.layers for strip in layer.strips
-                  for bag in strip.channelbags for fc in bag.fcurves]
-    else:
-        curves = list(action.fcurves)
+    curves = rigs.fcurves(action)
     return {(fc.data_path, fc.array_index): [(k.co[0], round(k.co[1], 6), k.interpolation,
                                               k.handle_left_type, k.type)
                                              for k in fc.keyframe_points] for fc in curves}

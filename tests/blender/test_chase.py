@@ -35,9 +35,7 @@ def loop_points(info):
 def linear(block):
     """Linear interpolation on every key of an ID's action (whatever the action API)."""
     action = block.animation_data.action
-    curves = ([fc for layer in action.layers for strip in layer.strips
-               for bag in strip.channelbags for fc in bag.fcurves]
-              if hasattr(action, "layers") else list(action.fcurves))
+    curves = rigs.fcurves(action)
     for fc in curves:
         for k in fc.keyframe_points:
             k.interpolation = "LINEAR"

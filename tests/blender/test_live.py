@@ -191,9 +191,7 @@ def test_key_pose_keys_what_is_shown_chest_included(fresh, addon):
     assert abs(pose.config.body_rotation) > 1.0, "the chest turned"
     assert bpy.ops.reach.key_pose() == {"FINISHED"}
     action = arm.animation_data.action
-    curves = ([fc for layer in action.layers for strip in layer.strips
-               for bag in strip.channelbags for fc in bag.fcurves]
-              if hasattr(action, "layers") else list(action.fcurves))
+    curves = rigs.fcurves(action)
     keyed = {fc.data_path.split('"')[1] for fc in curves}
     chest = info.bones.keyed_chest
     assert {"upper_arm.R", "forearm.R", "hand.R", chest} <= keyed

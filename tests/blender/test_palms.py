@@ -204,8 +204,6 @@ def test_live_poses_every_palm(fresh, addon):
     check_rigid_hand(arm, forearm, palms["right"], length)
     assert bpy.ops.reach.key_pose() == {"FINISHED"}
     action = arm.animation_data.action
-    curves = ([fc for layer in action.layers for strip in layer.strips
-               for bag in strip.channelbags for fc in bag.fcurves]
-              if hasattr(action, "layers") else list(action.fcurves))
+    curves = rigs.fcurves(action)
     assert set(palms["right"]) <= {fc.data_path.split('"')[1] for fc in curves}
     live.stop(push_undo=False)

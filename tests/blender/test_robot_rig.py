@@ -104,9 +104,7 @@ def build_scene(name, info):
         target.location = at(0.6, -0.2, -0.1)
         target.keyframe_insert("location", frame=CHASE_FRAMES)
         action = target.animation_data.action
-        curves = ([fc for layer in action.layers for strip in layer.strips
-                   for bag in strip.channelbags for fc in bag.fcurves]
-                  if hasattr(action, "layers") else list(action.fcurves))
+        curves = rigs.fcurves(action)
         for fc in curves:
             for k in fc.keyframe_points:
                 k.interpolation = "LINEAR"
