@@ -54,6 +54,9 @@ class BakeResult:
     action: str
     bones: list            # keyed bone names, hierarchy order
     frames: tuple          # (first, last) frame written
+    #: the largest distance left between a planned bone and where the keys put it, as a
+    #: share of the arm's length (:func:`settle`; 0 for rigs that need no settling)
+    residual: float = 0.0
 
 
 # --- matrices ---------------------------------------------------------------------------
@@ -128,9 +131,7 @@ def local_matrices(armature, keyed, targets_arm, start_pose):
             continue
         targets = {name: targets_arm[role]}
         if role == "hand":
-            carry = targets_arm[role] @ np.linalg.inv(start_pose[name])[None]
-            for palm in hand_group(armature, name)[1:]:
-                targets[palm] = carry @ start_pose[palm][None]
+            targets = _palm_targets(armature, name, targets_arm[role], start_pose)
         for bone_name, target in targets.items():
             bone = bones[bone_name]
             rest = np.array(bone.matrix_local)
@@ -144,6 +145,133 @@ def local_matrices(armature, keyed, targets_arm, start_pose):
             offset = np.linalg.inv(parent_rest) @ rest
             out[bone_name] = affine_inverse(parent_now @ offset) @ target
     return out
+
+
+def bone_roles(info, chest: bool) -> tuple:
+    """(keyed, reference): role → the bone that receives the keys, and role → the bone
+    whose place the plan describes (a Rigify FK control and its ORG bone; the same bone on
+    a plain rig). ``chest``: include the chest (only when the plan turns it)."""
+    bmap = info.bones
+    arm_bones = bmap.arms[info.side]
+    keyed = {role: arm_bones.keyed(role) for role in ("upper_arm", "forearm", "hand")}
+    reference = {"upper_arm": arm_bones.upper_arm, "forearm": arm_bones.forearm,
+                 "hand": arm_bones.hand}
+    if arm_bones.clavicle:
+        keyed["clavicle"] = arm_bones.keyed("clavicle")
+        reference["clavicle"] = arm_bones.clavicle
+    if chest:
+        keyed["chest"] = reference["chest"] = bmap.keyed_chest
+    return keyed, reference
+
+
+def _palm_targets(armature, hand, target, start_pose) -> dict:
+    """The keyed hand's palm siblings (:func:`.rig.hand_group`), each carried rigidly by the
+    hand's turn: palm → armature-space targets (F, 4, 4); the hand itself included."""
+    carry = target @ np.linalg.inv(start_pose[hand])[None]
+    out = {hand: target}
+    for palm in hand_group(armature, hand)[1:]:
+        out[palm] = carry @ start_pose[palm][None]
+    return out
+
+
+def _driven(armature, names) -> bool:
+    """Whether any of ``names`` or their ancestors has a constraint or a driver: then what a
+    bone's keys do depends on more than its parents' keys, and the pose must be evaluated."""
+    bones = armature.pose.bones
+    seen = set()
+    for name in names:
+        pb = bones[name]
+        while pb is not None and pb.name not in seen:
+            seen.add(pb.name)
+            if any(c.enabled and c.influence > 0 for c in pb.constraints):
+                return True
+            pb = pb.parent
+    ad = armature.animation_data
+    drivers = ad.drivers if ad is not None else ()
+    return any(d.data_path.startswith("pose.bones[") and
+               d.data_path.split('"')[1] in seen for d in drivers if '"' in d.data_path)
+
+
+#: Settling: corrections per bone and frame at most, and the turn (radians: the arm's
+#: length times it, at the far end) it leaves.
+SETTLE_ROUNDS = 4
+SETTLE_TOLERANCE = 1e-4
+
+
+def _turn_error(actual, target) -> float:
+    """How far a bone's armature-space matrix is turned from its target (the spectral norm
+    of the difference of their unit axes: about the angle, in radians). Only turns: keys
+    on rotation channels cannot move a head."""
+    ra = actual[:3, :3] / np.linalg.norm(actual[:3, :3], axis=0)
+    rt = target[:3, :3] / np.linalg.norm(target[:3, :3], axis=0)
+    return float(np.linalg.norm(ra - rt, 2))
+
+
+def settle(context, armature, keyed, reference, targets_arm, locals_, start_pose) -> float:
+    """Correct ``locals_`` (bone → channel matrices (F, 4, 4), from :func:`local_matrices`)
+    by evaluating the rig, where its constraints or drivers make the keyed bones move the
+    planned bones otherwise than by parenting (Rigify: the chest control turns the spine's
+    ORG bones through constraints, so a clavicle keyed by parenting alone turned twice).
+
+    Per frame, the keyed bones are posed from ``locals_``, the pose evaluated, and role by
+    role in hierarchy order (chest, clavicle, upper arm, forearm, hand, palms) each
+    reference bone is compared with its target; where it is turned from it by more than
+    :data:`SETTLE_TOLERANCE` radians, its keyed bone is turned by the difference
+    (``pose_bone.matrix``, which Blender turns into channels through the evaluated parent)
+    and the pose evaluated again, up to :data:`SETTLE_ROUNDS` times. Only turns are keyed, so
+    where the rig moves a bone's head itself the whole arm below keeps that offset (Rigify's
+    spine stretches a little as the chest turns: 0.2% of the arm at 10°, 0.8% at 40°; aiming
+    each bone's tail at the planned tail instead left the joints further off). The pose the
+    user had is restored, however this ends. Rigs without constraints or drivers on the
+    keyed chain are left as computed: parenting alone is exact there.
+
+    Returns the largest distance left between a planned joint (each reference bone's head,
+    the hand's tail) and where the rig puts it, as a share of the arm's length (0 when
+    unchecked)."""
+    names = set(keyed.values()) | set(reference.values())
+    if all(keyed[r] == reference[r] for r in keyed) and not _driven(armature, names):
+        return 0.0
+    bones = armature.pose.bones
+    data = armature.data.bones
+    length = data[reference["upper_arm"]].length + data[reference["forearm"]].length
+    order = [r for r in ROLE_ORDER if r in keyed]
+    touched = list(locals_)
+    saved = {n: bones[n].matrix_basis.copy() for n in touched}
+    frames = len(next(iter(locals_.values())))
+    palms = {}
+    if "hand" in keyed:
+        palms = _palm_targets(armature, keyed["hand"], targets_arm["hand"], start_pose)
+        palms.pop(keyed["hand"])
+    hand_tail = np.array([0.0, data[reference["hand"]].length, 0.0, 1.0]) \
+        if "hand" in reference else None
+    worst = 0.0
+    try:
+        for k in range(frames):
+            for name in touched:
+                bones[name].matrix_basis = Matrix(locals_[name][k].tolist())
+            context.view_layer.update()
+            goals = [(keyed[r], reference[r], targets_arm[r][k]) for r in order]
+            goals += [(p, p, t[k]) for p, t in palms.items()]
+            for key, ref, target in goals:
+                for _round in range(SETTLE_ROUNDS + 1):
+                    actual = np.array(bones[ref].matrix)
+                    if _turn_error(actual, target) <= SETTLE_TOLERANCE or _round == SETTLE_ROUNDS:
+                        break
+                    now = np.array(bones[key].matrix)
+                    bones[key].matrix = Matrix((target @ affine_inverse(actual) @ now).tolist())
+                    context.view_layer.update()
+                locals_[key][k] = np.array(bones[key].matrix_basis)
+            for role, ref in reference.items():
+                target = targets_arm[role][k]
+                actual = np.array(bones[ref].matrix)
+                worst = max(worst, float(np.linalg.norm(actual[:3, 3] - target[:3, 3])))
+                if role == "hand":
+                    worst = max(worst, float(np.linalg.norm((actual @ hand_tail - target @ hand_tail)[:3])))
+    finally:
+        for name, basis in saved.items():
+            bones[name].matrix_basis = basis
+        context.view_layer.update()
+    return worst / length
 
 
 def affine_inverse(m):
@@ -398,7 +526,6 @@ def write_channel(channels, path, values, frames, group):
 def bake(context, armature, info, plans, new_action=False) -> BakeResult:
     """Write keys for ``plans`` [(Plan, first frame)] on ``armature`` (see the module doc)."""
     bmap = info.bones
-    arm_bones = bmap.arms[info.side]
     pose = armature.pose.bones
     mw = np.array(armature.matrix_world)
     mw_inv = np.linalg.inv(mw)
@@ -406,16 +533,7 @@ def bake(context, armature, info, plans, new_action=False) -> BakeResult:
 
     moves_chest = any(abs(p.config.body_rotation - plan.poses[0].config.body_rotation) > 1e-9
                       for plan, _f in plans for p in plan.poses)
-    keyed = {"upper_arm": arm_bones.keyed("upper_arm"), "forearm": arm_bones.keyed("forearm"),
-             "hand": arm_bones.keyed("hand")}
-    reference = {"upper_arm": arm_bones.upper_arm, "forearm": arm_bones.forearm,
-                 "hand": arm_bones.hand}
-    if arm_bones.clavicle:
-        keyed["clavicle"] = arm_bones.keyed("clavicle")
-        reference["clavicle"] = arm_bones.clavicle
-    if moves_chest:
-        keyed["chest"] = bmap.keyed_chest
-        reference["chest"] = bmap.keyed_chest
+    keyed, reference = bone_roles(info, moves_chest)
     for name in keyed.values():
         if name not in pose:
             raise ReachError(f"bone '{name}' is missing from armature '{armature.name}'")
@@ -423,26 +541,36 @@ def bake(context, armature, info, plans, new_action=False) -> BakeResult:
     start_world = {role: mw @ start_pose[ref] for role, ref in reference.items()}
     chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
 
-    action = ensure_action(armature, new_action)
-    channels = Channels(armature, action)
     first = plans[0][1]
-    last = first
+    # the FK/IK switch first: the arm's controls only move it in FK, and settling evaluates
+    switches = [(bone_name, prop) for side, (bone_name, prop) in bmap.ik_fk.items()
+                if side == info.side]
+    for bone_name, prop in switches:
+        pose[bone_name][prop] = 1.0
+        armature.update_tag()
+    # every plan's channel matrices, settled against the evaluated rig before the action is
+    # touched (a newly assigned action or new keys would be evaluated over the pose being
+    # measured)
+    baked, residual = [], 0.0
     for plan, frame0 in plans:
         targets = target_matrices(info, plan, start_world, chest_head)
         targets_arm = {role: mw_inv[None] @ m for role, m in targets.items()}
         locals_ = local_matrices(armature, keyed, targets_arm, start_pose)
-        frames = frame0 + np.arange(len(plan.poses), dtype=float)
+        residual = max(residual, settle(context, armature, keyed, reference, targets_arm,
+                                        locals_, start_pose))
+        baked.append((locals_, frame0 + np.arange(len(plan.poses), dtype=float)))
+    action = ensure_action(armature, new_action)
+    channels = Channels(armature, action)
+    last = first
+    for locals_, frames in baked:
         for name, mats in locals_.items():
             path, values = channel_values(pose[name], mats)
             write_channel(channels, f'pose.bones["{name}"].{path}', values, frames, name)
         last = max(last, int(frames[-1]))
-    for side, (bone_name, prop) in bmap.ik_fk.items():
-        if side == info.side:
-            pose[bone_name][prop] = 1.0
-            write_channel(channels, f'pose.bones["{bone_name}"]["{prop}"]',
-                          np.ones((2, 1)), np.array([first, last], float), bone_name)
-            armature.update_tag()
+    for bone_name, prop in switches:
+        write_channel(channels, f'pose.bones["{bone_name}"]["{prop}"]',
+                      np.ones((2, 1)), np.array([first, last], float), bone_name)
     context.view_layer.update()
     order = [n for r in ROLE_ORDER if r in keyed
              for n in (hand_group(armature, keyed[r]) if r == "hand" else (keyed[r],))]
-    return BakeResult(action.name, order, (first, last))
+    return BakeResult(action.name, order, (first, last), residual)

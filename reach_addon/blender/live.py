@@ -162,6 +162,7 @@ class LiveState:
     start_world: dict              # role → world matrix of its reference bone
     chest_head: np.ndarray
     keyed: dict                    # role → bone that receives the rotation
+    reference: dict                # role → bone whose place the plan describes
     budget_s: float = DEFAULT_BUDGET_S
     message: str = ""              # a Blender-side problem (the target was deleted, …)
     rebuild: bool = False
@@ -198,14 +199,7 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
                           info.start_hand)
 
     bmap = info.bones
-    arm_bones = bmap.arms[info.side]
-    keyed = {"upper_arm": arm_bones.keyed("upper_arm"), "forearm": arm_bones.keyed("forearm"),
-             "hand": arm_bones.keyed("hand"), "chest": bmap.keyed_chest}
-    reference = {"upper_arm": arm_bones.upper_arm, "forearm": arm_bones.forearm,
-                 "hand": arm_bones.hand, "chest": bmap.keyed_chest}
-    if arm_bones.clavicle:
-        keyed["clavicle"] = arm_bones.keyed("clavicle")
-        reference["clavicle"] = arm_bones.clavicle
+    keyed, reference = bake_mod.bone_roles(info, chest=True)
     for name in keyed.values():
         if name not in armature.pose.bones:
             raise ReachError(f"bone '{name}' is missing from armature '{armature.name}'")
@@ -215,7 +209,7 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
     chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
     return LiveState(scene.name, request, armature.name, target.name, info, session, cache,
                      mw, np.linalg.inv(mw), session.pose,
-                     start_pose, start_world, chest_head, keyed, budget_s)
+                     start_pose, start_world, chest_head, keyed, reference, budget_s)
 
 
 def start(context, request: pipeline.Request, budget_s: float | None = None) -> LiveState:
@@ -320,16 +314,18 @@ def _apply(st: LiveState, armature) -> None:
     plan = Plan(None, st.info.arm, st.session.settings, [st.start_arm_pose, st.session.pose],
                 [], Stats())
     targets = bake_mod.target_matrices(st.info, plan, st.start_world, st.chest_head)
-    targets_arm = {role: st.armature_inverse[None] @ m for role, m in targets.items()}
-    locals_ = bake_mod.local_matrices(armature, st.keyed, targets_arm, st.start_pose)
+    targets_arm = {role: st.armature_inverse[None] @ m[1:] for role, m in targets.items()}
     pose = armature.pose.bones
-    for name, mats in locals_.items():
-        path, values = bake_mod.channel_values(pose[name], mats[1:])
-        setattr(pose[name], path, tuple(float(v) for v in values[-1]))
     for side, (bone_name, prop) in st.info.bones.ik_fk.items():
         if side == st.info.side and pose[bone_name].get(prop) != 1.0:
             pose[bone_name][prop] = 1.0
             armature.update_tag()
+    locals_ = bake_mod.local_matrices(armature, st.keyed, targets_arm, st.start_pose)
+    bake_mod.settle(bpy.context, armature, st.keyed, st.reference, targets_arm, locals_,
+                    st.start_pose)
+    for name, mats in locals_.items():
+        path, values = bake_mod.channel_values(pose[name], mats)
+        setattr(pose[name], path, tuple(float(v) for v in values[-1]))
 
 
 def key_pose(context=None) -> bake_mod.BakeResult:

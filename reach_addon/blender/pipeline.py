@@ -279,7 +279,7 @@ def steps(context, request: Request, bake: bool = True):
             frame += len(plan.poses)
 
         outcome = Outcome(request, info, plans, [], obstacles=obstacles.triangle_counts())
-        keyed = []
+        keyed, residual = [], None
         draw = request.draw
         baked = [(p, f) for p, f in plans if p.success or request.bake_closest] if bake else []
         # The last yield: from here on the scene changes (keys, drawing), so nothing below
@@ -289,13 +289,14 @@ def steps(context, request: Request, bake: bool = True):
             if baked:
                 result = bake_mod.bake(context, armature, info, baked, request.new_action)
                 outcome.baked, outcome.action, keyed = True, result.action, result.bones
+                residual = result.residual
             else:
                 # Nothing the user asked for can be baked: leave the scene as it was.
                 failed = next(p for p, _f in plans if not p.success)
                 outcome.failure = (f"{failed.message}; nothing was baked (turn on 'Bake "
                                    "closest approach' to bake the motion that gets closest)")
                 draw = False
-        outcome.results = _results(info, plans, keyed, request)
+        outcome.results = _results(info, plans, keyed, request, residual)
         if draw:
             _draw(scene, info, plans, planner, request)
         return outcome
@@ -475,12 +476,18 @@ def run(context, request: Request, bake: bool = True) -> Outcome:
             return done.value
 
 
-def _results(info, plans, keyed, request):
+def _results(info, plans, keyed, request, residual=None):
+    """A :class:`TaskResult` per target. ``residual``: the bake's
+    (:attr:`.bake.BakeResult.residual`), in each baked task's statistics as
+    ``rig_residual_arm_lengths`` (how far the rig put a planned joint; 0 on rigs whose keys
+    carry the arm exactly)."""
     out = []
     for plan, first in plans:
         baked = plan.success or request.bake_closest
         for seg in plan.segments:
             stats = seg.stats.to_dict()
+            if baked and residual is not None:
+                stats["rig_residual_arm_lengths"] = float(residual)
             out.append(TaskResult(
                 seg.name, info.side, seg.success, seg.reason, seg.message,
                 first + seg.frame_start, first + seg.frame_end,
