@@ -637,9 +637,16 @@ def contacts(space: JointSpace, tris, path, include_hand: bool) -> dict:
 # --- the run and its table -----------------------------------------------------------------
 
 def run(count: int = DEFAULT_COUNT, seed: int = 0, ompl_time_s: float = DEFAULT_OMPL_TIME,
-        arms=ARMS, families=FAMILIES, log=print, output: Path | None = None) -> dict:
+        arms=ARMS, families=FAMILIES, log=print, output: Path | None = None,
+        ompl_from: dict | None = None) -> dict:
     """Generate and plan ``count`` scenes; write ``output`` (JSON) after every scene if
-    given. Returns {"settings": ..., "scenes": [records], "summary": ...}."""
+    given. Returns {"settings": ..., "scenes": [records], "summary": ...}.
+
+    ``ompl_from``: a finished run (its JSON) whose OMPL side is taken instead of solving
+    again, scene by scene (matched by arm, family and seed, and checked to be the same
+    scene: its gap and target); only Reach plans. For a change to Reach alone: OMPL's side
+    does not depend on Reach's settings, and it is most of an hour of the run. The record
+    says so (``ompl_from``)."""
     settings = Settings()
     arm_models = {name: make_arm(name) for name in dict.fromkeys(a for a, _f, _s in
                                                                  scene_plan(count, seed, arms,
@@ -648,11 +655,25 @@ def run(count: int = DEFAULT_COUNT, seed: int = 0, ompl_time_s: float = DEFAULT_
     result = {"count": count, "seed": seed, "ompl_time_s": ompl_time_s,
               "arms": {name: arm_record(arm, starts[name]) for name, arm in arm_models.items()},
               "scenes": []}
+    earlier = {}
+    if ompl_from is not None:
+        result["ompl_from"] = ompl_from.get("source", "an earlier run")
+        result["ompl_time_s"] = ompl_from["ompl_time_s"]
+        earlier = {(r["arm"], r["family"], r["seed"]): r for r in ompl_from["scenes"]}
     t_all = time.perf_counter()
     for k, (arm_name, family, scene_seed) in enumerate(scene_plan(count, seed, arms, families)):
         scene = generate(arm_name, arm_models[arm_name], family, scene_seed, settings,
                          starts[arm_name])
-        row = plan_scene(scene, ompl_time_s, settings)
+        old = earlier.get((arm_name, family, scene_seed))
+        if ompl_from is not None:
+            if old is None or old["target"] != scene.record()["target"] or \
+                    old["gap_width"] != scene.record()["gap_width"]:
+                raise ValueError(f"scene {arm_name}/{family}/{scene_seed} is not in the "
+                                 "earlier run, or is not the same scene there")
+            row = plan_scene(scene, 0.0, settings, run_ompl=False)
+            row.update({key: v for key, v in old.items() if key.startswith("ompl_")})
+        else:
+            row = plan_scene(scene, ompl_time_s, settings)
         result["scenes"].append(row)
         log(f"  [{k + 1}/{count}] {family:5s} {arm_name:11s} seed {scene_seed}: OMPL "
             f"{'solved' if row['ompl_solved'] else 'unsolved'} {row['ompl_time_s']:.2f} s; "
@@ -816,6 +837,9 @@ def main(argv=None) -> int:
     parser.add_argument("--no-rigs", action="store_true",
                         help="leave out the arms read from the real rigs")
     parser.add_argument("--output", default=str(ROOT / "bench" / "tight.json"))
+    parser.add_argument("--ompl-from", metavar="JSON",
+                        help="take OMPL's side from a finished run's JSON (same scenes) and "
+                             "plan only Reach's")
     parser.add_argument("--table", metavar="JSON",
                         help="print the table of a finished run's JSON and plan nothing")
     args = parser.parse_args(argv)
@@ -828,7 +852,12 @@ def main(argv=None) -> int:
     ompl_time = args.ompl_time or (QUICK_OMPL_TIME if args.quick else DEFAULT_OMPL_TIME)
     arms = tuple(args.arm or (SYNTHETIC_ARMS if args.no_rigs else ARMS))
     families = tuple(args.family or FAMILIES)
-    result = run(count, args.seed, ompl_time, arms, families, output=Path(args.output))
+    ompl_from = None
+    if args.ompl_from:
+        ompl_from = json.loads(Path(args.ompl_from).read_text())
+        ompl_from["source"] = str(args.ompl_from)
+    result = run(count, args.seed, ompl_time, arms, families, output=Path(args.output),
+                 ompl_from=ompl_from)
     print()
     print(markdown(result))
     return 0

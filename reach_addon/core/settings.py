@@ -220,7 +220,7 @@ class Settings:
         "space with a bidirectional sampling planner (core.sampling), complete in the limit",
         "search")
     sampling_budget: int = _f(
-        30000, "Sampling budget", "Most arm states the sampling planner tests for one target "
+        200000, "Sampling budget", "Most arm states the sampling planner tests for one target "
         "(counted, not timed, so the answer is the same on any machine)", "search",
         100, 10000000)
     sampling_seed: int = _f(0, "Sampling seed", "Seed of the sampling planner's random "
@@ -233,6 +233,12 @@ class Settings:
         0.5, "Samples near the target", "Share of the sampling planner's random states drawn "
         "with the wrist near the target (through the IK) rather than uniformly over the "
         "joints: the narrow passage of a reach is where the hand goes in", "search", 0.0, 1.0)
+    sampling_path_share: float = _f(
+        0.5, "Samples along the search's path", "Share of the sampling planner's random "
+        "states drawn about the best-first search's path (its poses within a sampling reach, "
+        "half of them with the hand turned anywhere), when the search's path is there to "
+        "repair: where it fails is usually one hand turn the search left out", "search",
+        0.0, 1.0)
     sampling_near_radius: float = _f(
         0.3, "Near radius", "Radius about the target of those wrist positions", "search",
         0.01, 2.0, "arm lengths")
@@ -240,7 +246,7 @@ class Settings:
         12, "Goal poses", "Most goal configurations (clear IK solutions at the target) the "
         "sampling planner grows its goal tree from", "search", 1, 200)
     sampling_chest_slack: float = _f(
-        15.0, "Chest slack", "How far beyond its values at the start and at the target the "
+        60.0, "Chest slack", "How far beyond its values at the start and at the target the "
         "sampling planner may turn the chest", "search", 0.0, 180.0, "deg")
     sampling_shortcuts: int = _f(
         100, "Sampling shortcuts", "Random shortcut attempts on a sampled path before the "

@@ -440,7 +440,12 @@ class Planner:
         """The sampling planner (:mod:`~reach_addon.core.sampling`) from ``start``: its
         result if it finds a path, else ``result``; the counts of both are kept."""
         view = self.generator.for_reach(start, target)
-        sampled = yield from _sampling_progress(sampling_steps(view, start, target, chunk))
+        # a search path that reached the target (the hand could not follow it clear) is
+        # repaired; a closest approach is not followed (its end is a dead end the trees
+        # would crowd into)
+        seed = result.path if result.success and len(result.path) > 1 else ()
+        sampled = yield from _sampling_progress(
+            sampling_steps(view, start, target, chunk, seed, bool(seed)))
         if sampled.success:
             sampled.states_tested = sampled.nodes_searched
             sampled.nodes_searched = result.nodes_searched

@@ -88,3 +88,23 @@ def test_scene_plan_covers_every_cell_in_turn():
         first = plan[:max(len(arms), len(tight.FAMILIES))]
         assert {a for a, _f, _s in first} == set(arms)
         assert {f for _a, f, _s in first} == set(tight.FAMILIES)
+
+
+def test_a_search_path_the_hand_cannot_follow_is_repaired_by_the_sampling_planner():
+    """Tight scene 2 (the robot arm through a rectangular hole): the best-first search
+    reaches the target, but the hand cannot follow its path clear (the search left the hand
+    to flip at the opening). Grown along that path from both ends, the sampling planner
+    bridges the gap; without the fallback the reach fails. The motion is checked by the
+    bench's own segment-triangle test, and the same scene gives the same motion."""
+    arm_name, family, seed = tight.scene_plan(240, 0)[2]
+    assert (arm_name, family) == ("robot", "hole")
+    arm = tight.make_arm(arm_name)
+    scene = tight.generate(arm_name, arm, family, seed)
+    off = tight.plan_scene(scene, 0.0, Settings(sampling_fallback=False), run_ompl=False)
+    assert not off["reach_planned"] and "cannot follow" in off["reach_message"]
+    on = tight.plan_scene(scene, 0.0, run_ompl=False)
+    assert on["reach_planned"] and on["reach_method"] == "sampling", on["reach_message"]
+    assert on["reach_success"] and on["reach_collisions"] == 0
+    again = tight.plan_scene(scene, 0.0, run_ompl=False)
+    assert again["reach_frames"] == on["reach_frames"]
+    assert again["reach_min_clearance"] == on["reach_min_clearance"]
