@@ -393,11 +393,10 @@ class SamplingPlanner:
             a, b, forward = b, a, not forward
         return None
 
-    def _seed(self, tree: _Tree) -> int:
-        """Grow ``tree`` (the start's) along ``seed_path`` as far as its motions are valid;
-        the index of the last state added (0, the start, if none)."""
-        tip = 0
-        for q in self.seed_path:
+    def _grow_along(self, tree: _Tree, tip: int, states) -> int:
+        """Grow ``tree`` from its state ``tip`` along ``states`` as far as the motions are
+        valid; the index of the last state added (``tip`` if none)."""
+        for q in states:
             if self.used >= self.budget:
                 break
             if self.space.distance(tree.q[tip], q) < 1e-9:
@@ -407,21 +406,18 @@ class SamplingPlanner:
             tip = tree.add(q, tip)
         return tip
 
+    def _seed(self, tree: _Tree) -> int:
+        """Grow ``tree`` (the start's) along ``seed_path``; the index of the last state
+        added (0, the start, if none)."""
+        return self._grow_along(tree, 0, self.seed_path)
+
     def _seed_back(self, tree: _Tree, rest: list) -> None:
         """Grow the goals' ``tree`` from the seed path's end (a pose on the target: one more
         goal) back along ``rest`` as far as its motions are valid, so that only the gap
         where the seed path failed is left to the sampling."""
         if self.used >= self.budget or not self.validity.valid(rest[-1]):
             return
-        tip = tree.add(rest[-1], -1)
-        for q in rest[-2::-1]:
-            if self.used >= self.budget:
-                break
-            if self.space.distance(tree.q[tip], q) < 1e-9:
-                continue
-            if not self.motion_valid(tree.q[tip], q):
-                break
-            tip = tree.add(q, tip)
+        self._grow_along(tree, tree.add(rest[-1], -1), rest[-2::-1])
 
     def _about_path(self):
         """A configuration about one of the seed path's states (uniformly chosen): normal

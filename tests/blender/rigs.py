@@ -171,3 +171,15 @@ def save_cli_scene(kind: str, rig_module, path: Path) -> dict:
     bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
     return {"armature": arm.name, "targets": [cup.name, jar.name], "inside": inside.name,
             "arm_length": info.arm.arm_length}
+
+
+def bake_reach(addon, armature, target):
+    """Plan and bake a reach of ``armature``'s right arm for ``target`` at frame 1 through
+    the pipeline; asserts it succeeded. Returns (outcome, task result, plan, first frame)."""
+    request = addon.blender.pipeline.Request(armature=armature.name, targets=[target.name],
+                                             side="right", frame_start=1)
+    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
+    res = outcome.results[0]
+    assert res.success, res.message
+    plan, first = outcome.plans[0]
+    return outcome, res, plan, first

@@ -139,12 +139,7 @@ def test_rigify_chest_turned_the_evaluated_arm_follows_the_plan(fresh, addon, mi
     turn = np.radians(120.0)
     where = info.arm.to_world_points(np.array([[r * np.sin(turn), r * np.cos(turn), 0.0]]))[0]
     target = rigs.add_target("Behind", where)
-    request = addon.blender.pipeline.Request(armature=arm.name, targets=[target.name],
-                                             side="right", frame_start=1)
-    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
-    res = outcome.results[0]
-    assert res.success, res.message
-    plan, first = outcome.plans[0]
+    _outcome, res, plan, first = rigs.bake_reach(addon, arm, target)
     turns = [abs(p.config.body_rotation) for p in plan.poses]
     assert max(turns) >= 10.0, "the chest must turn for this test to bite"
     assert "chest" in res.bones_keyed

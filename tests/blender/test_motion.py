@@ -106,14 +106,9 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
     else:
         target, obstacle = ledge_scene(info)
     tris = triangles(obstacle)
-    request = addon.blender.pipeline.Request(armature=armature.name, targets=[target.name],
-                                             side="right", frame_start=1)
-    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
-    res = outcome.results[0]
-    assert res.success, res.message
-    plan, first = outcome.plans[0]
+    outcome, res, plan, first = rigs.bake_reach(addon, armature, target)
     length = info.arm.arm_length
-    s = request.settings
+    s = outcome.request.settings
     fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
     bones = info.bones.arms["right"]
     chain = [bones.upper_arm, bones.forearm]
