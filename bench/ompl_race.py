@@ -317,14 +317,15 @@ def _seed_ompl(seed: int) -> None:
         ou.setLogLevel(level)
 
 
-def ompl_leg(space: JointSpace, validity: Validity, start, goal, seed: int, time_limit_s: float):
-    """One RRTConnect query from configuration ``start`` to ``goal`` (degrees, (7,)),
-    simplified. Returns (exact solution found, path (K, 7) in degrees)."""
+def rrt_connect(space: JointSpace, validity: Validity, seed: int, log_level):
+    """An OMPL ``SimpleSetup`` with RRTConnect over ``space`` (checked by ``validity``),
+    OMPL seeded with ``seed``, and a function turning a configuration row (degrees) into
+    an OMPL state of it. Returns (setup, state of row)."""
     from ompl import base as ob
     from ompl import geometric as og
     from ompl import util as ou
 
-    ou.setLogLevel(ou.LOG_WARN)
+    ou.setLogLevel(log_level)
     _seed_ompl(seed)
     state_space = space.ompl_space()
     si = ob.SpaceInformation(state_space)
@@ -332,11 +333,23 @@ def ompl_leg(space: JointSpace, validity: Validity, start, goal, seed: int, time
     si.setup()
     setup = og.SimpleSetup(si)
     setup.setPlanner(og.RRTConnect(si))
-    a, b = state_space.allocState(), state_space.allocState()
-    for i, (x, y) in enumerate(zip(space.coordinates(start).tolist(),
-                                   space.coordinates(goal).tolist())):
-        a[i], b[i] = x, y
-    setup.setStartAndGoalStates(a, b)
+
+    def state(row):
+        st = state_space.allocState()
+        for i, x in enumerate(space.coordinates(row).tolist()):
+            st[i] = x
+        return st
+
+    return setup, state
+
+
+def ompl_leg(space: JointSpace, validity: Validity, start, goal, seed: int, time_limit_s: float):
+    """One RRTConnect query from configuration ``start`` to ``goal`` (degrees, (7,)),
+    simplified. Returns (exact solution found, path (K, 7) in degrees)."""
+    from ompl import util as ou
+
+    setup, state = rrt_connect(space, validity, seed, ou.LOG_WARN)
+    setup.setStartAndGoalStates(state(start), state(goal))
     setup.solve(float(time_limit_s))
     exact = bool(setup.haveExactSolutionPath())
     if not setup.haveSolutionPath():

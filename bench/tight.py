@@ -94,8 +94,8 @@ if str(ROOT) not in sys.path:
 import bpy  # noqa: E402,F401  (mathutils for the obstacles' BVH)
 
 from bench.ompl_race import (CLEARANCE_HORIZON, DENSE_SPACING, JointSpace,  # noqa: E402
-                             Validity, _seed_ompl, densify, independent_check, joints_of,
-                             pose_row)
+                             Validity, densify, independent_check, joints_of,
+                             pose_row, rrt_connect)
 from reach_addon.core import Planner, Settings, Task  # noqa: E402
 from reach_addon.core import ik  # noqa: E402
 from reach_addon.core.arm import ArmConfig, ArmModel, Capsule  # noqa: E402
@@ -536,27 +536,13 @@ def ompl_solve(space: JointSpace, validity: Validity, start, goals, seed: int, t
     (wall, CPU) seconds in ``solve``, states checked in it, path (K, 7) degrees or
     None)."""
     from ompl import base as ob
-    from ompl import geometric as og
     from ompl import util as ou
 
-    ou.setLogLevel(ou.LOG_ERROR)
-    _seed_ompl(seed)
-    state_space = space.ompl_space()
-    si = ob.SpaceInformation(state_space)
-    si.setStateValidityChecker(validity)
-    si.setup()
-    setup = og.SimpleSetup(si)
-    setup.setPlanner(og.RRTConnect(si))
-    a = state_space.allocState()
-    for i, x in enumerate(space.coordinates(start).tolist()):
-        a[i] = x
-    goal = ob.GoalStates(si)
+    setup, state = rrt_connect(space, validity, seed, ou.LOG_ERROR)
+    goal = ob.GoalStates(setup.getSpaceInformation())
     for row in goals:
-        b = state_space.allocState()
-        for i, x in enumerate(space.coordinates(row).tolist()):
-            b[i] = x
-        goal.addState(b)
-    setup.setStartState(a)
+        goal.addState(state(row))
+    setup.setStartState(state(start))
     setup.setGoal(goal)
     setup.setup()
     checks = validity.calls
@@ -666,8 +652,9 @@ def run(count: int = DEFAULT_COUNT, seed: int = 0, ompl_time_s: float = DEFAULT_
                          starts[arm_name])
         old = earlier.get((arm_name, family, scene_seed))
         if ompl_from is not None:
-            if old is None or old["target"] != scene.record()["target"] or \
-                    old["gap_width"] != scene.record()["gap_width"]:
+            same = scene.record()
+            if old is None or (old["target"], old["gap_width"]) != (same["target"],
+                                                                    same["gap_width"]):
                 raise ValueError(f"scene {arm_name}/{family}/{scene_seed} is not in the "
                                  "earlier run, or is not the same scene there")
             row = plan_scene(scene, 0.0, settings, run_ompl=False)

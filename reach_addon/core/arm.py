@@ -313,16 +313,23 @@ def hand_direction(upper, bend, forearm, wrist_bend_deg, wrist_side_deg):
     plane rather than anatomical flexion and deviation; their ranges follow the AAOS wrist
     ranges (``Settings.wrist_bend_max``, ``Settings.wrist_side_max``). Vectors (3,).
     """
-    (ux, uy, uz), (bx, by, bz), (fx, fy, fz) = (np.asarray(v, float).tolist()
-                                                 for v in (upper, bend, forearm))
+    u, b, f = (np.asarray(v, float).tolist() for v in (upper, bend, forearm))
+    return np.array(hand_direction_floats(u, b, f, wrist_bend_deg, wrist_side_deg))
+
+
+def hand_direction_floats(upper, bend, forearm, wrist_bend_deg, wrist_side_deg) -> tuple:
+    """:func:`hand_direction` on plain floats: three (x, y, z) sequences in, a tuple out
+    (the sampling planner's validity test runs it for every state it tests, where numpy
+    costs more than the arithmetic)."""
+    (ux, uy, uz), (bx, by, bz), (fx, fy, fz) = upper, bend, forearm
     hx, hy, hz = uy * bz - uz * by, uz * bx - ux * bz, ux * by - uy * bx
     hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
     hx, hy, hz = hx / hn, hy / hn, hz / hn
     px, py, pz = hy * fz - hz * fy, hz * fx - hx * fz, hx * fy - hy * fx
     fb, fs = math.radians(wrist_bend_deg), math.radians(wrist_side_deg)
     cf, cp, ch = math.cos(fb) * math.cos(fs), math.sin(fb) * math.cos(fs), math.sin(fs)
-    return np.array([fx * cf + px * cp + hx * ch, fy * cf + py * cp + hy * ch,
-                     fz * cf + pz * cp + hz * ch])
+    return (fx * cf + px * cp + hx * ch, fy * cf + py * cp + hy * ch,
+            fz * cf + pz * cp + hz * ch)
 
 
 def hand_angles(upper, bend, forearm, direction):

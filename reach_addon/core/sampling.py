@@ -63,7 +63,7 @@ import time
 import numpy as np
 
 from . import ik
-from .arm import ArmConfig, Pose, forward_kinematics
+from .arm import ArmConfig, Pose, forward_kinematics, hand_direction_floats
 from .errors import NO_PATH
 from .numeric import SCALAR
 from .search import SearchResult
@@ -153,13 +153,7 @@ def joints_of_one(arm, q) -> list:
     e = math.radians(flex)
     ce, se = math.cos(e), math.sin(e)
     fx, fy, fz = ux * ce + bx * se, uy * ce + by * se, uz * ce + bz * se
-    hx, hy, hz = uy * bz - uz * by, uz * bx - ux * bz, ux * by - uy * bx
-    hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
-    hx, hy, hz = hx / hn, hy / hn, hz / hn
-    px, py, pz = hy * fz - hz * fy, hz * fx - hx * fz, hx * fy - hy * fx
-    b1, b2 = math.radians(wb), math.radians(ws)
-    kf, kp, kh = math.cos(b1) * math.cos(b2), math.sin(b1) * math.cos(b2), math.sin(b2)
-    dx, dy, dz = fx * kf + px * kp + hx * kh, fy * kf + py * kp + hy * kh, fz * kf + pz * kp + hz * kh
+    dx, dy, dz = hand_direction_floats((ux, uy, uz), (bx, by, bz), (fx, fy, fz), wb, ws)
     t = math.radians(body)
     c, s = math.cos(t), math.sin(t)
     l1, l2, lh = arm.upper_arm_length, arm.forearm_length, arm.hand_length

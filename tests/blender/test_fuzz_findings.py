@@ -53,6 +53,14 @@ def contacts(arm, side, result, solids, subframes=3):
     return touching, reader.joints(arm)[3], length
 
 
+def slide(ob, start, end, frame):
+    """Key ``ob`` moving from ``start`` (frame 1) to ``end`` (``frame``); the scene on frame 1."""
+    ob.location = tuple(start)
+    ob.keyframe_insert("location", frame=1)
+    ob.location = tuple(end)
+    ob.keyframe_insert("location", frame=frame)
+    bpy.context.scene.frame_set(1)
+
 def test_a_reach_stays_clear_of_an_obstacle_that_moves_into_its_path(fresh, addon):
     arm, info = humanoid()
     target = rigs.add_target("Cup", point(info, 0.75, 0.1, -0.15))
@@ -67,11 +75,7 @@ def test_a_reach_stays_clear_of_an_obstacle_that_moves_into_its_path(fresh, addo
     plate = rigs.add_box("Plate", wrist + 0.5 * path, (0.3 * length, 0.3 * length,
                                                        0.04 * length), rot)
     across_path = np.array(plate.location)
-    plate.location = across_path + 1.5 * length * info.frame.right
-    plate.keyframe_insert("location", frame=1)
-    plate.location = across_path
-    plate.keyframe_insert("location", frame=4)
-    bpy.context.scene.frame_set(1)
+    slide(plate, across_path + 1.5 * length * info.frame.right, across_path, 4)
 
     outcome = bake(addon, arm, [target])
     result = outcome.results[0]
@@ -91,11 +95,7 @@ def test_a_motion_an_obstacle_cannot_miss_fails_with_its_name(fresh, addon):
     plate = rigs.add_box("Lid", 0.5 * (elbow + wrist), (0.5 * length, 0.5 * length,
                                                        0.04 * length))
     low = np.array(plate.location)
-    plate.location = low + 1.2 * length * info.frame.up
-    plate.keyframe_insert("location", frame=1)
-    plate.location = low
-    plate.keyframe_insert("location", frame=3)
-    bpy.context.scene.frame_set(1)
+    slide(plate, low + 1.2 * length * info.frame.up, low, 3)
 
     result = bake(addon, arm, [target]).results[0]
     assert not result.success
