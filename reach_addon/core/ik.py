@@ -660,16 +660,18 @@ def segment_hits_body(p, q, radius, capsules) -> bool:
     return False
 
 
-def self_collision(arm: ArmModel, body: float, joints, include_hand: bool = True) -> np.ndarray:
+def self_collision(arm: ArmModel, body: float, joints, include_hand: bool = True,
+                   capsules=None) -> np.ndarray:
     """True for each candidate (joints (n, 5, 3), canonical, one chest rotation ``body``)
     whose forearm, hand (if ``include_hand``) or elbow half of the upper arm passes through
     one of the body's own capsules (chest and head turn with the chest rotation). The upper
-    arm's half nearest the shoulder is not tested: it is attached to the torso there."""
+    arm's half nearest the shoulder is not tested: it is attached to the torso there.
+    ``capsules``: :func:`body_capsules_at` for ``body``, if the caller already has them."""
     joints = np.asarray(joints, dtype=float)
     out = np.zeros(len(joints), dtype=bool)
     if not arm.body_capsules:
         return out
-    caps = body_capsules_at(arm, body)
+    caps = body_capsules_at(arm, body) if capsules is None else capsules
     for n, (_st, sh, el, wr, ha) in enumerate(joints.tolist()):
         mid_upper = [0.5 * (sh[i] + el[i]) for i in range(3)]
         out[n] = (segment_hits_body(mid_upper, el, arm.upper_arm_radius, caps)

@@ -156,11 +156,10 @@ def workspace_steps(generator: ConfigurationGenerator, chunk: int | None = 8):
         busy += time.perf_counter() - t
         yield
         t = time.perf_counter()
-        regions = _free_regions(occupied)
-        for k, region in enumerate(regions):
-            if obstacles.point_inside(world.reshape(n, n, n, 3)[region[0]]):
-                for c in region:
-                    occupied[c] = True
+        labels = _free_regions(occupied)
+        for k, first in enumerate(np.unique(labels[labels >= 0]).tolist()):
+            if obstacles.point_inside(world[first]):
+                occupied |= labels == first
             if k % 8 == 7:
                 busy += time.perf_counter() - t
                 yield
@@ -172,7 +171,7 @@ def workspace_steps(generator: ConfigurationGenerator, chunk: int | None = 8):
     t = time.perf_counter()
 
     valid = np.zeros((n, n, n), dtype=bool)
-    free = np.flatnonzero(~occupied.reshape(-1))
+    free = np.flatnonzero(~occupied.reshape(-1) & _within_reach(arm, settings, centers))
     # Batches of at least two wrists: ik.solve scores one wrist with float arithmetic and
     # several with arrays; the grid must not depend on where the slices fall.
     bounds = list(range(0, free.size, chunk or max(free.size, 1)))
@@ -183,15 +182,12 @@ def workspace_steps(generator: ConfigurationGenerator, chunk: int | None = 8):
         rows = free[lo:hi]
         sol = ik.solve(arm, centers[rows], settings) if rows.size > 1 else \
             ik.solve(arm, centers[np.repeat(rows, 2)], settings)
-        for row, flat in enumerate(rows):
+        for row in np.flatnonzero(sol.valid[: rows.size].any(1)).tolist():
+            flat = rows[row]
             order = sol.order(row, settings.elbow_side)[: settings.max_pose_tries]
             if order.size == 0:
                 continue
-            joints = sol.joints(row, order)
-            clear = ~ik.self_collision(arm, float(sol.body[row]), joints, include_hand=False)
-            if any(not generator.checker.collides(j, include_hand=False)
-                   for j in arm.to_world_points(joints[clear])):
-                valid.reshape(-1)[flat] = True
+            valid.reshape(-1)[flat] = _any_clear(generator, sol, row, order)
         busy += time.perf_counter() - t
         yield
         t = time.perf_counter()
@@ -199,27 +195,67 @@ def workspace_steps(generator: ConfigurationGenerator, chunk: int | None = 8):
     return Workspace(lower, cell, n, occupied, valid, busy)
 
 
-def _free_regions(occupied) -> list:
-    """The 26-connected regions of cells clear of any surface, each a list of cell
-    indices starting with its first cell in row-major order: the regions, and the cell
-    tested for being inside an obstacle (written with tuples, which is several times faster
-    than indexing with numpy rows)."""
+def _within_reach(arm, settings, centers) -> np.ndarray:
+    """(N,) False where no chest rotation brings the shoulder within the arm's reach of a
+    wrist at ``centers`` (canonical): the shoulder turns about the z axis on a circle, and
+    the wrist's distance to it lies between its distances to the circle's nearest and
+    farthest points, which must straddle [shortest reach, L] for :func:`ik.solve` to call
+    it reachable. A prefilter only (with a little slack): it saves solving cells that can
+    never be valid, and leaves the grid as it is."""
+    rho = float(np.hypot(arm.shoulder[0], arm.shoulder[1]))
+    r = np.hypot(centers[:, 0], centers[:, 1])
+    dz = centers[:, 2] - float(arm.shoulder[2])
+    slack = 1e-6 * arm.arm_length
+    near, far = np.hypot(r - rho, dz), np.hypot(r + rho, dz)
+    shortest = arm.min_reach(settings.elbow_max)
+    return (near <= arm.upper_arm_length + arm.forearm_length + slack) & (far >= shortest - slack)
+
+
+def _any_clear(generator: ConfigurationGenerator, sol, row: int, order) -> bool:
+    """Does one of wrist ``row``'s candidates ``order`` (best first) of ``sol`` clear the
+    body and the obstacles (arm only)? Tested one at a time, best first, and stopped at
+    the first clear one: the answer is the same as testing all of them, and the best
+    candidate usually settles it, so the rest are not even built. A wrist inside the body
+    (closer to a body capsule than the forearm's radius) settles it at once: every forearm
+    ends there."""
+    arm = generator.arm
+    body = float(sol.body[row])
+    capsules = ik.body_capsules_at(arm, body)
+    first = sol.joints(row, order[:1])
+    wrist = first[0, 3].tolist()
+    if ik.segment_hits_body(wrist, wrist, arm.forearm_radius, capsules):
+        return False
+    for part in range(2 if order.size > 1 else 1):
+        for pose in first if part == 0 else sol.joints(row, order[1:]):
+            if ik.self_collision(arm, body, pose[None], include_hand=False,
+                                 capsules=capsules)[0]:
+                continue
+            if not generator.checker.collides(arm.to_world_points(pose), include_hand=False):
+                return True
+    return False
+
+
+def _free_regions(occupied) -> np.ndarray:
+    """The 26-connected regions of cells clear of any surface, as labels (n, n, n): each
+    free cell holds the row-major index of its region's first cell (the cell tested for
+    being inside an obstacle), occupied cells -1. Labels are spread by taking the least
+    label among the 26 neighbours and then each label's own label (pointer jumping), until
+    nothing changes: a few array passes instead of a flood fill cell by cell."""
     n = occupied.shape[0]
-    seen = occupied.copy()
-    steps = [tuple(int(v) for v in d) for d in _NEIGHBOURS]
-    regions = []
-    for start in map(tuple, np.argwhere(~occupied).tolist()):
-        if seen[start]:
-            continue
-        seen[start] = True
-        region, stack = [start], [start]
-        while stack:
-            x, y, z = stack.pop()
-            for dx, dy, dz in steps:
-                nxt = (x + dx, y + dy, z + dz)
-                if 0 <= nxt[0] < n and 0 <= nxt[1] < n and 0 <= nxt[2] < n and not seen[nxt]:
-                    seen[nxt] = True
-                    region.append(nxt)
-                    stack.append(nxt)
-        regions.append(region)
-    return regions
+    free = ~occupied
+    none = occupied.size
+    labels = np.where(free, np.arange(occupied.size).reshape(occupied.shape), none)
+    shifts = [tuple(slice(1 + d, 1 + d + n) for d in step) for step in _NEIGHBOURS.tolist()]
+    while True:
+        padded = np.pad(labels, 1, constant_values=none)
+        least = labels.copy()
+        for window in shifts:
+            np.minimum(least, padded[window], out=least)
+        least[occupied] = none
+        flat = least.reshape(-1)
+        jumped = flat.copy()
+        jumped[free.reshape(-1)] = np.append(flat, none)[flat[free.reshape(-1)]]
+        jumped = jumped.reshape(least.shape)
+        if np.array_equal(jumped, labels):
+            return np.where(free, labels, -1)
+        labels = jumped

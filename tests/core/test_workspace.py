@@ -62,3 +62,66 @@ def test_shortest_path_goes_round_an_obstacle_through_valid_cells():
     # the guides climb over the wall (higher than both ends) or go round its side
     world = arm.to_world_points(guides)
     assert world[:, 2].max() > 1.45 or world[:, 0].min() < -0.9 or world[:, 0].max() > 0.3
+
+
+def _grid_by_definition(planner):
+    """The grid of the module doc, cell by cell with nothing skipped: a cell is occupied
+    when a surface comes within its circumscribed sphere or its centre is inside an
+    obstacle; a free cell is valid when one of its best ``max_pose_tries`` legal
+    candidates clears the body and the obstacles."""
+    from reach_addon.core import ik
+    from reach_addon.core.workspace import workspace_box
+
+    gen, arm, settings = planner.generator, planner.arm, planner.settings
+    n = settings.grid_cells
+    lower, cell = workspace_box(arm, settings)
+    idx = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1).reshape(-1, 3)
+    centers = lower + (idx + 0.5) * cell
+    world = arm.to_world_points(centers)
+    bound = 0.5 * float(np.linalg.norm(cell)) + gen.checker.margin
+    obstacles = planner.obstacles
+    occupied = np.array([
+        obstacles is not None and not obstacles.empty
+        and (obstacles.tree.find_nearest(p.tolist(), bound)[0] is not None
+             or obstacles.point_inside(p)) for p in world])
+    valid = np.zeros(n ** 3, dtype=bool)
+    free = np.flatnonzero(~occupied)
+    sol = ik.solve(arm, centers[free], settings)
+    for row, flat in enumerate(free):
+        order = sol.order(row, settings.elbow_side)[: settings.max_pose_tries]
+        if order.size == 0:
+            continue
+        joints = sol.joints(row, order)
+        body = ik.self_collision(arm, float(sol.body[row]), joints, include_hand=False)
+        valid[flat] = any(not gen.checker.collides(arm.to_world_points(j), include_hand=False)
+                          for j in joints[~body])
+    return occupied.reshape(n, n, n), valid.reshape(n, n, n)
+
+
+def test_grid_is_its_definition_however_it_is_sped_up():
+    """The build skips work (cells out of reach, wrists inside the body, candidates after
+    the first clear one, regions labelled in bulk): none of it may change a cell."""
+    from reach_addon.core.workspace import workspace_steps
+    from reach_addon.demo import WORKPLACE
+
+    arm = standard_arm()
+    scenes = {
+        "workplace": obstacles(WORKPLACE),
+        "block": obstacles({"Block": [((-0.6, -0.9, 0.9), (0.2, -0.35, 1.6))]}),
+        "walls": obstacles({"Wall": [((-0.9, -0.30, 1.0), (0.3, -0.26, 1.45))],
+                            "Low": [((-0.8, -0.7, 0.7), (0.6, -0.1, 0.74))]}),
+    }
+    for name, obs in scenes.items():
+        planner = Planner(arm, obs)
+        occupied, valid = _grid_by_definition(planner)
+        assert occupied.any() and valid.any(), name
+        for chunk in (None, 8):
+            steps = workspace_steps(planner.generator, chunk)
+            while True:
+                try:
+                    next(steps)
+                except StopIteration as done:
+                    ws = done.value
+                    break
+            assert np.array_equal(ws.occupied, occupied), (name, chunk)
+            assert np.array_equal(ws.valid, valid), (name, chunk)
