@@ -49,6 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import ReachError, require_finite
+from .numeric import cross
 from .torso import rotate_about_spine, spine_rotation_matrix
 
 #: Joint order of :attr:`Pose.joints`.
@@ -284,7 +285,7 @@ def twist_angle(u, bend):
     about ``-u`` from :func:`swing_reference` to ``bend``, internal rotation positive."""
     ref = swing_reference(u)
     axis = -np.asarray(u, dtype=float)
-    sin = np.einsum("...i,...i->...", np.cross(ref, bend), axis)
+    sin = np.einsum("...i,...i->...", cross(ref, bend), axis)
     cos = np.einsum("...i,...i->...", ref, bend)
     return np.degrees(np.arctan2(sin, cos))
 
@@ -295,7 +296,7 @@ def bend_direction(u, gamma):
     ref = swing_reference(u)
     axis = -np.asarray(u, dtype=float)
     g = np.radians(np.asarray(gamma, dtype=float))[..., None]
-    return ref * np.cos(g) + np.cross(axis, ref) * np.sin(g)
+    return ref * np.cos(g) + cross(axis, ref) * np.sin(g)
 
 
 def hand_direction(upper, bend, forearm, wrist_bend_deg, wrist_side_deg):
@@ -337,9 +338,9 @@ def hand_angles(upper, bend, forearm, direction):
     of :func:`hand_direction`, β_w = atan2(d·p, d·f), σ_w = asin(d·h). Used to start a
     motion from the hand a rig has, wherever it points (even beyond the wrist's range)."""
     u, b, f, d = (np.asarray(v, dtype=float) for v in (upper, bend, forearm, direction))
-    h = np.cross(u, b)
+    h = cross(u, b)
     h /= max(float(np.linalg.norm(h)), 1e-12)
-    p = np.cross(h, f)
+    p = cross(h, f)
     d = d / max(float(np.linalg.norm(d)), 1e-12)
     return (float(np.degrees(np.arctan2(d @ p, d @ f))),
             float(np.degrees(np.arcsin(np.clip(d @ h, -1.0, 1.0)))))
@@ -352,10 +353,10 @@ def hand_frame(pose: Pose) -> np.ndarray:
     the roll of a twisting arm included."""
     s, e, w, h = pose.joints[1], pose.joints[2], pose.joints[3], pose.joints[4]
     d = (h - w) / max(float(np.linalg.norm(h - w)), 1e-12)
-    g = np.cross(e - s, pose.bend)
+    g = cross(e - s, pose.bend)
     g = g - (g @ d) * d
     g = g / max(float(np.linalg.norm(g)), 1e-12)
-    return np.stack([d, g, np.cross(d, g)], -1)
+    return np.stack([d, g, cross(d, g)], -1)
 
 
 def frame_turn(a: Pose, b: Pose) -> float:

@@ -20,6 +20,7 @@ import numpy as np
 from . import ik
 from .arm import ArmConfig, ArmModel, Pose, forward_kinematics, pose_from_config
 from .collision import CollisionChecker, Obstacles, point_segment_distance
+from .numeric import cross
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
                      TARGET_IN_OBSTACLE)
 from .strength import strength_category
@@ -373,9 +374,9 @@ class ConfigurationGenerator:
         s, e, w = (np.asarray(joints[i], dtype=float) for i in (1, 2, 3))
         u = (e - s) / np.linalg.norm(e - s)
         f = (w - e) / np.linalg.norm(w - e)
-        h = np.cross(u, np.asarray(bend, dtype=float))
+        h = cross(u, np.asarray(bend, dtype=float))
         h /= max(float(np.linalg.norm(h)), 1e-12)
-        return np.array([f, np.cross(h, f), h])
+        return np.array([f, cross(h, f), h])
 
     def hands_clear(self, joints, bend, body_rotation: float, coefficients) -> np.ndarray:
         """For each hand direction (rows of ``coefficients``, components along the rows of
@@ -541,11 +542,11 @@ class ConfigurationGenerator:
         if np.linalg.norm(toward) < 1e-9:
             toward = np.array([0.0, 1.0, 0.0])
         toward /= np.linalg.norm(toward)
-        axis = np.cross([0.0, 0.0, 1.0], toward)
+        axis = cross([0.0, 0.0, 1.0], toward)
         v = shoulder - waist
         for lean in np.arange(1.0, self.settings.lean_max + 0.5, 1.0):
             t = math.radians(lean)
-            moved = waist + v * math.cos(t) + np.cross(axis, v) * math.sin(t) + \
+            moved = waist + v * math.cos(t) + cross(axis, v) * math.sin(t) + \
                 axis * float(axis @ v) * (1.0 - math.cos(t))
             if np.linalg.norm(wrist - moved) <= reach:
                 return Diagnosis(NEEDS_LEAN, distance=distance, missing=distance - reach,

@@ -78,6 +78,7 @@ import numpy as np
 
 from .arm import Pose, frame_turn
 from .generator import hand_coefficients
+from .numeric import cross
 
 
 @dataclass
@@ -176,6 +177,7 @@ class HandPass:
         self.escape = escape if self.arcs is not None else None
         self._clear: set = set()
         self._coefs: dict = {}     # id(pose) -> the states' coefficients there
+        self._alive: list = []     # every pose whose id is a key (see _coefficients)
         self._loose: set = set()   # ids of poses whose own hand keeps only half the margin
 
     def _gen(self, k):
@@ -240,6 +242,11 @@ class HandPass:
                 need = math.ceil(float(gap.min()) / self.bound - 1e-9) - 1 if gap.size else 1
                 hold = id(poses[fail - 1]) in refined or id(poses[fail]) in refined
                 if not slow_down(fail - 1, max(1, need), hold):
+                    if fail in lifted:
+                        # nothing changed this round (no frame could be added and the
+                        # bound into `fail` is lifted already): every further round
+                        # would fail the same way, so go to the unbounded path now
+                        break
                     lifted.add(fail)
                 continue
             problem = self._between(poses, grid, path, accepted)
@@ -297,11 +304,16 @@ class HandPass:
         """The states' coefficients at ``pose`` (S + 1, 3): the grid's, then the pose's
         own hand, the one the validated path carries (by construction clear and continuous
         along it, turning in place where it must), so that slowing down along the path
-        always has a bounded, clear way to offer the DP."""
+        always has a bounded, clear way to offer the DP.
+
+        Every pose seen here is kept alive for the whole pass: the pass's caches are keyed
+        by ``id(pose)``, and a pose dropped (one of an insertion that failed) would free its
+        id for a new pose, which would then read the dropped pose's entries."""
         c = self._coefs.get(id(pose))
         if c is None:
             c = np.vstack([grid.coefficients, [hand_coefficients(*pose.hand)]])
             self._coefs[id(pose)] = c
+            self._alive.append(pose)
         return c
 
     def _angles(self, pose: Pose, grid: HandGrid, state: int) -> tuple:
@@ -348,7 +360,7 @@ class HandPass:
             h = axes[2]
             g = h[None, :] - (d @ h)[:, None] * d
             g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
-            o = np.stack([d, g, np.cross(d, g)])
+            o = np.stack([d, g, cross(d, g)])
             self._dirs[id(pose)] = o
         return o
 

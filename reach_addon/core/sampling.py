@@ -65,7 +65,7 @@ import numpy as np
 from . import ik
 from .arm import ArmConfig, Pose, forward_kinematics, hand_direction_floats
 from .errors import NO_PATH
-from .numeric import SCALAR
+from .numeric import SCALAR, cross
 from .search import SearchResult
 
 #: Joint order of a configuration row: the core's five angles, then the hand's two.
@@ -125,9 +125,9 @@ def joints_of(arm, q) -> np.ndarray:
     s, e, w = joints[:, 1], joints[:, 2], joints[:, 3]
     u = (e - s) / arm.upper_arm_length
     f = (w - e) / arm.forearm_length
-    h = np.cross(u, bend)
+    h = cross(u, bend)
     h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-12)
-    p = np.cross(h, f)
+    p = cross(h, f)
     fb, fs = np.radians(q[:, 5:6]), np.radians(q[:, 6:7])
     d = f * np.cos(fb) * np.cos(fs) + p * np.sin(fb) * np.cos(fs) + h * np.sin(fs)
     joints[:, 4] = w + arm.hand_length * d

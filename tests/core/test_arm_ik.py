@@ -210,3 +210,19 @@ def test_one_wrist_and_many_wrists_give_the_same_solutions():
         np.testing.assert_array_equal(one.f_r[0, valid], many.f_r[i, valid])
         np.testing.assert_allclose(one.second[0, valid], many.second[i, valid])
         assert one.order(0, "require").tolist() == many.order(i, "require").tolist()
+
+
+def test_cross_is_numpys_cross_to_the_last_bit():
+    """numeric.cross replaces np.cross in the planner for speed: the same numbers for
+    single vectors, stacks and broadcasts, so nothing the planner does changes."""
+    from reach_addon.core.numeric import cross
+
+    rng = np.random.default_rng(7)
+    shapes = [((3,), (3,)), ((5, 3), (3,)), ((3,), (4, 3)), ((2, 7, 3), (2, 7, 3)),
+              ((1, 3), (6, 3))]
+    for sa, sb in shapes:
+        for scale in (1e-9, 1.0, 1e9):
+            a, b = scale * rng.normal(size=sa), rng.normal(size=sb)
+            ours, theirs = cross(a, b), np.cross(a, b)
+            assert ours.shape == theirs.shape and np.array_equal(ours, theirs), (sa, sb)
+    assert np.array_equal(cross([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]), [0.0, 1.0, 0.0])
