@@ -144,6 +144,14 @@ class ArmModel:
             np.array([c.radius for c in caps]),
             np.array([c.turns_with_chest for c in caps], dtype=bool),
         ))
+        # the same on floats, with each capsule's centre and half length, for the body
+        # test of every pose tried (ik.body_capsules_at)
+        floats = []
+        for c in caps:
+            p, q = [float(v) for v in c.a], [float(v) for v in c.b]
+            floats.append((p, q, [0.5 * (p[i] + q[i]) for i in range(3)],
+                           0.5 * math.dist(p, q), float(c.radius), bool(c.turns_with_chest)))
+        object.__setattr__(self, "_capsule_floats", tuple(floats))
 
     def capsules_at(self, body_rotation: float):
         """Body capsule ends (C, 3) and (C, 3) and radii (C,) with the chest turned by

@@ -364,11 +364,17 @@ class CollisionChecker:
         j = np.asarray(world_joints, dtype=float)
         segments = self.segments if include_hand else self._arm_segments
         last = 5 if include_hand else 4
-        lo, hi = j[:last].min(0), j[:last].max(0)
-        if tree.find_nearest((0.5 * (lo + hi)).tolist(),
-                             float(np.linalg.norm(hi - lo)) * 0.5 + self._max_cover)[0] is None:
-            return None
         points = j.tolist()
+        # one query around the box of the joints first (on floats: numpy's per-call cost
+        # is most of a clear pose's test)
+        xs, ys, zs = zip(*points[:last])
+        lo, hi = (min(xs), min(ys), min(zs)), (max(xs), max(ys), max(zs))
+        dx, dy, dz = hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]
+        if tree.find_nearest([0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]),
+                              0.5 * (lo[2] + hi[2])],
+                             math.sqrt(dx * dx + dy * dy + dz * dz) * 0.5
+                             + self._max_cover)[0] is None:
+            return None
         bounds = (self.bound_sternum, self.bound_shoulder, self.bound_elbow, self.bound_wrist,
                   self.bound_hand)
         dist = [self.distance(points[i], bounds[i]) for i in range(last)]

@@ -636,15 +636,15 @@ def body_capsules_at(arm: ArmModel, body: float):
     """The body's capsules with the chest turned by ``body`` degrees, as float tuples
     (a, b, centre, half length, radius) for quick scalar tests (the turn of
     :meth:`ArmModel.capsules_at`, on floats)."""
-    a, b, radii, turns = (v.tolist() for v in arm._capsule_arrays)
     body = float(body)
     c, s = math.cos(math.radians(body)), math.sin(math.radians(body))
     out = []
-    for p, q, r, turn in zip(a, b, radii, turns):
+    for p, q, mid, half, r, turn in arm._capsule_floats:
         if turn and body != 0.0:
             p = [p[0] * c + p[1] * s, p[1] * c - p[0] * s, p[2]]
             q = [q[0] * c + q[1] * s, q[1] * c - q[0] * s, q[2]]
-        out.append((p, q, [0.5 * (p[i] + q[i]) for i in range(3)], 0.5 * math.dist(p, q), r))
+            mid, half = [0.5 * (p[i] + q[i]) for i in range(3)], 0.5 * math.dist(p, q)
+        out.append((p, q, mid, half, r))
     return out
 
 
