@@ -7,15 +7,17 @@ Motion Planning Library, then measures both paths the same way and prints a tabl
 
 What each side does
 -------------------
-* **Reach**: ``Planner.plan(task)``, timed from the call to the returned plan: the
-  best-first search, shortcut smoothing, minimum-jerk timing into frames and the plan's
-  statistics. The workspace grid (the paper's preprocessing) is built before the clock
-  starts and reported on its own, as Table 2 does.
+* **Reach**: ``Planner.plan(task)`` on a fresh planner, timed from the call to the
+  returned plan: the workspace grid where the task builds it (the paper's preprocessing,
+  also reported on its own as ``reach_preprocess_time_s``), the best-first search,
+  shortcut smoothing, minimum-jerk timing into frames, the hand and the plan's statistics.
 * **OMPL**: ``RRTConnect`` in a ``SimpleSetup``, then ``simplifySolution()``: OMPL's path
   simplifier (shortcuts, vertex reduction, smoothing) with no time limit, which runs until
-  nothing improves, so the result does not depend on the machine's speed. Timed from the
-  goal's inverse kinematics to the simplified path. OMPL's random numbers are seeded
-  (``ompl.util.RNG.setSeed``) before every leg, so a race is repeatable.
+  nothing improves, so the result does not depend on the machine's speed. The state
+  space, ``SpaceInformation`` and ``SimpleSetup`` are built before the clock starts; the
+  clock runs from the goal region's inverse kinematics to the simplified path. OMPL's
+  random numbers are seeded (``ompl.util.RNG.setSeed``) before every leg, so a race is
+  repeatable, and the bench races with many seeds (medians and spread).
 
 How the comparison is made fair
 -------------------------------
@@ -32,16 +34,22 @@ How the comparison is made fair
   tests them (:func:`reach_addon.core.ik.segment_hits_body`), and the arm and hand against
   the obstacles by the core's :class:`~reach_addon.core.collision.CollisionChecker`, with
   the same clearance margin.
-* **Same start, an equivalent goal.** The first leg starts from the task's start pose, as
-  the core's does; each later leg from where OMPL's previous leg ended. The goal is the
-  pose the core's configuration generator gives for the target on its own: the strongest
-  legal, collision-free configuration with the wrist on it (``generator.solve(target)``,
-  chest rotation from Table 1). It is found without knowledge of any path.
+* **Same start, the same goal.** The first leg starts from the task's start pose, as
+  the core's does; each later leg from where OMPL's previous leg ended. Reach may end in
+  any legal, clear pose with the wrist on the target, so OMPL's goal is a region of such
+  poses (:func:`goal_rows`): the core generator's own pose for the target and up to
+  :data:`GOAL_STATES` - 1 other legal swivel solutions of the same IK, each with a clear
+  hand, found without knowledge of any path.
 * **Comparable motion resolution.** Each joint's coordinate is its angle in radians times
   the farthest it can carry the wrist (its lever arm, in arm lengths; the wrist angles by
   the hand's length), so a distance in OMPL's space approximates wrist travel in arm
   lengths. OMPL's motion validator checks states every ``Settings.step`` (0.02) of that
   distance: the core's step between search positions.
+* **Same count of work.** OMPL's states checked are reported (the goal region's
+  included), and with ``count_queries`` both planners' BVH queries, counted the same way
+  on an untimed re-run (:func:`obstacle_queries`); Reach's nodes searched beside them.
+* **Only passing paths are compared.** A path that fails or touches by the independent
+  check is shown as a failure; the time and length ratios are given only where both pass.
 * **Same yardstick.** Both paths are interpolated linearly in joint space, densely enough
   that the wrist moves at most 0.002 arm lengths between samples (Reach's between its
   frames, OMPL's between its waypoints), and every sample is measured the same way: wrist
@@ -84,7 +92,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from reach_addon.core import Planner, Task
+from reach_addon.core import Planner, Task, ik
 from reach_addon.core.sampling import (JOINT_NAMES, StateValidity, densify_rows, joints_of,
                                       pose_row)
 from reach_addon.core.sampling import JointSpace as CoreJointSpace
@@ -96,7 +104,8 @@ KEYS = ("task", "reach_time_s", "ompl_time_s", "reach_path_length", "ompl_path_l
         "time_ratio", "path_length_ratio", "f_r_difference",
         "reach_success", "ompl_success", "reach_arm_collisions", "ompl_arm_collisions",
         "reach_min_clearance", "ompl_min_clearance",
-        "reach_preprocess_time_s", "ompl_validity_checks", "legs", "note")
+        "reach_preprocess_time_s", "ompl_validity_checks", "legs", "note",
+        "reach_passed", "ompl_passed", "reach_nodes_searched")
 
 #: Wrist spacing of the dense interpolation measured by the independent check (arm lengths).
 DENSE_SPACING = 0.002
@@ -343,22 +352,96 @@ def rrt_connect(space: JointSpace, validity: Validity, seed: int, log_level):
     return setup, state
 
 
-def ompl_leg(space: JointSpace, validity: Validity, start, goal, seed: int, time_limit_s: float):
-    """One RRTConnect query from configuration ``start`` to ``goal`` (degrees, (7,)),
-    simplified. Returns (exact solution found, path (K, 7) in degrees)."""
-    from ompl import util as ou
+#: Most goal states OMPL's goal region holds (:func:`goal_rows`).
+GOAL_STATES = 10
 
-    setup, state = rrt_connect(space, validity, seed, ou.LOG_WARN)
-    setup.setStartAndGoalStates(state(start), state(goal))
-    setup.solve(float(time_limit_s))
-    exact = bool(setup.haveExactSolutionPath())
-    if not setup.haveSolutionPath():
-        return False, np.array([start])
-    if exact:
+
+def goal_rows(planner: Planner, validity: Validity, target_c) -> list:
+    """OMPL's goal region for a wrist target (canonical): the configurations Reach itself
+    may end in, found by the same IK. The core generator's pose at the target first, then
+    other legal swivel candidates of the same IK (Table 1's chest turn) in strength order,
+    each with the first clear hand of the generator's samples; at most
+    :data:`GOAL_STATES`, spread over the candidates."""
+    gen, settings = planner.generator, planner.settings
+    rows = []
+    first = gen.solve(target_c)
+    if first is not None:
+        rows.append(pose_row(first))
+    sol = ik.solve(planner.arm, np.asarray(target_c, float)[None], settings)
+    others = []
+    for k in sol.ranked(0, settings.elbow_side):
+        config = list(sol.config(0, k).as_array())
+        for hand in gen.hand_samples:
+            row = config + list(hand)
+            if validity.valid(row):
+                others.append(np.array(row))
+                break
+    if others:
+        keep = GOAL_STATES - len(rows)
+        pick = np.unique(np.linspace(0, len(others) - 1, min(keep, len(others))).round().astype(int))
+        rows += [others[i] for i in pick]
+    return rows
+
+
+def prepare_query(setup, state, start, goals) -> None:
+    """Give a ``setup`` from :func:`rrt_connect` its start (a configuration row, degrees)
+    and a goal region of the rows ``goals``, and set it up for :func:`run_query`."""
+    from ompl import base as ob
+
+    goal = ob.GoalStates(setup.getSpaceInformation())
+    for row in goals:
+        goal.addState(state(row))
+    setup.setStartState(state(start))
+    setup.setGoal(goal)
+    setup.setup()
+
+
+def run_query(setup, space: JointSpace, terminate, simplify: bool) -> tuple:
+    """Solve a prepared query (:func:`prepare_query`) until ``terminate`` (seconds of wall
+    time, or an OMPL termination condition); with ``simplify`` the path is then simplified
+    (OMPL's shortcuts and smoothing, run until nothing improves). Returns (exact solution
+    found, path (K, 7) in degrees, or None)."""
+    setup.solve(terminate)
+    if not setup.haveExactSolutionPath():
+        return False, None
+    if simplify:
         setup.simplifySolution()
     states = setup.getSolutionPath().getStates()
     coords = np.array([[s[i] for i in range(len(JOINT_NAMES))] for s in states])
-    return exact, space.angles(coords)
+    return True, space.angles(coords)
+
+
+class CountingTree:
+    """A BVH tree that counts the queries made of it (``queries``): put in place of an
+    obstacle set's tree for a run that is not timed, it gives both planners' obstacle
+    queries on one yardstick."""
+
+    def __init__(self, tree):
+        self.tree, self.queries = tree, 0
+
+    def __getattr__(self, name):
+        method = getattr(self.tree, name)
+
+        def counted(*args, **kwargs):
+            self.queries += 1
+            return method(*args, **kwargs)
+        return counted
+
+
+def obstacle_queries(obstacles, run) -> int:
+    """How many BVH queries ``run()`` makes of ``obstacles`` (its tree swapped for a
+    :class:`CountingTree` while it runs)."""
+    tree = obstacles.tree
+    if tree is None:
+        run()
+        return 0
+    counting = CountingTree(tree)
+    obstacles.tree = counting
+    try:
+        run()
+    finally:
+        obstacles.tree = tree
+    return counting.queries
 
 
 # --- the race ------------------------------------------------------------------------------
@@ -403,12 +486,17 @@ def race_targets(task: Task, chase_waypoints: int = CHASE_WAYPOINTS):
 
 def race(task_name: str, planner: Planner, task: Task, seed: int = 0,
          time_limit_s: float = 10.0, *, triangles=None,
-         chase_waypoints: int = CHASE_WAYPOINTS) -> dict:
+         chase_waypoints: int = CHASE_WAYPOINTS, count_queries: bool = False) -> dict:
     """Race Reach's planner against OMPL's RRTConnect on one task (see the module
-    docstring). ``time_limit_s`` bounds each OMPL leg. ``triangles`` (T, 3, 3), world
+    docstring). ``planner`` should be fresh: the workspace grid, where the task uses it, is
+    built inside Reach's plan and counted in its time (``reach_preprocess_time_s`` says how
+    much of it). ``time_limit_s`` bounds each OMPL leg. ``triangles`` (T, 3, 3), world
     space, are the obstacles for the independent check; by default the demo workplace's,
-    which must then be what ``planner`` was built on. Returns plain numbers under
-    :data:`KEYS`; ratios are OMPL over Reach."""
+    which must then be what ``planner`` was built on. ``count_queries``: also run both
+    again, untimed, counting their BVH queries. Returns plain numbers under :data:`KEYS`;
+    ratios are OMPL over Reach, and None unless both paths pass the independent check."""
+    from ompl import util as ou
+
     tris = workplace_triangles() if triangles is None else np.asarray(triangles, float)
     tris = tris.reshape(-1, 3, 3)
     if triangles is None and planner.obstacles.triangle_count != len(tris):
@@ -422,33 +510,52 @@ def race(task_name: str, planner: Planner, task: Task, seed: int = 0,
         task = Task("sequence", targets, task.start, task.fps,
                     names=tuple(f"frame {k}" for k in range(len(targets))))
 
-    # Reach: preprocessing first (reported apart, as in Table 2), then the plan.
-    preprocess = planner.workspace.build_time_s
+    # Reach: the whole plan, the grid included where the task builds it.
     t0 = time.perf_counter()
     plan = planner.plan(task)
     reach_time = time.perf_counter() - t0
+    preprocess = float(getattr(plan.stats, "preprocess_time_s", 0.0) or 0.0)
     reach = measure(np.array([pose_row(p) for p in plan.poses]))
 
-    # OMPL: leg by leg from the same start; each leg's goal from the core's generator.
+    # OMPL: leg by leg from the same start, each to the goal region of the same IK.
     generator = planner.generator
     start = pose_row(generator.config_pose(task.start))
-    path, ompl_time, ompl_ok = [start], 0.0, True
+
+    def ompl_legs():
+        path, seconds, ok = [start], 0.0, True
+        for leg, target in enumerate(targets):
+            # the planner and its spaces are set up before the clock starts
+            setup, state = rrt_connect(space, validity, seed + leg, ou.LOG_ERROR)
+            t0 = time.perf_counter()
+            goals = goal_rows(planner, validity, planner.arm.to_canonical_points(target))
+            exact, leg_path = False, None
+            if goals:
+                prepare_query(setup, state, path[-1], goals)
+                exact, leg_path = run_query(setup, space, float(time_limit_s), simplify=True)
+            seconds += time.perf_counter() - t0
+            ok &= exact
+            if leg_path is not None:
+                path += list(leg_path[1:])
+        return path, seconds, ok
+
     checks0 = validity.calls
-    for leg, target in enumerate(targets):
-        t0 = time.perf_counter()
-        goal_pose = generator.solve(planner.arm.to_canonical_points(target))
-        if goal_pose is None:
-            ompl_time += time.perf_counter() - t0
-            ompl_ok = False
-            continue
-        goal = pose_row(goal_pose)
-        exact, leg_path = ompl_leg(space, validity, path[-1], goal, seed + leg, time_limit_s)
-        ompl_time += time.perf_counter() - t0
-        ompl_ok &= exact
-        path += list(leg_path[1:])
+    path, ompl_time, ompl_ok = ompl_legs()
+    checks = validity.calls - checks0
     ompl = measure(np.array(path))
 
+    queries = {}
+    if count_queries:
+        fresh = Planner(planner.arm, planner.obstacles, planner.settings)
+        queries["reach_obstacle_queries"] = obstacle_queries(
+            planner.obstacles, lambda: fresh.plan(task))
+        queries["ompl_obstacle_queries"] = obstacle_queries(planner.obstacles, ompl_legs)
+
+    reach_passed = bool(plan.success) and reach["collisions"] == 0
+    ompl_passed = bool(ompl_ok) and ompl["collisions"] == 0
+
     def ratio(x, y):
+        if not (reach_passed and ompl_passed):
+            return None
         return float(x / y) if y > 0 else math.inf
 
     return {
@@ -466,18 +573,26 @@ def race(task_name: str, planner: Planner, task: Task, seed: int = 0,
         "f_r_difference": ompl["mean_f_r"] - reach["mean_f_r"],
         "reach_success": bool(plan.success),
         "ompl_success": bool(ompl_ok),
+        "reach_passed": reach_passed,
+        "ompl_passed": ompl_passed,
         "reach_arm_collisions": reach["arm_collisions"],
         "ompl_arm_collisions": ompl["arm_collisions"],
         "reach_min_clearance": reach["min_clearance"],
         "ompl_min_clearance": ompl["min_clearance"],
-        "reach_preprocess_time_s": float(preprocess),
-        "ompl_validity_checks": int(validity.calls - checks0),
+        "reach_preprocess_time_s": preprocess,
+        "reach_nodes_searched": int(plan.stats.nodes_searched),
+        "ompl_validity_checks": int(checks),
         "legs": int(len(targets)),
         "note": note,
+        **queries,
     }
 
 
 # --- command line --------------------------------------------------------------------------
+
+def _ratio(x) -> str:
+    return "–" if x is None else f"{x:.2f}"
+
 
 def _hits(total: int, arm: int) -> str:
     return f"{total} ({arm})"
@@ -495,7 +610,7 @@ def format_table(rows) -> str:
                                               ("OMPL failed", r["ompl_success"])) if not ok) + ")")
         lines.append(
             f"{r['task']:15s} {r['legs']:4d} {r['reach_time_s']:8.3f} {r['ompl_time_s']:8.3f} "
-            f"{r['time_ratio']:6.2f} {r['reach_path_length']:9.2f} {r['ompl_path_length']:8.2f} "
+            f"{_ratio(r['time_ratio']):>6s} {r['reach_path_length']:9.2f} {r['ompl_path_length']:8.2f} "
             f"{r['reach_mean_f_r']:9.2f} {r['ompl_mean_f_r']:8.2f} "
             f"{_hits(r['reach_collisions'], r['reach_arm_collisions']):>10s} "
             f"{_hits(r['ompl_collisions'], r['ompl_arm_collisions']):>9s}{flag}")
@@ -526,17 +641,20 @@ def main(argv=None) -> int:
     from reach_addon.demo import WORKPLACE, demo_tasks
     from reach_addon.samples import obstacles, standard_arm
 
-    planner = Planner(standard_arm(), obstacles(WORKPLACE), Settings())
     tasks = [(n, t) for n, t in demo_tasks() if args.task is None or n in args.task]
     if not tasks:
         print(f"no task named {', '.join(args.task)}; choose from collision_free, rotation, "
               "guided, chase", file=sys.stderr)
         return 2
-    rows = [race(name, planner, task, seed=args.seed, time_limit_s=args.time_limit)
+    rows = [race(name, Planner(standard_arm(), obstacles(WORKPLACE), Settings()), task,
+                 seed=args.seed, time_limit_s=args.time_limit, count_queries=True)
             for name, task in tasks]
     print(format_table(rows))
-    print(f"\nReach workspace preprocessing (not in the times above): "
-          f"{rows[0]['reach_preprocess_time_s']:.3f} s")
+    print("\nwork: " + "; ".join(
+        f"{r['task']} Reach {r['reach_nodes_searched']} nodes, "
+        f"{r['reach_obstacle_queries']} BVH queries (grid {1000 * r['reach_preprocess_time_s']:.0f}"
+        f" ms in its time) / OMPL {r['ompl_validity_checks']} states checked, "
+        f"{r['ompl_obstacle_queries']} BVH queries" for r in rows))
     return 0
 
 

@@ -56,7 +56,7 @@ Each side (:func:`plan_scene`)
 ------------------------------
 * **OMPL**: RRTConnect in ``bench.ompl_race``'s joint space with its ``Validity`` (the
   core's acceptance), from the start pose to a goal region: the core generator's pose at
-  the target and up to :data:`GOAL_STATES` - 1 other clear swivel candidates of the same
+  the target and up to :data:`bench.ompl_race.GOAL_STATES` - 1 other clear swivel candidates of the same
   IK (Table 1's chest turn), each with the first hand direction of the generator's samples
   that is clear. No simplification (only existence is asked). Timed around ``solve`` alone;
   its budget (20 s) is CPU time of this process, so that a busy machine does not cut the
@@ -93,11 +93,10 @@ if str(ROOT) not in sys.path:
 
 import bpy  # noqa: E402,F401  (mathutils for the obstacles' BVH)
 
-from bench.ompl_race import (CLEARANCE_HORIZON, DENSE_SPACING, JointSpace,  # noqa: E402
-                             Validity, densify, independent_check, joints_of,
-                             pose_row, rrt_connect)
+from bench.ompl_race import (CLEARANCE_HORIZON, DENSE_SPACING,  # noqa: E402
+                             JointSpace, Validity, densify, goal_rows, independent_check,
+                             joints_of, pose_row, prepare_query, rrt_connect, run_query)
 from reach_addon.core import Planner, Settings, Task  # noqa: E402
-from reach_addon.core import ik  # noqa: E402
 from reach_addon.core.arm import ArmConfig, ArmModel, Capsule  # noqa: E402
 from reach_addon.core.collision import Obstacles  # noqa: E402
 from reach_addon.samples import HANGING, figure_transform, standard_arm  # noqa: E402
@@ -109,7 +108,6 @@ ARMS = SYNTHETIC_ARMS + RIG_ARMS
 #: The range of the width factor f: an opening is 2 (R + c) f across.
 FACTOR = (1.05, 1.8)
 #: Most goal configurations given to OMPL (the core's own first).
-GOAL_STATES = 10
 #: Scenes, OMPL's seconds per scene: the full run and ``--quick``.
 DEFAULT_COUNT, DEFAULT_OMPL_TIME = 240, 20.0
 QUICK_COUNT, QUICK_OMPL_TIME = 20, 5.0
@@ -504,58 +502,26 @@ def scene_plan(count: int, seed: int, arms=ARMS, families=FAMILIES):
 
 # --- planning ------------------------------------------------------------------------------
 
-def goal_rows(planner: Planner, validity: Validity, target_c) -> list:
-    """OMPL's goal region: the core generator's pose at the target first, then other
-    legal swivel candidates of the same IK (Table 1's chest turn) in strength order, each
-    with the first clear hand of the generator's samples; at most :data:`GOAL_STATES`,
-    spread over the candidates."""
-    gen, settings = planner.generator, planner.settings
-    rows = []
-    first = gen.solve(target_c)
-    if first is not None:
-        rows.append(pose_row(first))
-    sol = ik.solve(planner.arm, np.asarray(target_c, float)[None], settings)
-    others = []
-    for k in sol.ranked(0, settings.elbow_side):
-        config = list(sol.config(0, k).as_array())
-        for hand in gen.hand_samples:
-            row = config + list(hand)
-            if validity.valid(row):
-                others.append(np.array(row))
-                break
-    if others:
-        keep = GOAL_STATES - len(rows)
-        pick = np.unique(np.linspace(0, len(others) - 1, min(keep, len(others))).round().astype(int))
-        rows += [others[i] for i in pick]
-    return rows
-
-
 def ompl_solve(space: JointSpace, validity: Validity, start, goals, seed: int, time_s: float):
     """RRTConnect from ``start`` to any of ``goals`` (rows, degrees), for at most
-    ``time_s`` seconds of this process's CPU time. Returns (solved,
-    (wall, CPU) seconds in ``solve``, states checked in it, path (K, 7) degrees or
-    None)."""
+    ``time_s`` seconds of this process's CPU time, not simplified (the race's query,
+    :func:`bench.ompl_race.prepare_query` before the clock and
+    :func:`~bench.ompl_race.run_query` on it). Returns (solved, (wall, CPU) seconds in
+    ``solve``, states checked in it, path (K, 7) degrees or None)."""
     from ompl import base as ob
     from ompl import util as ou
 
     setup, state = rrt_connect(space, validity, seed, ou.LOG_ERROR)
-    goal = ob.GoalStates(setup.getSpaceInformation())
-    for row in goals:
-        goal.addState(state(row))
-    setup.setStartState(state(start))
-    setup.setGoal(goal)
-    setup.setup()
+    prepare_query(setup, state, start, goals)
     checks = validity.calls
     t0, c0 = time.perf_counter(), time.process_time()
     # the budget is CPU time, so that a busy machine does not cut OMPL's search short
-    setup.solve(ob.PlannerTerminationCondition(lambda: time.process_time() - c0 >= time_s))
+    solved, path = run_query(
+        setup, space,
+        ob.PlannerTerminationCondition(lambda: time.process_time() - c0 >= time_s),
+        simplify=False)
     elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
-    checks = validity.calls - checks
-    if not setup.haveExactSolutionPath():
-        return False, (elapsed, cpu), checks, None
-    states = setup.getSolutionPath().getStates()
-    coords = np.array([[s[i] for i in range(space.lo.size)] for s in states])
-    return True, (elapsed, cpu), checks, space.angles(coords)
+    return solved, (elapsed, cpu), validity.calls - checks, path
 
 
 def plan_scene(scene: Scene, ompl_time_s: float, settings: Settings | None = None,
@@ -639,6 +605,7 @@ def run(count: int = DEFAULT_COUNT, seed: int = 0, ompl_time_s: float = DEFAULT_
                                                                             families))}
     starts = {name: start_config(arm, settings) for name, arm in arm_models.items()}
     result = {"count": count, "seed": seed, "ompl_time_s": ompl_time_s,
+              "reach_commit": _commit(),
               "arms": {name: arm_record(arm, starts[name]) for name, arm in arm_models.items()},
               "scenes": []}
     earlier = {}
@@ -677,6 +644,17 @@ def run(count: int = DEFAULT_COUNT, seed: int = 0, ompl_time_s: float = DEFAULT_
     return result
 
 
+def _commit() -> str:
+    """The commit Reach runs at (``-dirty`` with uncommitted changes), or '?'."""
+    import subprocess
+
+    try:
+        return subprocess.run(["git", "describe", "--always", "--dirty"], cwd=ROOT,
+                              capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "?"
+
+
 def arm_record(arm: ArmModel, start: ArmConfig) -> dict:
     return {"name": arm.name, "arm_length": arm.arm_length,
             "lengths": [arm.upper_arm_length, arm.forearm_length, arm.hand_length],
@@ -710,6 +688,9 @@ def _cell(rows) -> dict:
             "reach_median_s": _median(r["reach_time_s"] for r in solved),
             "reach_median_success_s": _median(r["reach_time_s"] for r in reached),
             "reach_median_search_s": _median(r["reach_search_time_s"] for r in solved),
+            # the plan with the workspace grid built for it (built before the plan's clock)
+            "reach_median_with_grid_s": _median(
+                r["reach_time_s"] + r.get("reach_preprocess_time_s", 0.0) for r in solved),
             "ompl_median_s": _median(r["ompl_time_s"] for r in solved),
             "reach_median_cpu_s": _median(r.get("reach_cpu_s", math.nan) for r in solved),
             "ompl_median_cpu_s": _median(r.get("ompl_cpu_s", math.nan) for r in solved)}
@@ -774,9 +755,11 @@ def markdown(result: dict) -> str:
     rate = t["reach_rate"]
     lines += ["", f"Goal ≥ {100 * GOAL_RATE:.0f} %: **{'met' if t['goal_met'] else 'not met'}**"
               + ("" if rate is None else f" ({100 * rate:.1f} %)")
-              + (f"; Reach's median {_ms(t['reach_median_s'])} ms against OMPL's "
-                 f"{_ms(t['ompl_median_s'])} ms (CPU time {_ms(t['reach_median_cpu_s'])} "
-                 f"against {_ms(t['ompl_median_cpu_s'])} ms)" if rate is not None else "")
+              + (f"; Reach's median {_ms(t['reach_median_s'])} ms "
+                 f"({_ms(t.get('reach_median_with_grid_s'))} ms with its workspace grid) "
+                 f"against OMPL's {_ms(t['ompl_median_s'])} ms (CPU time "
+                 f"{_ms(t['reach_median_cpu_s'])} against {_ms(t['ompl_median_cpu_s'])} ms)"
+                 if rate is not None else "")
               + f". Reach succeeded on {t['reach_only']} scene(s) OMPL did not solve; "
               f"{t['reach_touching']} plan(s) reported as reached touched an obstacle by the "
               "independent check."]
