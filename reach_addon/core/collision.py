@@ -388,6 +388,19 @@ class CollisionChecker:
             return segment[0], self.obstacles.owner(index)
         return None
 
+    def capsule_clear(self, p, q, radius: float) -> bool:
+        """Is the capsule from world point ``p`` to ``q`` of ``radius`` (plus the
+        clearance) clear of the obstacles? The two tests of the class docstring."""
+        if self.obstacles.tree is None:
+            return True
+        p = [float(v) for v in p]
+        q = [float(v) for v in q]
+        r = radius + self.margin
+        length = math.dist(p, q)
+        bound = length + 2.0 * r
+        return self.segment_clear(p, q, self.distance(p, bound), self.distance(q, bound),
+                                  ("capsule", 0, 1, r, length))
+
     def collides(self, world_joints, include_hand: bool = True) -> bool:
         """Does a pose (world joints, (5, 3)) come within the clearance of an obstacle?"""
         return self.first_hit(world_joints, include_hand) is not None

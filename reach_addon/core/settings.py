@@ -210,6 +210,12 @@ class Settings:
     max_pose_tries: int = _f(
         24, "Poses per position", "Most ranked poses tested for collision at one wrist "
         "position before it is declared blocked", "search", 1, 720)
+    guide_when_blocked: bool = _f(
+        True, "Guide when blocked", "When an obstacle lies across the straight line from the "
+        "wrist to the target (a forearm-thick line), search through the workspace's guiding "
+        "nodes first, as the guided reach does, instead of straight at the target: the "
+        "straight search would fill the space in front of the obstacle before it found the "
+        "way round", "search")
     guided_fallback: bool = _f(
         True, "Other route", "When the best-first search finds no path, search once more "
         "the other way: through the workspace's guiding nodes after a straight search, "

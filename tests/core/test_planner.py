@@ -367,3 +367,48 @@ def between_frames(p, n):
     t = np.arange(1, n) / n
     mids = (rows[:-1, None] * (1 - t)[None, :, None] + rows[1:, None] * t[None, :, None])
     return p.arm.to_world_points(joints_of(p.arm, mids.reshape(-1, 7)))
+
+
+def _plate_across_the_line(arm, start_config):
+    """A plate square across the straight line from the start wrist to a target in front
+    of the shoulder, half way, sized by the arm: the straight path is blocked and the
+    hand can go round the plate on any side. Returns (obstacles, triangles, world target)."""
+    from reach_addon.core.arm import pose_from_config
+    from reach_addon.samples import box
+
+    length = arm.arm_length
+    wrist = pose_from_config(arm, start_config).wrist
+    target = arm.shoulder + length * np.array([0.15, 0.7, 0.05])     # canonical
+    path = target - wrist
+    span = np.linalg.norm(path)
+    normal = path / span
+    across = np.cross(normal, [0.0, 0.0, 1.0])
+    across /= np.linalg.norm(across)
+    rot = np.column_stack([across, np.cross(normal, across), normal])
+    size = np.array([0.36 * span, 0.36 * span, 0.05 * length])
+    verts, tris = box(-0.5 * size, 0.5 * size)
+    world = arm.to_world_points(verts @ rot.T + wrist + 0.5 * path)
+    return Obstacles.from_triangles(world, tris), world[tris], arm.to_world_points(target)
+
+
+def test_a_blocked_straight_line_is_searched_through_the_guiding_nodes(arm):
+    """With an obstacle across the straight line, the search goes by the guiding nodes
+    (Settings.guide_when_blocked) and tests few positions beyond its path; searched straight
+    it fills the space in front of the plate first. A clear line is searched straight."""
+    obs, tris, target = _plate_across_the_line(arm, HANGING)
+    task = Task("reach", target[None], HANGING)
+    guided = plan(task, arm, obs)
+    assert guided.success, guided.message
+    seg = guided.segments[0]
+    assert len(seg.guiding_nodes) > 0 and seg.method == "best-first"
+    assert guided.stats.nodes_searched <= 3 * guided.stats.nodes_in_solution
+    for joints in guided.world_joints():
+        assert arm_penetration(arm, joints, tris) >= 0.0
+    straight = plan(task, arm, obs, Settings(guide_when_blocked=False))
+    assert straight.stats.nodes_searched > 3 * guided.stats.nodes_searched
+    # nothing across the line: no guiding nodes, the paper's straight best-first search
+    free_c = arm.shoulder + arm.arm_length * np.array([0.5, 0.1, -0.6])
+    planner = Planner(arm, obs)
+    assert planner.line_clear(planner.generator.config_pose(HANGING).wrist, free_c)
+    clear = planner.plan(Task("reach", arm.to_world_points(free_c)[None], HANGING))
+    assert clear.success and len(clear.segments[0].guiding_nodes) == 0
