@@ -87,7 +87,8 @@ def test_bake_round_trip_on_real_rigs(scenes, tmp_path, kind):
     for task in report["tasks"]:
         assert REPORT_TASK_KEYS <= set(task)
         assert task["success"] and task["reason"] is None and task["arm"] == "right"
-        assert task["nodes_searched"] >= task["nodes_in_solution"] > 0
+        # the path's positions are the start and every one the search tested on it
+        assert task["nodes_searched"] >= task["nodes_in_solution"] - 1 > 0
         assert task["method"] in ("best-first", "sampling")
     first, second = report["tasks"]
     # each target its own reach from the same pose, baked one after the other
@@ -224,7 +225,10 @@ def test_render_writes_a_still_with_the_red_trajectory_and_a_video(scenes, tmp_p
 # --- interrupted runs ----------------------------------------------------------------------
 
 # A search that takes minutes: a step of 4 mm and budgets nothing reaches before SIGTERM.
-LONG_PLAN = ("--step", "0.004", "--node-budget", "200000", "--stall-budget", "200000")
+# a straight best-first search at a fifth of the step, not guided round the plate, with
+# budgets it will not reach: it plans for many seconds
+LONG_PLAN = ("--step", "0.004", "--node-budget", "200000", "--stall-budget", "200000",
+             "--no-guide-when-blocked")
 
 
 def temp_files(folder):

@@ -64,21 +64,18 @@ def test_shortest_path_goes_round_an_obstacle_through_valid_cells():
     assert world[:, 2].max() > 1.45 or world[:, 0].min() < -0.9 or world[:, 0].max() > 0.3
 
 
-def _grid_by_definition(planner):
-    """The grid of the module doc, cell by cell with nothing skipped: a cell is occupied
-    when a surface comes within its circumscribed sphere or its centre is inside an
-    obstacle; a free cell is valid when one of its best ``max_pose_tries`` legal
+def _grid_by_definition(planner, ws):
+    """The grid of the module doc on ``ws``'s cells, cell by cell with nothing skipped: a
+    cell is occupied when a surface comes within its circumscribed sphere or its centre is
+    inside an obstacle; a free cell is valid when one of its best ``max_pose_tries`` legal
     candidates clears the body and the obstacles."""
     from reach_addon.core import ik
-    from reach_addon.core.workspace import workspace_box
 
     gen, arm, settings = planner.generator, planner.arm, planner.settings
-    n = settings.grid_cells
-    lower, cell = workspace_box(arm, settings)
-    idx = np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1).reshape(-1, 3)
-    centers = lower + (idx + 0.5) * cell
+    n = ws.n
+    centers = ws.centers().reshape(-1, 3)
     world = arm.to_world_points(centers)
-    bound = 0.5 * float(np.linalg.norm(cell)) + gen.checker.margin
+    bound = 0.5 * float(np.linalg.norm(ws.cell)) + gen.checker.margin
     obstacles = planner.obstacles
     occupied = np.array([
         obstacles is not None and not obstacles.empty
@@ -113,7 +110,7 @@ def test_grid_is_its_definition_however_it_is_sped_up():
     }
     for name, obs in scenes.items():
         planner = Planner(arm, obs)
-        occupied, valid = _grid_by_definition(planner)
+        occupied, valid = _grid_by_definition(planner, planner.workspace)
         assert occupied.any() and valid.any(), name
         for chunk in (None, 8):
             steps = workspace_steps(planner.generator, chunk)
