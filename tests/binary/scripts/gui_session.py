@@ -12,7 +12,8 @@ in the live event loop with its redraws:
    the panel, so the tab is found by what Blender draws, not by guessing its position);
 2. Esc: start a long Bake (a fine step) with ``INVOKE_DEFAULT``, check it is running, press
    Esc with ``xdotool``, and record everything a bake could have touched before and after;
-3. Plan, then Bake, each invoked as the panel's buttons do and waited for; the trajectory's
+3. Plan, then Bake (searched straight at the plate, so that they run long enough to watch
+   their progress), each invoked as the panel's buttons do and waited for; the trajectory's
    points projected into the view are recorded, to find it in the screenshot;
 4. screenshots (``screen.screenshot``) at each stage, the last at the reach's end frame.
 
@@ -301,6 +302,10 @@ def session():
     # slow: planning time here is mostly redraws, and a coarser step shortens it).
     if STEP is not None:
         settings.step = STEP
+    # searched straight at the plate (not through the guiding nodes, which reach the cup in
+    # about as many positions as the path holds): Plan and Bake then run for seconds, long
+    # enough to watch their progress rise in the panel
+    settings.guide_when_blocked = False
     yield from run_modal("plan", 120)
     yield from settle("REACH_PT_result")
     planned = state()
