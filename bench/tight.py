@@ -56,11 +56,11 @@ Each side (:func:`plan_scene`)
 ------------------------------
 * **OMPL**: RRTConnect in ``bench.ompl_race``'s joint space with its ``Validity`` (the
   core's acceptance), from the start pose to a goal region: the core generator's pose at
-  the target and up to :data:`bench.ompl_race.GOAL_STATES` - 1 other clear swivel candidates of the same
-  IK (Table 1's chest turn), each with the first hand direction of the generator's samples
-  that is clear. No simplification (only existence is asked). Timed around ``solve`` alone;
-  its budget (20 s) is CPU time of this process, so that a busy machine does not cut the
-  search short.
+  the target and up to :data:`bench.ompl_race.GOAL_STATES` - 1 other clear swivel
+  candidates of the same IK (Table 1's chest turn), each with the first hand direction of
+  the generator's samples that is clear. No simplification (only existence is asked).
+  Timed around ``solve`` alone; its budget (20 s) is CPU time of this process, so that a
+  busy machine does not cut the search short.
 * **Reach**: ``Planner(arm, obstacles, Settings()).plan(Task("reach", ...))``, timed around
   ``plan`` alone (the workspace grid, the paper's preprocessing, is built before and
   reported apart). Its path (every frame, linearly interpolated in joint space so that no
@@ -107,7 +107,6 @@ RIG_ARMS = ("quaternius", "gomakehuman", "cesium")
 ARMS = SYNTHETIC_ARMS + RIG_ARMS
 #: The range of the width factor f: an opening is 2 (R + c) f across.
 FACTOR = (1.05, 1.8)
-#: Most goal configurations given to OMPL (the core's own first).
 #: Scenes, OMPL's seconds per scene: the full run and ``--quick``.
 DEFAULT_COUNT, DEFAULT_OMPL_TIME = 240, 20.0
 QUICK_COUNT, QUICK_OMPL_TIME = 20, 5.0

@@ -185,8 +185,6 @@ def workspace_steps(generator: ConfigurationGenerator, chunk: int | None = 8):
         for row in np.flatnonzero(sol.valid[: rows.size].any(1)).tolist():
             flat = rows[row]
             order = sol.order(row, settings.elbow_side)[: settings.max_pose_tries]
-            if order.size == 0:
-                continue
             valid.reshape(-1)[flat] = _any_clear(generator, sol, row, order)
         busy += time.perf_counter() - t
         yield
@@ -221,17 +219,20 @@ def _any_clear(generator: ConfigurationGenerator, sol, row: int, order) -> bool:
     arm = generator.arm
     body = float(sol.body[row])
     capsules = ik.body_capsules_at(arm, body)
-    first = sol.joints(row, order[:1])
-    wrist = first[0, 3].tolist()
+    wrist = sol.wrists[row].tolist()
     if ik.segment_hits_body(wrist, wrist, arm.forearm_radius, capsules):
         return False
-    for part in range(2 if order.size > 1 else 1):
-        for pose in first if part == 0 else sol.joints(row, order[1:]):
-            if ik.self_collision(arm, body, pose[None], include_hand=False,
-                                 capsules=capsules)[0]:
-                continue
-            if not generator.checker.collides(arm.to_world_points(pose), include_hand=False):
-                return True
+
+    def candidates():
+        yield from sol.joints(row, order[:1])
+        if order.size > 1:
+            yield from sol.joints(row, order[1:])
+
+    for pose in candidates():
+        if not ik.self_collision(arm, body, pose[None], include_hand=False,
+                                 capsules=capsules)[0] and \
+                not generator.checker.collides(arm.to_world_points(pose), include_hand=False):
+            return True
     return False
 
 
