@@ -10,8 +10,9 @@ in the live event loop with its redraws:
    way a user can: the mouse wheel over the sidebar's tab strip (``xdotool``), one tab at a
    time, until Reach's main panel is drawn in the sidebar (seen by a draw hook appended to
    the panel, so the tab is found by what Blender draws, not by guessing its position);
-2. Esc: start a long Bake (a fine step) with ``INVOKE_DEFAULT``, check it is running, press
-   Esc with ``xdotool``, and record everything a bake could have touched before and after;
+2. Esc: start a long Bake (a fine step, searched straight at the plate) with
+   ``INVOKE_DEFAULT``, check it is running, press Esc with ``xdotool``, and record
+   everything a bake could have touched before and after;
 3. Plan, then Bake (searched straight at the plate, so that they run long enough to watch
    their progress), each invoked as the panel's buttons do and waited for; the trajectory's
    points projected into the view are recorded, to find it in the screenshot;
@@ -263,6 +264,10 @@ def session():
     settings = props.settings
     saved = settings.step, settings.node_budget, settings.stall_budget
     settings.step, settings.node_budget, settings.stall_budget = 0.004, 200000, 200000
+    # searched straight at the plate, not through the guiding nodes (which reach the cup
+    # in about as many positions as its path holds): the plan then runs for many seconds,
+    # and here and in step 3 there is time to see it running
+    settings.guide_when_blocked = False
     with override():
         result = bpy.ops.reach.bake("INVOKE_DEFAULT")
     note("long bake invoked", result=sorted(result), running=props.running)
@@ -302,8 +307,7 @@ def session():
     # slow: planning time here is mostly redraws, and a coarser step shortens it).
     if STEP is not None:
         settings.step = STEP
-    # searched straight at the plate (not through the guiding nodes, which reach the cup in
-    # about as many positions as the path holds): Plan and Bake then run for seconds, long
+    # still searched straight at the plate (step 2): Plan and Bake run for seconds, long
     # enough to watch their progress rise in the panel
     settings.guide_when_blocked = False
     yield from run_modal("plan", 120)
