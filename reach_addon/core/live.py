@@ -17,10 +17,12 @@ What we chose, and why
   target costs a few search nodes. When the target moves again before a search is done
   (a fast drag), the progress is kept: the arm moves to the closest position found so far
   and the new search starts there.
-* **Re-plan = the reach task's search.** The same best-first search as a ``reach`` task,
-  with the same fallback through guiding nodes and the same shorter leash for a target
-  already diagnosed unreachable. Shortcut smoothing and frame timing are left out: live
-  mode shows one pose, not a timed motion.
+* **Re-plan = the reach task's search.** The same code as a ``reach`` task
+  (:meth:`~reach_addon.core.tasks.Planner.route_steps`): through the guiding nodes where
+  the straight line is blocked, the same fallbacks, the same shorter leash for a target
+  diagnosed unreachable. Only the diagnosis waits: it is worked out when the first slice
+  of the search does not settle the re-plan. Shortcut smoothing and frame timing are
+  left out: live mode shows one pose, not a timed motion.
 * **No jump beyond the smoothness bound.** Each update shows at most one new pose, a pose
   of the searched path: the farthest one (usually the last) that is within the smoothness
   bound of the pose shown before
@@ -39,12 +41,8 @@ What we chose, and why
 
 Chase with moving obstacles
 ---------------------------
-:func:`chase_steps` is the chase task of :mod:`~reach_addon.core.tasks` with one planner
-per frame: each frame is re-planned from the previous frame's pose against the obstacles
-*at that frame* (the caller re-samples animated obstacles and passes the same planner for
-frames where nothing moved). With one planner for every frame it gives exactly the poses of
-``Planner.plan`` for the chase task. A frame whose pose is hit by an obstacle that moved
-into it fails the chase, naming the obstacle and the frame.
+A chase against animated obstacles is the chase task with one planner per frame:
+:func:`reach_addon.core.tasks.chase_steps`.
 """
 
 from __future__ import annotations
@@ -57,20 +55,16 @@ import numpy as np
 
 from .arm import ArmConfig, Pose
 from .collision import Obstacles
-from .errors import NO_PATH, START_IN_COLLISION, require_finite
-from .hand import plan_hand
-from .search import BestFirstSearch, SearchResult, chase_step
+from .errors import START_IN_COLLISION, require_finite
+from .search import BestFirstSearch, SearchResult
 from .settings import Settings
-from .tasks import Plan, Planner, Segment, Stats, Task, escape_frames, escape_of, motion_stats
-from .workspace import workspace_steps  # noqa: F401  (re-exported)
+from .tasks import Planner
 
 #: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
 DEFAULT_BUDGET_S = 1.0 / 30.0
 
 #: Search nodes tested between two looks at the clock (one node costs about 0.5–3 ms).
 NODES_PER_SLICE = 2
-
-_UNKNOWN = object()
 
 #: A target that moved less than this (arm lengths) has not moved.
 TARGET_EPSILON = 1e-6
@@ -243,21 +237,10 @@ class LiveSession:
             k += 1
         return k
 
-    def _search(self, start: Pose, target_c, guided: bool = False, **limits):
-        """:meth:`Planner.search_steps` (the same search, yielding every
-        :data:`NODES_PER_SLICE` nodes), keeping the searcher so that a re-plan interrupted
-        by a new target can keep the progress made. The workspace grid must exist for a
-        guided search."""
-        guides, radius = None, 0.0
-        if guided:
-            ws = self.planner.workspace
-            guides = ws.guiding_nodes(start.wrist, target_c)
-            radius = self.settings.guide_radius * float(np.min(ws.cell))
-        generator = self.planner.generator.for_reach(start, target_c)
-        self._searcher = BestFirstSearch(generator, start, target_c, guides, radius, **limits)
-        while not self._searcher.run(NODES_PER_SLICE):
-            yield
-        return self._searcher.result()
+    def _keep(self, searcher: BestFirstSearch) -> None:
+        """Keep the running search, so that a re-plan interrupted by a new target can keep
+        the progress made (:meth:`_restart`)."""
+        self._searcher = searcher
 
     def _distance(self, pose: Pose) -> float:
         if self.target is None:
@@ -267,7 +250,7 @@ class LiveSession:
 
     def _replan(self, target_c):
         """The re-plan as a generator (yields every :data:`NODES_PER_SLICE` nodes)."""
-        planner, s = self.planner, self.settings
+        planner = self.planner
         gen = planner.generator
         start = self.pose
         # A pose the search produced against these obstacles is clear; test only a pose
@@ -287,49 +270,11 @@ class LiveSession:
             escape = gen.for_reach(start, target_c).solve(start.wrist, start)
             if escape is not None:
                 prefix, start, problem = [start], escape, None
-        # The diagnosis (is the target reachable at all?) costs a few ms: most moves of the
-        # target are caught within the first slice and never need it.
-        diagnosis = _UNKNOWN
-        steps = self._search(start, target_c)
-        result = None
-        try:
-            next(steps)
-        except StopIteration as done:
-            result = done.value
-        if result is None:
-            diagnosis = gen.diagnose_target(target_c)
-            if diagnosis is not None:
-                # Known unreachable: the shorter leash of the reach task, from the start.
-                steps.close()
-                steps = self._search(start, target_c, stall_budget=max(20, s.stall_budget // 4))
-            yield
-            result = yield from steps
-        if not result.success and diagnosis is _UNKNOWN:
-            diagnosis = gen.diagnose_target(target_c)
-        if not result.success and diagnosis is None and s.guided_fallback:
-            if not planner.has_workspace:
-                self.status.message = "building the workspace grid for a guided search"
-                planner._workspace = yield from workspace_steps(gen)
-            retry = yield from self._search(start, target_c, True)
-            nodes = result.nodes_searched + retry.nodes_searched
-            elapsed = result.search_time_s + retry.search_time_s
-            if retry.success or retry.closest_distance < result.closest_distance:
-                result = retry
-            result.nodes_searched, result.search_time_s = nodes, elapsed
-        if not result.success:
-            # as the reach task does: once more with the hand free, kept if it does better
-            free = yield from self._search(start, target_c, hand_continuity=False,
-                                           **({} if diagnosis in (None, _UNKNOWN) else
-                                              {"stall_budget": max(20, s.stall_budget // 4)}))
-            nodes = result.nodes_searched + free.nodes_searched
-            elapsed = result.search_time_s + free.search_time_s
-            if free.success or free.closest_distance < result.closest_distance - gen.step_length:
-                result = free
-            result.nodes_searched, result.search_time_s = nodes, elapsed
-        if not result.success and diagnosis is None and s.sampling_fallback:
-            # as the reach task does: the sampling planner where the search gave up
-            result = yield from self.planner._sampling(start, target_c, 10 * NODES_PER_SLICE,
-                                                       result)
+        # The reach task's search, fallbacks included; the diagnosis (is the target
+        # reachable at all?) is worked out only if the first slice does not settle it.
+        route = yield from planner.route_steps(start, target_c, chunk=NODES_PER_SLICE,
+                                               keep=self._keep)
+        result, diagnosis = route.result, route.diagnosis
         if prefix:
             result.path = prefix + list(result.path)
         self._searcher = None
@@ -339,8 +284,8 @@ class LiveSession:
         status = LiveStatus(MOVING, None, f"on '{self.name}'", self._distance(start),
                             result.nodes_searched, result.search_time_s)
         if not result.success:
-            status.reason, status.message = self.planner._failure(self.name, result,
-                                                                  diagnosis, start)
+            status.reason, status.message = self.planner.explain_failure(
+                self.name, result, diagnosis, start)
         end = result.path[-1] if result.path else start
         if problem is not None and self.planner.generator.pose_collides(end):
             status.reason = START_IN_COLLISION
@@ -354,101 +299,5 @@ class LiveSession:
         self.status = status
 
 
-# --- chase ---------------------------------------------------------------------------------
-
-def chase_steps_per_frame(settings: Settings, fps: float) -> int:
-    """Search steps the wrist may take in one frame: ``chase_max_speed / fps / step``."""
-    return max(1, int(settings.chase_max_speed / fps / settings.step + 1e-9))
-
-
-def chase_frame(generator, previous: Pose, target_c, steps: int, fps: float = 24.0):
-    """One frame of a chase: a best-first search from ``previous`` toward ``target_c``
-    (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
-    along; returns (the pose committed, the search result)."""
-    return chase_step(generator, previous, target_c, steps, fps)
-
-
-def chase_steps(planners, task: Task, chunk: int = 1):
-    """Plan a chase with one planner per frame (``planners[f]`` holds the obstacles at
-    frame ``f``; pass the same planner for frames where nothing moved). A generator like
-    :meth:`Planner.plan_steps`: yields (fraction, message) every ``chunk`` frames and
-    returns the :class:`Plan`."""
-    t0 = time.perf_counter()
-    planners = list(planners)
-    if task.kind != "chase":
-        raise ValueError("chase_steps plans chase tasks")
-    if len(planners) != len(task.targets):
-        raise ValueError(f"one planner per frame: {len(task.targets)} frames, "
-                         f"{len(planners)} planners")
-    first = planners[0]
-    arm, s = first.arm, first.settings
-    start = first.generator.config_pose(task.start, task.start_hand)
-    require_finite("start pose", start.joints)
-    way_out, failed = first._start_escape(task, start)
-    if failed is not None:
-        failed.stats.planning_time_s = time.perf_counter() - t0
-        return failed
-    length = arm.arm_length
-    steps = chase_steps_per_frame(s, task.fps)
-    trajectory = arm.to_canonical_points(task.targets)
-    poses = [start] + escape_frames(way_out, steps, len(trajectory))
-    path = [p.wrist for p in poses]
-    stats = Stats()
-    on_target = 0
-    hit = None
-    for f in range(len(poses), len(trajectory)):
-        if chunk and f % chunk == 0:
-            yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
-        gen = planners[f].generator
-        nxt, res = chase_frame(gen, poses[-1], trajectory[f], steps, task.fps)
-        stats.nodes_searched += res.nodes_searched
-        stats.search_time_s += res.search_time_s
-        stats.nodes_in_solution += min(steps, len(res.path) - 1)
-        poses.append(nxt)
-        path.append(nxt.wrist)
-        if np.linalg.norm(nxt.wrist - trajectory[f]) <= s.goal_tolerance * length:
-            on_target += 1
-        if hit is None and planners[f] is not planners[f - 1]:
-            contact = gen.checker.first_hit(arm.to_world_points(nxt.joints))
-            if contact is not None:
-                hit = (f, contact)
-    stats.nodes_in_solution += 1  # the start, as in the reach tasks
-    stats.path_length_arm_lengths = float(
-        np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
-    hand = plan_hand([p.generator for p in planners], poses, task.fps, may_insert=False,
-                     arcs=range(len(poses)), escape=escape_of(way_out, poses))
-    poses = hand.poses
-    motion_stats(stats, planners[0].arm, poses, [p.generator.checker for p in planners],
-                 stats.path_length_arm_lengths, hand=hand)
-    gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
-    name = task.name(0)
-    last = planners[-1]
-    if hit is not None:
-        f, (part, obstacle) = hit
-        reason, message = START_IN_COLLISION, (
-            f"'{obstacle}' moves into the arm (at the {part}) on frame {f} of the chase of "
-            f"'{name}' and no clear pose was found; change the obstacle's motion or the "
-            "chase speed limit")
-    elif gap <= s.goal_tolerance:
-        reason, message = None, f"caught '{name}' ({on_target} of {len(poses) - 1} frames on target)"
-    else:
-        diagnosis = last.generator.diagnose_target(trajectory[-1])
-        fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
-                            trajectory[-1])
-        reason, message = last._failure(name, fake, diagnosis, start)
-        if reason == NO_PATH:
-            message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
-                       "lengths behind); raise the chase speed limit or the nodes per frame")
-    seg = Segment(0, name, task.targets[-1], reason is None, reason, message, 0,
-                  len(poses) - 1, stats, arm.to_world_points(np.array(path)), np.zeros((0, 3)))
-    total = Stats()
-    total.add(stats)
-    total.frames = len(poses)
-    plan = Plan(task, arm, s, poses, [seg], total, first._workspace)
-    plan.stats.planning_time_s = time.perf_counter() - t0
-    return plan
-
-
-__all__ = ["DEFAULT_BUDGET_S", "LiveSession", "LiveStatus", "chase_frame", "chase_steps",
-           "chase_steps_per_frame", "workspace_steps", "IDLE", "SEARCHING", "MOVING",
+__all__ = ["DEFAULT_BUDGET_S", "LiveSession", "LiveStatus", "IDLE", "SEARCHING", "MOVING",
            "REACHED", "CLOSEST", "BLOCKED"]

@@ -319,16 +319,6 @@ class BestFirstSearch:
                             self.closest_distance, self.target, self.guides)
 
 
-def drain(steps):
-    """Run a step generator (a planner that yields its progress) to the end and return its
-    value."""
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            return done.value
-
-
 def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int,
                fps: float = 24.0):
     """One frame of a chase: a best-first search from ``previous`` toward ``target``

@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,11 +48,24 @@ from .hand import HandReport, plan_hand
 from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
 from .sampling import joints_of, pose_row, sampling_steps
 from .search import BestFirstSearch, SearchResult, chase_step
-from .search import drain
 from .settings import Settings
-from .workspace import Workspace, build_workspace
+from .steps import drain, relay
+from .workspace import Workspace, build_workspace, workspace_steps
 
 TASK_KINDS = ("reach", "sequence", "guided", "chase")
+
+#: :meth:`Planner.route_steps`' ``diagnosis`` when the caller has not diagnosed the target.
+UNDIAGNOSED = object()
+
+
+class Route(NamedTuple):
+    """What :meth:`Planner.route_steps` found: the search's (or the sampler's) result, the
+    target's diagnosis (None: reachable, or not needed because the path was found) and
+    whether the sampling planner ran."""
+
+    result: SearchResult
+    diagnosis: object
+    sampled: bool
 
 
 @dataclass(frozen=True)
@@ -244,6 +258,11 @@ class Planner:
     def has_workspace(self) -> bool:
         return self._workspace is not None
 
+    @property
+    def built_workspace(self) -> Workspace | None:
+        """The workspace grid if it has been built, else None (never builds it)."""
+        return self._workspace
+
     def line_clear(self, a, b) -> bool:
         """Is the straight line between wrist positions ``a`` and ``b`` (canonical) clear
         of the obstacles by a forearm's thickness (and the clearance)?"""
@@ -251,24 +270,124 @@ class Planner:
         return self.generator.checker.capsule_clear(p, q, self.arm.forearm_radius)
 
     # --- searching ---------------------------------------------------------------------
-    def search(self, start: Pose, target_c, guided: bool = False, **limits) -> SearchResult:
-        """One best-first search (canonical target), through guiding nodes if ``guided``."""
-        return drain(self.search_steps(start, target_c, guided, **limits))
-
-    def search_steps(self, start: Pose, target_c, guided: bool = False, chunk: int = 0,
-                     **limits):
-        """:meth:`search` as a generator: yields the nodes searched so far every ``chunk``
-        nodes (never, if 0) and returns the :class:`SearchResult`."""
+    def searcher(self, start: Pose, target_c, guided: bool = False, **limits) -> BestFirstSearch:
+        """A resumable best-first search from ``start`` toward ``target_c`` (canonical),
+        through the workspace's guiding nodes if ``guided`` (the grid must be built for
+        that: :attr:`workspace` or :meth:`workspace_steps`)."""
         guides, radius = None, 0.0
         if guided:
             ws = self.workspace
             guides = ws.guiding_nodes(start.wrist, target_c)
             radius = self.settings.guide_radius * float(np.min(ws.cell))
         generator = self.generator.for_reach(start, target_c)
-        searcher = BestFirstSearch(generator, start, target_c, guides, radius, **limits)
+        return BestFirstSearch(generator, start, target_c, guides, radius, **limits)
+
+    def search(self, start: Pose, target_c, guided: bool = False, **limits) -> SearchResult:
+        """One best-first search (canonical target), through guiding nodes if ``guided``."""
+        return drain(self.search_steps(start, target_c, guided, **limits))
+
+    def search_steps(self, start: Pose, target_c, guided: bool = False, chunk: int = 0,
+                     keep=None, **limits):
+        """:meth:`search` as a generator: yields the nodes searched so far every ``chunk``
+        nodes (never, if 0) and returns the :class:`SearchResult`. ``keep`` (if given) is
+        called with the :class:`BestFirstSearch` before it runs (live mode keeps it, to
+        resume from its progress when the target moves)."""
+        searcher = self.searcher(start, target_c, guided, **limits)
+        if keep is not None:
+            keep(searcher)
         while not searcher.run(chunk or None):
             yield searcher.nodes_searched
         return searcher.result()
+
+    def workspace_steps(self, chunk: int | None = 8):
+        """:attr:`workspace` as a generator (yields 0 between slices of the grid's work;
+        nothing if it is built already), returning the :class:`Workspace`."""
+        if self._workspace is None:
+            self._workspace = yield from relay(workspace_steps(self.generator, chunk or None),
+                                               lambda _: 0)
+        return self._workspace
+
+    def route_steps(self, start: Pose, target_c, guided: bool = False, chunk: int = 0,
+                    diagnosis=UNDIAGNOSED, keep=None):
+        """Find a path from ``start`` to ``target_c`` (canonical) the way every reach does
+        (the reach task and live mode alike): a best-first search, straight or through the
+        guiding nodes (``guided``, or ``Settings.guide_when_blocked`` with the straight line
+        blocked); then, if that fails, the other route (``Settings.guided_fallback``), the
+        hand left free with what is left of the node budget, and the sampling planner
+        (``Settings.sampling_fallback``). A target diagnosed unreachable
+        (:meth:`ConfigurationGenerator.diagnose_target`) gets only the searches, each on a
+        shorter leash (``stall_budget / 4``). A generator: yields the nodes searched every
+        ``chunk`` nodes (and between slices of the grid) and returns a :class:`Route`.
+
+        ``diagnosis``: the target's, if the caller has it; else (:data:`UNDIAGNOSED`) it is
+        worked out only when needed (live mode: most moves of the target are caught within
+        the first slice, and the diagnosis costs a few ms) — after the first slice of the
+        search, which restarts on the shorter leash if the target is unreachable."""
+        s, gen = self.settings, self.generator
+        leash = {"stall_budget": max(20, s.stall_budget // 4)}
+        blocked = not guided and s.guide_when_blocked and not self.line_clear(start.wrist, target_c)
+        if blocked and diagnosis is UNDIAGNOSED:
+            diagnosis = gen.diagnose_target(target_c)
+        if blocked and diagnosis is None:
+            # something lies across the straight line: the paper's guiding nodes lead round
+            # it (a straight best-first search would fill the space in front of it first)
+            guided = True
+        if guided:
+            yield from self.workspace_steps(chunk)
+        limits = {} if diagnosis in (None, UNDIAGNOSED) else leash
+        steps = self.search_steps(start, target_c, guided, chunk, keep, **limits)
+        if diagnosis is UNDIAGNOSED:
+            try:
+                nodes = next(steps)
+            except StopIteration as done:
+                result = done.value
+            else:
+                diagnosis = gen.diagnose_target(target_c)
+                if diagnosis is not None:
+                    steps.close()
+                    limits = leash
+                    steps = self.search_steps(start, target_c, guided, chunk, keep, **limits)
+                yield nodes
+                result = yield from steps
+            if not result.success:
+                diagnosis = gen.diagnose_target(target_c)
+        else:
+            result = yield from steps
+        if not result.success and diagnosis is None and s.guided_fallback:
+            # The other route, the hand still continuous: through the guiding nodes after a
+            # straight search, straight after a guided one (a guided search can pass every
+            # guiding node and still stall in the last approach, which the straight one
+            # makes from another side).
+            if not guided:
+                yield from self.workspace_steps(chunk)
+            retry = yield from self.search_steps(start, target_c, not guided, chunk, keep)
+            retry.nodes_searched += result.nodes_searched
+            retry.search_time_s += result.search_time_s
+            if retry.success or retry.closest_distance < result.closest_distance:
+                result = retry
+            else:
+                result.nodes_searched = retry.nodes_searched
+                result.search_time_s = retry.search_time_s
+        left = s.node_budget - result.nodes_searched
+        if not result.success and left > 0:
+            # The hand kept continuous can shut the search out of a way the arm has (a hand
+            # caught in a pocket of clear directions): search once more with the hand free,
+            # with what is left of the node budget, and keep that if it does better; the
+            # hand pass then reports what it could not make smooth and clear.
+            free = yield from self.search_steps(start, target_c, guided, chunk, keep,
+                                                hand_continuity=False,
+                                                **{**limits, "node_budget": left})
+            free.nodes_searched += result.nodes_searched
+            free.search_time_s += result.search_time_s
+            if free.success or free.closest_distance < result.closest_distance - gen.step_length:
+                result = free
+            else:
+                result.nodes_searched, result.search_time_s = free.nodes_searched, free.search_time_s
+        sampled = False
+        if not result.success and diagnosis is None and s.sampling_fallback:
+            result = yield from self._sampling(start, target_c, chunk, result)
+            sampled = True
+        return Route(result, None if diagnosis is UNDIAGNOSED else diagnosis, sampled)
 
     # --- tasks -------------------------------------------------------------------------
     def plan(self, task: Task) -> Plan:
@@ -284,7 +403,7 @@ class Planner:
         start = self.generator.config_pose(task.start, task.start_hand)
         require_finite("start pose", start.joints)
         if task.kind == "chase":
-            plan = yield from self._chase(task, start, chunk)
+            plan = yield from _chase([self] * len(task.targets), task, start, 1 if chunk else 0)
         else:
             plan = yield from self._reaches(task, start, task.kind == "guided", chunk)
         plan.stats.planning_time_s = time.perf_counter() - t0
@@ -299,7 +418,7 @@ class Planner:
                 for i in range(1 if task.kind == "chase" else len(task.targets))]
         return Plan(task, self.arm, self.settings, [start], segs, Stats(frames=1))
 
-    def _start_escape(self, task: Task, start: Pose):
+    def start_escape(self, task: Task, start: Pose):
         """(None, None) if the start is clear; (Escape, None) for a start in contact that
         moves out of it (:mod:`~reach_addon.core.contact`); (None, failed Plan) if the
         start is too deep or finds no way out."""
@@ -327,7 +446,7 @@ class Planner:
         return way_out, None
 
     def _reaches(self, task: Task, start: Pose, guided: bool, chunk: int):
-        way_out, failed = self._start_escape(task, start)
+        way_out, failed = self.start_escape(task, start)
         if failed is not None:
             return failed
         poses = [start]
@@ -362,46 +481,8 @@ class Planner:
         had_workspace = self.has_workspace
         diagnosis = gen.diagnose_target(target)
 
-        # A target known to be unreachable still gets a closest approach, on a shorter leash.
-        limits = {} if diagnosis is None else {"stall_budget": max(20, s.stall_budget // 4)}
-        if not guided and diagnosis is None and s.guide_when_blocked and \
-                not self.line_clear(start.wrist, target):
-            # something lies across the straight line: the paper's guiding nodes lead round
-            # it (a straight best-first search would fill the space in front of it first)
-            guided = True
-        result = yield from self.search_steps(start, target, guided, chunk, **limits)
-        if not result.success and diagnosis is None and s.guided_fallback:
-            # The other route, the hand still continuous: through the guiding nodes after a
-            # straight search, straight after a guided one (a guided search can pass every
-            # guiding node and still stall in the last approach, which the straight one
-            # makes from another side).
-            retry = yield from self.search_steps(start, target, not guided, chunk)
-            retry.nodes_searched += result.nodes_searched
-            retry.search_time_s += result.search_time_s
-            if retry.success or retry.closest_distance < result.closest_distance:
-                result = retry
-            else:
-                result.nodes_searched = retry.nodes_searched
-                result.search_time_s = retry.search_time_s
-        left = s.node_budget - result.nodes_searched
-        if not result.success and left > 0:
-            # The hand kept continuous can shut the search out of a way the arm has (a hand
-            # caught in a pocket of clear directions): search once more with the hand free,
-            # with what is left of the node budget, and keep that if it does better; the
-            # hand pass then reports what it could not make smooth and clear.
-            free = yield from self.search_steps(start, target, guided, chunk,
-                                                hand_continuity=False,
-                                                **{**limits, "node_budget": left})
-            free.nodes_searched += result.nodes_searched
-            free.search_time_s += result.search_time_s
-            if free.success or free.closest_distance < result.closest_distance - gen.step_length:
-                result = free
-            else:
-                result.nodes_searched, result.search_time_s = free.nodes_searched, free.search_time_s
-        sampled = False
-        if not result.success and diagnosis is None and s.sampling_fallback:
-            result = yield from self._sampling(start, target, chunk, result)
-            sampled = True
+        route = yield from self.route_steps(start, target, guided, chunk, diagnosis)
+        result, sampled = route.result, route.sampled
         if self.has_workspace and not had_workspace:
             stats.preprocess_time_s = self._workspace.build_time_s
 
@@ -431,7 +512,7 @@ class Planner:
         if result.method == "sampling":
             message += " (sampling planner: the best-first search found no way in)"
         if not result.success:
-            reason, message = self._failure(name, result, diagnosis, start)
+            reason, message = self.explain_failure(name, result, diagnosis, start)
         elif contact is not None:
             # never call a motion that touches something a success: keep the frames
             # before the first contact as the closest approach, and say so
@@ -460,8 +541,9 @@ class Planner:
         # repaired; a closest approach is not followed (its end is a dead end the trees
         # would crowd into)
         seed = result.path if result.success and len(result.path) > 1 else ()
-        sampled = yield from _sampling_progress(
-            sampling_steps(view, start, target, chunk, seed, bool(seed)))
+        # states are cheaper than searched positions: ten count as one
+        sampled = yield from relay(sampling_steps(view, start, target, chunk, seed, bool(seed)),
+                                   lambda states: states // 10)
         if sampled.success:
             sampled.states_tested = sampled.nodes_searched
             sampled.nodes_searched = result.nodes_searched
@@ -503,7 +585,7 @@ class Planner:
         hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler, escape=loose)
         return hand.poses, hand, wrist_length
 
-    def _failure(self, name: str, result: SearchResult, diagnosis, start: Pose):
+    def explain_failure(self, name: str, result: SearchResult, diagnosis, start: Pose):
         """(reason, message) of a failed reach: the diagnosis's
         (:meth:`ConfigurationGenerator.diagnose_target`), else ``no_path``."""
         arm = self.arm
@@ -560,55 +642,99 @@ class Planner:
         motion_stats(stats, self.arm, poses, [self.generator.checker] * len(poses),
                      motion_length, hand, clearances)
 
-    def _chase(self, task: Task, start: Pose, chunk: int):
-        s, arm, gen = self.settings, self.arm, self.generator
-        way_out, failed = self._start_escape(task, start)
-        if failed is not None:
-            return failed
-        length = arm.arm_length
-        steps_per_frame = max(1, int(s.chase_max_speed / task.fps / s.step + 1e-9))
-        trajectory = arm.to_canonical_points(task.targets)
-        poses = [start] + escape_frames(way_out, steps_per_frame, len(trajectory))
-        stats = Stats()
-        path = [p.wrist for p in poses]
-        on_target = 0
-        for f in range(len(poses), len(trajectory)):
-            if chunk:
-                yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
-            nxt, res = chase_step(gen, poses[-1], trajectory[f], steps_per_frame, task.fps)
-            stats.nodes_searched += res.nodes_searched
-            stats.search_time_s += res.search_time_s
-            stats.nodes_in_solution += min(steps_per_frame, len(res.path) - 1)
-            poses.append(nxt)
-            path.append(nxt.wrist)
-            if np.linalg.norm(nxt.wrist - trajectory[f]) <= s.goal_tolerance * length:
-                on_target += 1
-        stats.nodes_in_solution += 1  # the start, as in the reach tasks
-        stats.path_length_arm_lengths = float(
-            np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
-        hand = plan_hand(gen, poses, task.fps, may_insert=False, arcs=range(len(poses)),
-                         escape=escape_of(way_out, poses))
-        poses = hand.poses
-        self._motion_stats(stats, poses, stats.path_length_arm_lengths, hand)
-        gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
-        success = gap <= s.goal_tolerance
-        name = task.name(0)
-        if success:
-            reason, message = None, f"caught '{name}' ({on_target} of {len(poses) - 1} frames on target)"
-        else:
-            diagnosis = gen.diagnose_target(trajectory[-1])
-            fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
-                                trajectory[-1])
-            reason, message = self._failure(name, fake, diagnosis, start)
-            if reason == NO_PATH:
-                message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
-                           "lengths behind); raise the chase speed limit or the nodes per frame")
-        seg = Segment(0, name, task.targets[-1], success, reason, message, 0, len(poses) - 1,
-                      stats, arm.to_world_points(np.array(path)), np.zeros((0, 3)), "chase")
-        total = Stats()
-        total.add(stats)
-        total.frames = len(poses)
-        return Plan(task, arm, s, poses, [seg], total, self._workspace)
+
+def chase_steps_per_frame(settings: Settings, fps: float) -> int:
+    """Search steps the wrist may take in one frame: ``chase_max_speed / fps / step``."""
+    return max(1, int(settings.chase_max_speed / fps / settings.step + 1e-9))
+
+
+def chase_steps(planners, task: Task, chunk: int = 1):
+    """Plan a chase with one planner per frame (``planners[f]`` holds the obstacles at
+    frame ``f``; pass the same planner for frames where nothing moved): each frame is
+    re-planned from the previous frame's pose against the obstacles *at that frame*. A
+    generator like :meth:`Planner.plan_steps`: yields (fraction, message) every ``chunk``
+    frames and returns the :class:`Plan`. With one planner for every frame this is
+    :meth:`Planner.plan` of the chase task (which calls it so). A frame whose pose is hit
+    by an obstacle that moved into it fails the chase, naming the obstacle and the frame."""
+    t0 = time.perf_counter()
+    planners = list(planners)
+    if task.kind != "chase":
+        raise ValueError("chase_steps plans chase tasks")
+    if len(planners) != len(task.targets):
+        raise ValueError(f"one planner per frame: {len(task.targets)} frames, "
+                         f"{len(planners)} planners")
+    start = planners[0].generator.config_pose(task.start, task.start_hand)
+    require_finite("start pose", start.joints)
+    plan = yield from _chase(planners, task, start, chunk)
+    plan.stats.planning_time_s = time.perf_counter() - t0
+    return plan
+
+
+def _chase(planners: list, task: Task, start: Pose, chunk: int):
+    """The chase task from ``start`` (see :func:`chase_steps`)."""
+    first = planners[0]
+    arm, s = first.arm, first.settings
+    way_out, failed = first.start_escape(task, start)
+    if failed is not None:
+        return failed
+    length = arm.arm_length
+    steps = chase_steps_per_frame(s, task.fps)
+    trajectory = arm.to_canonical_points(task.targets)
+    poses = [start] + escape_frames(way_out, steps, len(trajectory))
+    path = [p.wrist for p in poses]
+    stats = Stats()
+    on_target = 0
+    hit = None
+    for f in range(len(poses), len(trajectory)):
+        if chunk and f % chunk == 0:
+            yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
+        gen = planners[f].generator
+        nxt, res = chase_step(gen, poses[-1], trajectory[f], steps, task.fps)
+        stats.nodes_searched += res.nodes_searched
+        stats.search_time_s += res.search_time_s
+        stats.nodes_in_solution += min(steps, len(res.path) - 1)
+        poses.append(nxt)
+        path.append(nxt.wrist)
+        if np.linalg.norm(nxt.wrist - trajectory[f]) <= s.goal_tolerance * length:
+            on_target += 1
+        if hit is None and planners[f] is not planners[f - 1]:
+            contact = gen.checker.first_hit(arm.to_world_points(nxt.joints))
+            if contact is not None:
+                hit = (f, contact)
+    stats.nodes_in_solution += 1  # the start, as in the reach tasks
+    stats.path_length_arm_lengths = float(
+        np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
+    hand = plan_hand([p.generator for p in planners], poses, task.fps, may_insert=False,
+                     arcs=range(len(poses)), escape=escape_of(way_out, poses))
+    poses = hand.poses
+    motion_stats(stats, arm, poses, [p.generator.checker for p in planners],
+                 stats.path_length_arm_lengths, hand=hand)
+    gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
+    name = task.name(0)
+    last = planners[-1]
+    if hit is not None:
+        f, (part, obstacle) = hit
+        reason, message = START_IN_COLLISION, (
+            f"'{obstacle}' moves into the arm (at the {part}) on frame {f} of the chase of "
+            f"'{name}' and no clear pose was found; change the obstacle's motion or the "
+            "chase speed limit")
+    elif gap <= s.goal_tolerance:
+        reason, message = None, f"caught '{name}' ({on_target} of {len(poses) - 1} frames on target)"
+    else:
+        diagnosis = last.generator.diagnose_target(trajectory[-1])
+        fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
+                            trajectory[-1])
+        reason, message = last.explain_failure(name, fake, diagnosis, start)
+        if reason == NO_PATH:
+            message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
+                       "lengths behind); raise the chase speed limit or the nodes per frame")
+    seg = Segment(0, name, task.targets[-1], reason is None, reason, message, 0,
+                  len(poses) - 1, stats, arm.to_world_points(np.array(path)), np.zeros((0, 3)),
+                  "chase")
+    total = Stats()
+    total.add(stats)
+    total.frames = len(poses)
+    return Plan(task, arm, s, poses, [seg], total, first.built_workspace)
 
 
 def first_contact(generator, poses, hand: HandReport, clearances, escaping: bool = False):
@@ -676,23 +802,8 @@ def escape_of(way_out, poses):
 
 def _progress(steps, index: int, count: int, name: str):
     """Re-yield a segment's search progress as (fraction of the whole task, message)."""
-    while True:
-        try:
-            nodes = next(steps)
-        except StopIteration as done:
-            return done.value
-        yield (index + min(0.95, nodes / 2000.0)) / count, f"reaching '{name}': {nodes} positions"
-
-
-def _sampling_progress(steps):
-    """Re-yield the sampling planner's states tested as the search's progress (states are
-    cheaper than searched positions: ten count as one)."""
-    while True:
-        try:
-            states = next(steps)
-        except StopIteration as done:
-            return done.value
-        yield states // 10
+    return relay(steps, lambda nodes: ((index + min(0.95, nodes / 2000.0)) / count,
+                                       f"reaching '{name}': {nodes} positions"))
 
 
 def plan(task: Task, arm: ArmModel, obstacles: Obstacles | None, settings: Settings | None = None,

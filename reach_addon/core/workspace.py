@@ -29,6 +29,7 @@ import numpy as np
 
 from . import ik
 from .generator import ConfigurationGenerator
+from .steps import drain
 
 _NEIGHBOURS = np.array([d for d in itertools.product((-1, 0, 1), repeat=3) if any(d)])
 
@@ -123,12 +124,7 @@ def workspace_box(arm, settings):
 def build_workspace(generator: ConfigurationGenerator) -> Workspace:
     """Preprocess the workspace for one arm and one obstacle set, in one go
     (:func:`workspace_steps` run to the end)."""
-    steps = workspace_steps(generator, None)
-    while True:
-        try:
-            next(steps)
-        except StopIteration as done:
-            return done.value
+    return drain(workspace_steps(generator, None))
 
 
 def workspace_steps(generator: ConfigurationGenerator, chunk: int | None = 8):

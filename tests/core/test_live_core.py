@@ -10,11 +10,11 @@ import pytest
 from geometry import HANGING, arm_penetration, obstacles, standard_arm, triangles_of
 from reach_addon.core import (NEEDS_STEP, NO_PATH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
                               Planner, ReachError, Settings, Task)
-from reach_addon.core.live import (CLOSEST, REACHED, LiveSession, chase_steps,
-                                   workspace_steps)
-from reach_addon.core.search import drain
-from reach_addon.core.workspace import build_workspace
-from reach_addon.demo import WORKPLACE, demo_tasks
+from reach_addon.core.live import CLOSEST, REACHED, LiveSession
+from reach_addon.core.steps import drain
+from reach_addon.core.tasks import chase_steps
+from reach_addon.core.workspace import build_workspace, workspace_steps
+from reach_addon.demo import WORKPLACE
 
 WALL = {"Crate": [((-0.60, -0.36, 0.70), (0.00, -0.30, 1.08))]}
 BEHIND_WALL = np.array([-0.28, -0.46, 1.14])
@@ -134,6 +134,7 @@ def test_a_new_target_abandons_the_search_under_way(arm):
 def test_a_fast_drag_keeps_the_progress_made(arm):
     s = Settings()
     session = LiveSession(arm, obstacles(WALL), s, HANGING)
+    assert session.planner.workspace is not None  # built by an earlier re-plan: the slices search
     start = arm.to_world_points(session.pose.joints)
     session.set_target(BEHIND_WALL)
     for _ in range(10):
@@ -282,20 +283,6 @@ def test_live_mode_falls_back_on_the_sampling_planner_as_the_reach_task_does(arm
 
 
 # --- chase with obstacles per frame ----------------------------------------------------------
-
-def test_chase_with_one_planner_is_the_chase_task(arm):
-    task = dict(demo_tasks())["chase"]
-    planner = Planner(arm, obstacles(WORKPLACE))
-    reference = Planner(arm, obstacles(WORKPLACE)).plan(task)
-    ours = drain(chase_steps([planner] * len(task.targets), task))
-    assert ours.success == reference.success and ours.message == reference.message
-    assert len(ours.poses) == len(reference.poses)
-    for a, b in zip(ours.poses, reference.poses):
-        np.testing.assert_array_equal(a.joints, b.joints)
-    for key in ("nodes_searched", "nodes_in_solution", "path_length_arm_lengths", "frames",
-                "strength_categories", "min_clearance_arm_lengths"):
-        assert getattr(ours.stats, key) == getattr(reference.stats, key), key
-
 
 def sweep_task():
     t = np.linspace(0.0, 1.0, 60)

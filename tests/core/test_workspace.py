@@ -98,6 +98,7 @@ def _grid_by_definition(planner, ws):
 def test_grid_is_its_definition_however_it_is_sped_up():
     """The build skips work (cells out of reach, wrists inside the body, candidates after
     the first clear one, regions labelled in bulk): none of it may change a cell."""
+    from reach_addon.core.steps import drain
     from reach_addon.core.workspace import workspace_steps
     from reach_addon.demo import WORKPLACE
 
@@ -113,12 +114,6 @@ def test_grid_is_its_definition_however_it_is_sped_up():
         occupied, valid = _grid_by_definition(planner, planner.workspace)
         assert occupied.any() and valid.any(), name
         for chunk in (None, 8):
-            steps = workspace_steps(planner.generator, chunk)
-            while True:
-                try:
-                    next(steps)
-                except StopIteration as done:
-                    ws = done.value
-                    break
+            ws = drain(workspace_steps(planner.generator, chunk))
             assert np.array_equal(ws.occupied, occupied), (name, chunk)
             assert np.array_equal(ws.valid, valid), (name, chunk)
