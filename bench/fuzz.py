@@ -1357,9 +1357,9 @@ def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
     sys.path.insert(0, str(ROOT / "tests" / "blender"))
     import bpy  # noqa: F401  (mathutils for the core)
 
-    from reach_addon import cli
+    from reach_addon import ensure_registered
 
-    cli.ensure_registered()
+    ensure_registered()
     work = Path(tempfile.mkdtemp(prefix="reach-fuzz-"))
     try:
         scene_dir = keep if keep is not None else work / "scene"

@@ -19,14 +19,42 @@ bl_info = {
 __version__ = ".".join(map(str, bl_info["version"]))
 
 
+_cli = []
+
+
 def register():
-    """Called by Blender when the add-on is enabled."""
+    """Called by Blender when the add-on is enabled: the UI, and on Blender 4.2+ the
+    ``blender --command reach`` command line."""
+    import bpy
+
     from . import ui
 
     ui.register()
+    # ``blender -c reach`` exists only in the Blender program. Blender as a Python module
+    # (the bpy wheel, binary_path "") has no ``-c``, and there a command still registered
+    # when Python exits crashes the interpreter (bpy 4.2 and 4.5: segmentation fault).
+    if hasattr(bpy.utils, "register_cli_command") and bpy.app.binary_path:
+        from .cli import blender_command
+
+        _cli.append(bpy.utils.register_cli_command("reach", blender_command))
 
 
 def unregister():
+    import bpy
+
     from . import ui
 
+    while _cli:
+        bpy.utils.unregister_cli_command(_cli.pop())
     ui.unregister()
+
+
+def ensure_registered() -> bool:
+    """Register Reach's Blender classes unless Blender already has them (an enabled
+    add-on or extension); True when this call registered them (the caller unregisters)."""
+    import bpy
+
+    if hasattr(bpy.types.Scene, "reach"):
+        return False
+    register()
+    return True

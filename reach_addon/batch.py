@@ -191,7 +191,7 @@ def _apply_presets(names, settings):
     """Run Blender presets (Python snippets against ``scene.reach``) on a scratch scene."""
     import bpy
 
-    from .cli import ensure_registered
+    from . import ensure_registered, unregister
     from .ui import presets as presets_mod
     from .ui.properties import overrides_of, settings_from, settings_to
 
@@ -212,7 +212,6 @@ def _apply_presets(names, settings):
             bpy.context.window.scene = window_scene
         bpy.data.scenes.remove(scene)
         if registered:
-            from . import unregister
             unregister()
     return out, bones
 

@@ -202,21 +202,10 @@ def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
     }
 
 
-def ensure_registered() -> bool:
-    """Register Reach's Blender classes unless Blender already has them (an enabled
-    add-on or extension); True when this call registered them (the caller unregisters)."""
-    import bpy
-
-    if hasattr(bpy.types.Scene, "reach"):
-        return False
-    from . import register
-
-    register()
-    return True
-
-
 def cmd_bake(args) -> int:
     import bpy
+
+    from . import ensure_registered, unregister
 
     scene_path = Path(args.scene)
     if not scene_path.is_file():
@@ -243,8 +232,6 @@ def cmd_bake(args) -> int:
                 return _bake_open_file(args, scene_path, output, bones, written)
             finally:
                 if registered:
-                    from . import unregister
-
                     unregister()
     except Interrupted as exc:
         if written:
