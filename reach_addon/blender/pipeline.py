@@ -11,7 +11,7 @@ changed. The scene's current frame is restored when the work ends, however it en
 A chase samples the target on every frame of its motion (``frame_set``, so keys, parents
 and constraints all count) and the obstacles too: while none of them moves the chase is the
 core's chase task; when one does (keys, a parent, a deforming modifier), each frame is
-planned against the obstacles of that frame (:func:`reach_addon.core.live.chase_steps`), a
+planned against the obstacles of that frame (:func:`reach_addon.core.tasks.chase_steps`), a
 new BVH being built only for frames where the obstacles' signature changed.
 
 A reach, sequence or guided task plans one motion: where obstacles are animated (keys on
@@ -35,11 +35,11 @@ import bpy
 import numpy as np
 
 from ..core import Planner, ReachError, Settings, Task
-from ..core.live import chase_steps
+from ..core.tasks import chase_steps
 from . import bake as bake_mod
 from . import rig as rig_mod
 from . import viz
-from .scene import (character_objects, finite, gather_pieces, obstacles_from_pieces,
+from .scene import (ObstacleCache, character_objects, finite, gather_pieces, obstacles_from_pieces,
                     visit_obstacles)
 
 TASKS = ("reach", "sequence", "guided", "chase")
@@ -450,9 +450,7 @@ def _sample_chase(context, target, exclude, collection, obstacles, f0, f1):
     """The target's world position on every frame f0..f1 (keys, parents, constraints all
     evaluated by ``frame_set``), and the obstacles on every frame: the same
     :class:`~reach_addon.core.Obstacles` while nothing moves, a new BVH for frames where an
-    obstacle moved or changed shape (the signature of :class:`.live.ObstacleCache`)."""
-    from .live import ObstacleCache
-
+    obstacle moved or changed shape (the signature of :class:`.scene.ObstacleCache`)."""
     scene = context.scene
     cache = ObstacleCache(exclude, collection.name if collection is not None else None)
     path, frames = [], []

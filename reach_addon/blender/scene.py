@@ -21,13 +21,20 @@ Safety
 (reading them later crashed Blender). :func:`visit_obstacles` is the one place that walks
 it: everything — the instance's matrix, its triangles, a signature — is read inside the
 step by a callback and copied to numpy. The rules above are written once there, for
-:func:`gather_obstacles` and for live mode's :class:`~.live.ObstacleCache` alike.
+:func:`gather_obstacles` and for :class:`ObstacleCache` alike.
+
+Obstacles that change
+---------------------
+:class:`ObstacleCache` keeps one BVH and rebuilds it only when a cheap signature of the
+obstacles changes: live mode reads it on every update, a chase on every frame.
 """
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 
+import bpy
 import numpy as np
 
 from ..core import Obstacles, ReachError
@@ -175,6 +182,81 @@ def obstacles_from_pieces(pieces, collection=None) -> Obstacles:
         offset += len(v)
     return Obstacles.from_triangles(np.concatenate(verts), np.concatenate(tris),
                                     np.concatenate(owners), list(labels))
+
+
+class ObstacleCache:
+    """The obstacles of one scene, rebuilt only when they change.
+
+    The signature lists, for every piece :func:`~.scene.visit_obstacles` finds (the walk
+    and the rules :func:`~.scene.gather_obstacles` uses: visible, with geometry, not the
+    character, the targets or Reach's own display, inside the obstacle collection if one is
+    given): its owner and name, world matrix, data
+    block and vertex count, a counter of geometry edits seen by the depsgraph handler
+    (:meth:`note_geometry`), and — when ``geometry`` is asked for, as after a frame change
+    — a checksum of the evaluated vertices of objects whose shape can change without a
+    transform (modifiers, shape keys, edit mode). Reading matrices costs microseconds per
+    object; the BVH is rebuilt only when the signature differs."""
+
+    def __init__(self, exclude=(), collection: str | None = None):
+        self.exclude = set(exclude)
+        self.collection = collection
+        self.signature = None
+        self.obstacles = None
+        self.builds = 0
+        self._edits: dict[str, int] = {}
+
+    def note_geometry(self, name: str) -> None:
+        if name not in self.exclude:
+            self._edits[name] = self._edits.get(name, 0) + 1
+
+    def _collection(self):
+        if self.collection is None:
+            return None
+        coll = bpy.data.collections.get(self.collection)
+        if coll is None:
+            raise ReachError(f"obstacle collection '{self.collection}' no longer exists; "
+                             "choose another or plan against all visible objects")
+        return coll
+
+    def compute_signature(self, context, depsgraph=None, geometry: bool = False) -> tuple:
+        edits = self._edits
+
+        def read(piece, ob):
+            # Inside the depsgraph's iteration step (see scene.visit_obstacles): copy only.
+            original = ob.original
+            data = ob.data
+            count = len(data.vertices) if piece.type == "MESH" else 0
+            entry = (piece.owner, piece.name, np.round(piece.matrix, 9).tobytes(),
+                     getattr(original.data, "name", ""), count, edits.get(piece.name, 0))
+            if geometry and count and _deformable(original):
+                co = np.empty(count * 3, dtype=np.float32)
+                data.vertices.foreach_get("co", co)
+                entry += (zlib.crc32(co.tobytes()),)
+            return entry
+
+        pieces = visit_obstacles(context, read, self.exclude, self._collection(), depsgraph)
+        return tuple(entry for _piece, entry in pieces)
+
+    def get(self, context, depsgraph=None, geometry: bool = False):
+        """(obstacles, rebuilt?) for the scene as it is now."""
+        depsgraph = depsgraph or context.evaluated_depsgraph_get()
+        sig = self.compute_signature(context, depsgraph, geometry)
+        if not geometry and self.signature is not None and len(sig) == len(self.signature):
+            # Without checksums, keep the ones taken last time for objects that did not move.
+            sig = tuple(s + old[len(s):] if s == old[:len(s)] else s
+                        for s, old in zip(sig, self.signature))
+        if self.obstacles is not None and sig == self.signature:
+            return self.obstacles, False
+        self.obstacles = gather_obstacles(context, self.exclude, self._collection(), depsgraph)
+        self.signature = sig
+        self.builds += 1
+        return self.obstacles, True
+
+
+def _deformable(ob) -> bool:
+    data = ob.data
+    return bool(len(ob.modifiers) or getattr(data, "shape_keys", None) is not None
+                or ob.mode == "EDIT" or (data is not None and data.animation_data is not None))
 
 
 def _triangles(ob, cache):

@@ -28,7 +28,7 @@ def main(argv):
     kind, out = argv
     import reach_addon
     from reach_addon.blender import scene as scene_mod
-    from reach_addon.blender.live import ObstacleCache
+    from reach_addon.blender.scene import ObstacleCache
 
     arm = rigs.load(kind)
     rigs.rest_still(arm)
