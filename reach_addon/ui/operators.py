@@ -24,37 +24,9 @@ import bpy
 
 from ..blender import live, pipeline, rig, viz
 from ..core import ReachError
-from .properties import last_result, overrides_of, settings_from
+from .properties import last_result, request_from, set_live
 
 SLICE_S = 0.03
-
-
-def request_from(props) -> pipeline.Request:
-    """The pipeline request described by the scene's Reach properties."""
-    if props.task in {"SEQUENCE", "GUIDED"} and props.targets is not None:
-        targets = sorted(ob.name for ob in props.targets.all_objects)
-    elif props.target is not None:
-        targets = [props.target.name]
-    elif props.targets is not None:
-        targets = sorted(ob.name for ob in props.targets.all_objects)[:1]
-    else:
-        targets = []
-    over = {k[len("bone_"):]: v for k, v in overrides_of(props).items()}
-    return pipeline.Request(
-        armature=props.armature.name if props.armature else "",
-        targets=targets,
-        task=props.task.lower(),
-        side=props.arm.lower(),
-        obstacles=(props.obstacle_collection.name
-                   if props.obstacles == "COLLECTION" and props.obstacle_collection else None),
-        frame_start=None if props.use_current_frame else props.frame_start,
-        duration_s=None if props.auto_duration else props.duration,
-        settings=settings_from(props.settings),
-        overrides=over,
-        new_action=props.new_action,
-        bake_closest=props.bake_closest,
-        show_guides=props.show_guides,
-    )
 
 
 def _poll(cls, context):
@@ -276,26 +248,6 @@ def obstacle_lines(res: dict) -> list:
     if len(obstacles) > SHOWN_OBSTACLES:
         lines.append(f"  … and {len(obstacles) - SHOWN_OBSTACLES} more (see the report)")
     return lines
-
-
-def live_request(props) -> pipeline.Request:
-    """The request live mode follows: the panel's, reaching for its first target."""
-    request = request_from(props)
-    request.targets = request.targets[:1]
-    request.task = "reach"
-    return request
-
-
-def set_live(context, on: bool) -> None:
-    """Turn live mode on (from the panel's inputs) or off (one undo step). Raises
-    ReachError for bad input."""
-    props = context.scene.reach
-    if not on:
-        live.stop(push_undo=True)
-        return
-    if props.running:
-        raise ReachError("a plan or bake is running; wait for it or press Esc first")
-    live.start(context, live_request(props), budget_s=props.live_budget_ms / 1000.0)
 
 
 class REACH_OT_live(bpy.types.Operator):

@@ -1,7 +1,9 @@
 """Blender properties: the planner settings (generated from
 :class:`~reach_addon.core.Settings`, so defaults, ranges and descriptions have one source)
 and the per-scene Reach inputs (armature, arm, targets, obstacles, task, bake options,
-bone overrides, last result, live mode)."""
+bone overrides, last result, live mode), with what they describe: :func:`request_from`
+(the pipeline request of Plan and Bake) and :func:`set_live` (live mode on or off, for the
+Live operator and the ``live`` property's setter)."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
+from ..blender import live, pipeline
 from ..core import ReachError, Settings
 from ..core.live import DEFAULT_BUDGET_S
 from ..core.settings import fields
@@ -68,17 +71,12 @@ def _is_armature(_self, ob):
 
 
 def _live_get(self):
-    from ..blender import live
-
     return live.is_active(self.id_data)
 
 
 def _live_set(self, value):
     """Scripts may set ``scene.reach.live``; errors cannot be reported from a setter, so
     they go to the console and the panel's Live status."""
-    from ..blender import live
-    from .operators import set_live
-
     if bool(value) == live.is_active(self.id_data):
         return
     try:
@@ -92,9 +90,6 @@ def _live_set(self, value):
 def _live_inputs_update(self, context):
     """A new armature, arm or target while Live is on: Live follows the new one (the pose on
     screen stays)."""
-    from ..blender import live
-    from .operators import set_live
-
     if live.is_active(self.id_data):
         try:
             set_live(context, True)
@@ -104,8 +99,6 @@ def _live_inputs_update(self, context):
 
 
 def _live_budget_update(self, _context):
-    from ..blender import live
-
     st = live.state()
     if st is not None and st.scene == self.id_data.name:
         st.budget_s = self.live_budget_ms / 1000.0
@@ -185,6 +178,54 @@ def overrides_of(props) -> dict:
     if not props.use_overrides:
         return {}
     return {name: getattr(props, name) for name in OVERRIDES if getattr(props, name)}
+
+
+def request_from(props) -> pipeline.Request:
+    """The pipeline request described by the scene's Reach properties."""
+    if props.task in {"SEQUENCE", "GUIDED"} and props.targets is not None:
+        targets = sorted(ob.name for ob in props.targets.all_objects)
+    elif props.target is not None:
+        targets = [props.target.name]
+    elif props.targets is not None:
+        targets = sorted(ob.name for ob in props.targets.all_objects)[:1]
+    else:
+        targets = []
+    over = {k[len("bone_"):]: v for k, v in overrides_of(props).items()}
+    return pipeline.Request(
+        armature=props.armature.name if props.armature else "",
+        targets=targets,
+        task=props.task.lower(),
+        side=props.arm.lower(),
+        obstacles=(props.obstacle_collection.name
+                   if props.obstacles == "COLLECTION" and props.obstacle_collection else None),
+        frame_start=None if props.use_current_frame else props.frame_start,
+        duration_s=None if props.auto_duration else props.duration,
+        settings=settings_from(props.settings),
+        overrides=over,
+        new_action=props.new_action,
+        bake_closest=props.bake_closest,
+        show_guides=props.show_guides,
+    )
+
+
+def live_request(props) -> pipeline.Request:
+    """The request live mode follows: the panel's, reaching for its first target."""
+    request = request_from(props)
+    request.targets = request.targets[:1]
+    request.task = "reach"
+    return request
+
+
+def set_live(context, on: bool) -> None:
+    """Turn live mode on (from the panel's inputs) or off (one undo step). Raises
+    ReachError for bad input."""
+    props = context.scene.reach
+    if not on:
+        live.stop(push_undo=True)
+        return
+    if props.running:
+        raise ReachError("a plan or bake is running; wait for it or press Esc first")
+    live.start(context, live_request(props), budget_s=props.live_budget_ms / 1000.0)
 
 
 def last_result(props) -> dict:

@@ -283,7 +283,7 @@ def test_stopping_at_any_step_changes_nothing(fresh, addon, bake):
         pb.rotation_quaternion = (np.cos(angle), np.sin(angle), 0, 0)
         pb.keyframe_insert("rotation_quaternion", frame=f)
     bpy.context.scene.frame_set(1)
-    request = addon.ui.operators.request_from(bpy.context.scene.reach)
+    request = addon.ui.properties.request_from(bpy.context.scene.reach)
     pipeline = addon.blender.pipeline
     before = fingerprint()
 
