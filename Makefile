@@ -48,6 +48,7 @@ system-deps:
 	sh tools/system-deps.sh
 
 test: setup system-deps $(MATRIX:%=.venv-%/.installed)
+	$(PY) tools/import_cycles.py
 	$(PY) -m pytest
 	@for v in $(MATRIX); do \
 		echo "== the add-on and bake tests on bpy $$v"; \

@@ -39,3 +39,54 @@ def test_the_readme_performance_figures_are_the_bench_results():
                           cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, ("README.md's Performance table differs from "
                                   "bench/results.json: run python bench/readme.py " + done.stderr)
+
+
+def _import_cycles(*args):
+    return subprocess.run([sys.executable, str(ROOT / "tools" / "import_cycles.py"), *args],
+                          cwd=ROOT, capture_output=True, text=True, timeout=60)
+
+
+def test_reach_has_no_import_cycles():
+    """tools/import_cycles.py (run by make test too) finds no cycle in reach_addon."""
+    done = _import_cycles()
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.strip() == "no import cycles"
+
+
+def _package(root, files):
+    for name, text in files.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    return root
+
+
+def test_the_import_cycle_check_finds_a_cycle(tmp_path):
+    """A cycle through a function-level import, written with ``from . import x`` (x a
+    submodule), fails the check and is named with the lines that make it."""
+    pkg = _package(tmp_path / "pkg", {
+        "__init__.py": "",
+        "a.py": "from .b import helper\n",
+        "sub/__init__.py": "",
+        "sub/c.py": "import pkg.b\n",
+        "b.py": "def helper():\n    from . import a\n    from .sub import c\n",
+    })
+    done = _import_cycles(str(pkg))
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "import cycle: pkg.a, pkg.b, pkg.sub.c\n" in done.stdout
+    assert "pkg.b imports pkg.a  (pkg/b.py: line 2)" in done.stdout
+    assert "pkg.sub.c imports pkg.b  (pkg/sub/c.py: line 1)" in done.stdout
+
+
+def test_the_import_cycle_check_on_imports_from_the_own_package(tmp_path):
+    """A submodule reading a name from its own package is a cycle only when the package's
+    ``__init__`` imports that submodule at module level (the one case in which it can see
+    the package half-made); a package importing a submodule's name inside a function is not."""
+    files = {"__init__.py": "VERSION = 1\n\ndef register():\n    from .cli import main\n",
+             "cli.py": "def main():\n    from . import VERSION\n"}
+    done = _import_cycles(str(_package(tmp_path / "late", files)))
+    assert done.returncode == 0, done.stdout
+    files["__init__.py"] = "from .cli import main\nVERSION = 1\n"
+    done = _import_cycles(str(_package(tmp_path / "early", files)))
+    assert done.returncode == 1, done.stdout
+    assert "import cycle: early, early.cli" in done.stdout
