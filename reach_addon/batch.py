@@ -248,7 +248,7 @@ def run_task(spec: dict) -> dict:
         if target is None:
             point = np.array(spec["point"], float)
             if spec["frame"] == "shoulder":
-                armature = pipeline._object(spec["armature"], "armature")
+                armature = pipeline.find_object(spec["armature"], "armature")
                 info = rig_mod.build(armature, spec["arm"], spec["bones"])
                 side = info.frame.right if info.side == "right" else -info.frame.right
                 point = (info.joints_world["shoulder"] + info.arm.arm_length *

@@ -113,7 +113,9 @@ class Outcome:
         }
 
 
-def _object(name, what):
+def find_object(name, what):
+    """The object called ``name``; a ReachError naming it as the ``what`` (armature,
+    target) when the file has none."""
     ob = bpy.data.objects.get(name) if name else None
     if ob is None:
         raise ReachError(f"{what} '{name}' does not exist in this file; check the name")
@@ -127,8 +129,8 @@ def validate(context, request: Request, bake: bool):
         raise ReachError(f"unknown task '{request.task}'; choose one of {', '.join(TASKS)}")
     if not request.armature:
         raise ReachError("no armature chosen; pick the character's armature")
-    armature = _object(request.armature, "armature")
-    rig_mod._check_armature(armature)
+    armature = find_object(request.armature, "armature")
+    rig_mod.check_armature(armature)
     if not finite(np.array(armature.matrix_world)):
         raise ReachError(f"armature '{armature.name}' has a NaN or infinite transform; fix its "
                          "location, rotation and scale")
@@ -136,7 +138,7 @@ def validate(context, request: Request, bake: bool):
         raise ReachError(f"armature '{armature.name}' is not in scene '{context.scene.name}'")
     if not request.targets:
         raise ReachError("no target chosen; pick the object to reach for")
-    targets = [_object(n, "target") for n in request.targets]
+    targets = [find_object(n, "target") for n in request.targets]
     for t in targets:
         if t == armature:
             raise ReachError(f"the target '{t.name}' is the armature itself; pick the object to "

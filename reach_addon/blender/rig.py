@@ -715,7 +715,7 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     The model is built from the pose at the current frame, so planning starts exactly
     where the arm is; the chest rotation of the model is counted from the current pose.
     """
-    _check_armature(armature)
+    check_armature(armature)
     bmap = detect_bones(armature, overrides)
     frame = body_frame(armature, bmap)
     if side == "auto":
@@ -792,7 +792,9 @@ def _metres_per_unit(armature) -> float:
     return scale if math.isfinite(scale) and scale > 0 else 1.0
 
 
-def _check_armature(armature):
+def check_armature(armature) -> None:
+    """Raise ReachError, naming what to do, unless ``armature`` is an armature Reach can
+    read: not in Edit Mode, with a finite transform of non-zero scale."""
     if armature is None:
         raise ReachError("no armature chosen; pick the character's armature in the Reach panel")
     if armature.type != "ARMATURE":
