@@ -138,40 +138,19 @@ class ArmModel:
             raise ReachError(f"{label}: shoulder and sternum coincide; check the bone map")
         caps = tuple(self.body_capsules)
         object.__setattr__(self, "body_capsules", caps)
-        object.__setattr__(self, "_capsule_arrays", (
-            np.array([c.a for c in caps]).reshape(-1, 3),
-            np.array([c.b for c in caps]).reshape(-1, 3),
-            np.array([c.radius for c in caps]),
-            np.array([c.turns_with_chest for c in caps], dtype=bool),
-        ))
-        # the same on floats, with each capsule's centre and half length, for the body
+        # the capsules on floats, with each one's centre and half length, for the body
         # test of every pose tried (ik.body_capsules_at)
         floats = []
         for c in caps:
             p, q = [float(v) for v in c.a], [float(v) for v in c.b]
             floats.append((p, q, [0.5 * (p[i] + q[i]) for i in range(3)],
                            0.5 * math.dist(p, q), float(c.radius), bool(c.turns_with_chest)))
-        object.__setattr__(self, "_capsule_floats", tuple(floats))
-
-    def capsules_at(self, body_rotation: float):
-        """Body capsule ends (C, 3) and (C, 3) and radii (C,) with the chest turned by
-        ``body_rotation`` degrees (capsules that do not turn with the chest stay)."""
-        a, b, radii, turns = self._capsule_arrays
-        if body_rotation == 0.0 or not turns.any():
-            return a, b, radii
-        a, b = a.copy(), b.copy()
-        a[turns] = rotate_about_spine(a[turns], body_rotation)
-        b[turns] = rotate_about_spine(b[turns], body_rotation)
-        return a, b, radii
+        object.__setattr__(self, "capsule_floats", tuple(floats))
 
     @property
     def arm_length(self) -> float:
-        """Upper arm + forearm: the unit of every length setting."""
-        return self.upper_arm_length + self.forearm_length
-
-    @property
-    def max_reach(self) -> float:
-        """Farthest wrist distance from the shoulder (straight arm)."""
+        """Upper arm + forearm: the unit of every length setting, and the farthest the
+        wrist gets from the shoulder (a straight arm)."""
         return self.upper_arm_length + self.forearm_length
 
     def min_reach(self, elbow_max_deg: float) -> float:
@@ -326,17 +305,32 @@ def hand_direction(upper, bend, forearm, wrist_bend_deg, wrist_side_deg):
     return np.array(hand_direction_floats(u, b, f, wrist_bend_deg, wrist_side_deg))
 
 
-def hand_direction_floats(upper, bend, forearm, wrist_bend_deg, wrist_side_deg) -> tuple:
-    """:func:`hand_direction` on plain floats: three (x, y, z) sequences in, a tuple out
-    (the sampling planner's validity test runs it for every state it tests, where numpy
-    costs more than the arithmetic)."""
+def hand_coefficients(wrist_bend_deg: float, wrist_side_deg: float) -> tuple:
+    """(cos β_w cos σ_w, sin β_w cos σ_w, sin σ_w): the hand direction's components along
+    the rows (f, p, h) of :func:`hand_basis` (:func:`hand_direction`)."""
+    b, s = math.radians(wrist_bend_deg), math.radians(wrist_side_deg)
+    return (math.cos(b) * math.cos(s), math.sin(b) * math.cos(s), math.sin(s))
+
+
+def hand_basis(upper, bend, forearm) -> tuple:
+    """The hand's frame at an arm pose, rows (f, p, h) as float triples: the forearm
+    direction f, the in-plane direction p = h × f the hand bends toward, and the elbow's
+    hinge axis h = normalize(u × b) (:func:`hand_direction`). Plain floats in and out (the
+    planner asks for it at every pose it tries)."""
     (ux, uy, uz), (bx, by, bz), (fx, fy, fz) = upper, bend, forearm
     hx, hy, hz = uy * bz - uz * by, uz * bx - ux * bz, ux * by - uy * bx
     hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
     hx, hy, hz = hx / hn, hy / hn, hz / hn
     px, py, pz = hy * fz - hz * fy, hz * fx - hx * fz, hx * fy - hy * fx
-    fb, fs = math.radians(wrist_bend_deg), math.radians(wrist_side_deg)
-    cf, cp, ch = math.cos(fb) * math.cos(fs), math.sin(fb) * math.cos(fs), math.sin(fs)
+    return (fx, fy, fz), (px, py, pz), (hx, hy, hz)
+
+
+def hand_direction_floats(upper, bend, forearm, wrist_bend_deg, wrist_side_deg) -> tuple:
+    """:func:`hand_direction` on plain floats: three (x, y, z) sequences in, a tuple out
+    (the sampling planner's validity test runs it for every state it tests, where numpy
+    costs more than the arithmetic)."""
+    (fx, fy, fz), (px, py, pz), (hx, hy, hz) = hand_basis(upper, bend, forearm)
+    cf, cp, ch = hand_coefficients(wrist_bend_deg, wrist_side_deg)
     return (fx * cf + px * cp + hx * ch, fy * cf + py * cp + hy * ch,
             fz * cf + pz * cp + hz * ch)
 
@@ -346,24 +340,27 @@ def hand_angles(upper, bend, forearm, direction):
     of :func:`hand_direction`, β_w = atan2(d·p, d·f), σ_w = asin(d·h). Used to start a
     motion from the hand a rig has, wherever it points (even beyond the wrist's range)."""
     u, b, f, d = (np.asarray(v, dtype=float) for v in (upper, bend, forearm, direction))
-    h = cross(u, b)
-    h /= max(float(np.linalg.norm(h)), 1e-12)
-    p = cross(h, f)
+    f, p, h = (np.array(row) for row in hand_basis(u.tolist(), b.tolist(), f.tolist()))
     d = d / max(float(np.linalg.norm(d)), 1e-12)
     return (float(np.degrees(np.arctan2(d @ p, d @ f))),
             float(np.degrees(np.arcsin(np.clip(d @ h, -1.0, 1.0)))))
 
 
 def hand_frame(pose: Pose) -> np.ndarray:
-    """The hand's orientation at a pose, columns (d, g, d × g): its direction d (wrist →
-    hand end) and the elbow's hinge axis made perpendicular to it, g — the frame the bake
+    """The hand's orientation at a pose, columns (d, g, d × g) (:func:`hand_orientation`)
+    of its direction d (wrist → hand end) and the elbow's hinge axis — the frame the bake
     turns the hand bone by, so its change from frame to frame is the hand's whole turn,
     the roll of a twisting arm included."""
     s, e, w, h = pose.joints[1], pose.joints[2], pose.joints[3], pose.joints[4]
     d = (h - w) / max(float(np.linalg.norm(h - w)), 1e-12)
-    g = cross(e - s, pose.bend)
-    g = g - (g @ d) * d
-    g = g / max(float(np.linalg.norm(g)), 1e-12)
+    return hand_orientation(d, cross(e - s, pose.bend))
+
+
+def hand_orientation(d, hinge) -> np.ndarray:
+    """Columns (d, g, d × g), (..., 3, 3), of hand directions ``d`` (..., 3), unit, with g
+    the elbow's ``hinge`` axis (..., 3) made perpendicular to d and unit."""
+    g = hinge - np.sum(hinge * d, axis=-1, keepdims=True) * d
+    g = g / np.maximum(np.linalg.norm(g, axis=-1, keepdims=True), 1e-12)
     return np.stack([d, g, cross(d, g)], -1)
 
 

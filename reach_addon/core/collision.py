@@ -20,56 +20,30 @@ along the chain, because the chain starts at the sternum, which is outside every
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from .errors import ReachError, require_finite
-from .numeric import ARRAY, SCALAR
+
+
+class ArmSegment(NamedTuple):
+    """One capsule of the arm as the checker tests it: between joints ``a`` and ``b``
+    (indices into a pose's joints), ``radius`` the part's radius plus the clearance,
+    ``length`` its rest length, and the row of spheres that contains it for
+    :meth:`CollisionChecker.first_hit`'s fallback: their centres' ``fractions`` along it
+    ((n, 1)) and the radius ``cover`` of each."""
+
+    name: str
+    a: int
+    b: int
+    radius: float
+    length: float
+    fractions: np.ndarray
+    cover: float
 
 _AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
          (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
-
-
-def segment_distance(p1, q1, p2, q2):
-    """Shortest distance between segments p1-q1 and p2-q2, broadcasting over leading axes
-    of (..., 3) arrays. See :func:`segment_distance_xyz`."""
-    p1, q1, p2, q2 = (np.asarray(x, dtype=float) for x in (p1, q1, p2, q2))
-    return segment_distance_xyz(*(tuple(np.moveaxis(v, -1, 0)) for v in (p1, q1, p2, q2)),
-                                m=ARRAY)
-
-
-def segment_distance_xyz(p1, q1, p2, q2, m=SCALAR):
-    """Shortest distance between segments p1-q1 and p2-q2 given as (x, y, z) component
-    tuples — floats with ``m`` = SCALAR, arrays with ``m`` = ARRAY.
-
-    Closest points by minimising |p1 + s d1 - p2 - t d2| over s, t ∈ [0, 1]
-    (Ericson, *Real-Time Collision Detection*, §5.1.9), degenerate segments included.
-    """
-    d1 = (q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2])
-    d2 = (q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2])
-    r = (p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2])
-    a = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
-    e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]
-    b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
-    c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2]
-    f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2]
-    eps = 1e-18
-    point1, point2 = a <= eps, e <= eps
-    a_s = m.maximum(a, eps)
-    e_s = m.maximum(e, eps)
-    denom = a * e - b * b
-    skew = denom > 1e-12 * a * e
-    s = m.where(skew, m.clip((b * f - c * e) / m.maximum(denom, eps), 0.0, 1.0), 0.0)
-    t = (b * s + f) / e_s
-    s = m.where(t < 0.0, m.clip(-c / a_s, 0.0, 1.0),
-                m.where(t > 1.0, m.clip((b - c) / a_s, 0.0, 1.0), s))
-    t = m.clip(t, 0.0, 1.0)
-    s = m.where(point1, 0.0, m.where(point2, m.clip(-c / a_s, 0.0, 1.0), s))
-    t = m.where(point2, 0.0, m.where(point1, m.clip(f / e_s, 0.0, 1.0), t))
-    dx = r[0] + d1[0] * s - d2[0] * t
-    dy = r[1] + d1[1] * s - d2[1] * t
-    dz = r[2] + d1[2] * s - d2[2] * t
-    return m.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 def point_segment_distance(p, a, b) -> float:
@@ -84,10 +58,10 @@ def point_segment_distance(p, a, b) -> float:
 
 
 def segment_distance_float(p1, q1, p2, q2) -> float:
-    """:func:`segment_distance_xyz` for one pair of segments given as float 3-sequences,
-    written out step by step (the same steps, so the same number) because the planner's
-    body test calls it for every pose it tries and the generic form pays a Python call for
-    each ``m.where`` and ``m.clip``."""
+    """Shortest distance between segments p1-q1 and p2-q2 (float 3-sequences), degenerate
+    segments included: the closest points minimise |p1 + s d1 - p2 - t d2| over
+    s, t ∈ [0, 1] (Ericson, *Real-Time Collision Detection*, §5.1.9). Written on plain
+    floats: the planner's body test calls it for every pose it tries."""
     d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
     d2x, d2y, d2z = q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]
     rx, ry, rz = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
@@ -285,17 +259,16 @@ class CollisionChecker:
             n = max(2, int(math.ceil(length / max(r, 1e-3 * arm.arm_length))) + 1)
             spacing = length / (n - 1)
             cover = math.sqrt(r * r + 0.25 * spacing * spacing)
-            segment = (name, a, b, r, length, np.linspace(0.0, 1.0, n)[:, None], cover)
+            segment = ArmSegment(name, a, b, r, length, np.linspace(0.0, 1.0, n)[:, None], cover)
             self.by_name[name] = segment
             if name == "hand" and not self.check_hand:
                 continue
             self.segments.append(segment)
-        self._arm_segments = [seg for seg in self.segments if seg[0] != "hand"]
-        self._hand_segment = next((seg for seg in self.segments if seg[0] == "hand"), None)
-        self._max_cover = max(seg[6] for seg in self.segments)
+        self._arm_segments = [seg for seg in self.segments if seg.name != "hand"]
+        self._max_cover = max(seg.cover for seg in self.segments)
         # Query bounds of the joint distances: far enough to clear every segment that meets
         # at the joint from that end alone (see the class docstring).
-        rad = {name: seg[3] for name, seg in self.by_name.items()}
+        rad = {name: seg.radius for name, seg in self.by_name.items()}
         self.bound_sternum = lengths["clavicle"] + rad["clavicle"]
         self.bound_shoulder = max(lengths["clavicle"], lengths["upper arm"]) + rad["upper arm"]
         self.bound_elbow = max(lengths["upper arm"] + rad["upper arm"],
@@ -317,7 +290,7 @@ class CollisionChecker:
         """Is the capsule p-q (world points as 3 floats) clear, given lower bounds ``d_p``,
         ``d_q`` of the obstacle distance at its ends? Test 1, then test 2 of the class
         docstring."""
-        r, length = segment[3], segment[4]
+        r, length = segment.radius, segment.length
         if d_p < r or d_q < r:
             return False
         if d_p + d_q - length >= 2.0 * r:
@@ -347,7 +320,7 @@ class CollisionChecker:
     def _segment_hit(self, tree, p, q, segment, bounded: bool = True):
         """Triangle index of a contact of one capsule p-q by the row of spheres, or None.
         ``bounded``: first one query around the whole segment."""
-        _name, _a, _b, _r, length, fractions, cover = segment
+        length, fractions, cover = segment.length, segment.fractions, segment.cover
         if bounded and tree.find_nearest((0.5 * (p + q)).tolist(), 0.5 * length + cover)[0] is None:
             return None
         for centre in (p + (q - p) * fractions).tolist():
@@ -379,13 +352,13 @@ class CollisionChecker:
                   self.bound_hand)
         dist = [self.distance(points[i], bounds[i]) for i in range(last)]
         for segment in segments:
-            a, b = segment[1], segment[2]
+            a, b = segment.a, segment.b
             if self.segment_clear(points[a], points[b], dist[a], dist[b], segment):
                 continue
             index = self._segment_hit(tree, j[a], j[b], segment, bounded=False)
             if index is None:   # the sphere row missed what the bisection found: the nearest
                 index = tree.find_nearest((0.5 * (j[a] + j[b])).tolist())[2]
-            return segment[0], self.obstacles.owner(index)
+            return segment.name, self.obstacles.owner(index)
         return None
 
     def capsule_clear(self, p, q, radius: float) -> bool:
@@ -399,28 +372,11 @@ class CollisionChecker:
         length = math.dist(p, q)
         bound = length + 2.0 * r
         return self.segment_clear(p, q, self.distance(p, bound), self.distance(q, bound),
-                                  ("capsule", 0, 1, r, length))
+                                  ArmSegment("capsule", 0, 1, r, length, np.zeros((0, 1)), r))
 
     def collides(self, world_joints, include_hand: bool = True) -> bool:
         """Does a pose (world joints, (5, 3)) come within the clearance of an obstacle?"""
         return self.first_hit(world_joints, include_hand) is not None
-
-    def hand_hit(self, world_wrist, world_hand_end) -> bool:
-        """Does the hand capsule wrist → hand end touch an obstacle?"""
-        tree = self.obstacles.tree
-        if tree is None or self._hand_segment is None:
-            return False
-        p = np.asarray(world_wrist, dtype=float).tolist()
-        q = np.asarray(world_hand_end, dtype=float).tolist()
-        return not self.segment_clear(p, q, self.distance(p, self.bound_wrist),
-                                      self.distance(q, self.bound_hand), self._hand_segment)
-
-    def point_clear(self, world_point, radius) -> bool:
-        """Is a sphere of ``radius`` (plus the clearance) at ``world_point`` clear?"""
-        tree = self.obstacles.tree
-        if tree is None:
-            return True
-        return tree.find_nearest(list(map(float, world_point)), radius + self.margin)[0] is None
 
     def clearance(self, world_joints, search_radius) -> float:
         """Least distance between the arm's capsule surfaces (without the clearance margin)

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import ik
-from .arm import ArmConfig, ArmModel, Pose, forward_kinematics, pose_from_config
+from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, hand_coefficients,
+                  pose_from_config)
 from .collision import CollisionChecker, Obstacles, point_segment_distance
 from .numeric import cross
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
@@ -43,14 +44,6 @@ class Diagnosis:
     distance: float = 0.0
     lean_deg: float = 0.0
     above: bool = False
-
-
-def hand_coefficients(bend_deg: float, side_deg: float) -> tuple:
-    """(cos bend · cos side, sin bend · cos side, sin side): the hand direction's
-    components along the forearm f, the in-plane p and the hinge axis h
-    (:func:`reach_addon.core.arm.hand_direction`)."""
-    b, s = math.radians(bend_deg), math.radians(side_deg)
-    return (math.cos(b) * math.cos(s), math.sin(b) * math.cos(s), math.sin(s))
 
 
 class ConfigurationGenerator:
@@ -86,7 +79,7 @@ class ConfigurationGenerator:
         self._check_hand = c.check_hand
         self._seg_clavicle, self._seg_upper = c.by_name["clavicle"], c.by_name["upper arm"]
         self._seg_fore, self._seg_hand = c.by_name["forearm"], c.by_name["hand"]
-        self._r_fore = self._seg_fore[3]
+        self._r_fore = self._seg_fore.radius
         self.chest = None
         self.hand_blocked = False
 
@@ -220,11 +213,11 @@ class ConfigurationGenerator:
         s_w = self._world(s_c)
         d_s = checker.distance(s_w, checker.bound_shoulder)
         upper_seg, fore_seg, clavicle = self._seg_upper, self._seg_fore, self._seg_clavicle
-        r_u, r_f = upper_seg[3], fore_seg[3]
+        r_u, r_f = upper_seg.radius, fore_seg.radius
         if d_s < r_u:
             return None                          # the shoulder itself is against an obstacle
-        d_t = d_s - clavicle[4]                  # Lipschitz bound at the sternum
-        if not (d_t >= clavicle[3] and d_s + d_t - clavicle[4] >= 2.0 * clavicle[3]):
+        d_t = d_s - clavicle.length              # Lipschitz bound at the sternum
+        if not (d_t >= clavicle.radius and d_s + d_t - clavicle.length >= 2.0 * clavicle.radius):
             t_w = self._world(t_c)
             d_t = checker.distance(t_w, checker.bound_sternum)
             if not checker.segment_clear(t_w, s_w, d_t, d_s, clavicle):
@@ -235,7 +228,7 @@ class ConfigurationGenerator:
             # Body capsules a segment cannot reach from this wrist (every forearm point is
             # within L2 of it, every hand point within the hand's length, every point of
             # the upper arm's elbow half within L2 + L1/2) are left out of its tests.
-            far = [point_segment_distance(w_c, c[0], c[1]) - c[4] for c in caps]
+            far = [point_segment_distance(w_c, c.a, c.b) - c.radius for c in caps]
             reach_u = l2 + 0.5 * l1 + arm.upper_arm_radius
             reach_f, reach_h = l2 + arm.forearm_radius, arm.hand_length + arm.hand_radius
             caps_upper = [c for c, d in zip(caps, far) if d < reach_u]
@@ -311,13 +304,9 @@ class ConfigurationGenerator:
         l1, l2, lh = arm.upper_arm_length, arm.forearm_length, arm.hand_length
         u = [(e_c[i] - s_c[i]) / l1 for i in range(3)]
         f = [(w_c[i] - e_c[i]) / l2 for i in range(3)]
-        # hinge axis h = u × b (normalised) and p = h × f: the hand turns toward p in the
-        # elbow's plane and toward h across it (arm.hand_direction)
-        hx, hy, hz = u[1] * b[2] - u[2] * b[1], u[2] * b[0] - u[0] * b[2], u[0] * b[1] - u[1] * b[0]
-        hn = max(math.sqrt(hx * hx + hy * hy + hz * hz), 1e-12)
-        hx, hy, hz = hx / hn, hy / hn, hz / hn
-        px, py, pz = hy * f[2] - hz * f[1], hz * f[0] - hx * f[2], hx * f[1] - hy * f[0]
-        clear_far = d_w - lh >= seg[3]           # no hand direction can reach an obstacle
+        # the hand turns toward p in the elbow's plane and toward h across it
+        _f, (px, py, pz), (hx, hy, hz) = hand_basis(u, b, f)
+        clear_far = d_w - lh >= seg.radius           # no hand direction can reach an obstacle
 
         def tip_of(coefficients):
             cf, cp, ch = coefficients
@@ -374,9 +363,7 @@ class ConfigurationGenerator:
         s, e, w = (np.asarray(joints[i], dtype=float) for i in (1, 2, 3))
         u = (e - s) / np.linalg.norm(e - s)
         f = (w - e) / np.linalg.norm(w - e)
-        h = cross(u, np.asarray(bend, dtype=float))
-        h /= max(float(np.linalg.norm(h)), 1e-12)
-        return np.array([f, cross(h, f), h])
+        return np.array(hand_basis(u.tolist(), np.asarray(bend, dtype=float).tolist(), f.tolist()))
 
     def hands_clear(self, joints, bend, body_rotation: float, coefficients) -> np.ndarray:
         """For each hand direction (rows of ``coefficients``, components along the rows of
@@ -393,7 +380,7 @@ class ConfigurationGenerator:
         reach = arm.hand_length + arm.hand_radius
         wl = w_c.tolist()
         caps = [c for c in self._capsules(float(body_rotation))
-                if point_segment_distance(wl, c[0], c[1]) - c[4] < reach]
+                if point_segment_distance(wl, c.a, c.b) - c.radius < reach]
         tips_l = tips.tolist()
         if caps:
             for i, tip in enumerate(tips_l):
@@ -401,9 +388,9 @@ class ConfigurationGenerator:
                     out[i] = False
         w_w = self._world(wl)
         d_w = checker.distance(w_w, checker.bound_wrist)
-        if d_w < seg[3]:
+        if d_w < seg.radius:
             out[:] = False
-        elif d_w - arm.hand_length < seg[3]:
+        elif d_w - arm.hand_length < seg.radius:
             for i, tip in enumerate(self.arm.to_world_points(tips).tolist()):
                 if out[i] and not checker.segment_clear(
                         w_w, tip, d_w, checker.distance(tip, checker.bound_hand), seg):
@@ -534,7 +521,7 @@ class ConfigurationGenerator:
         arm = self.arm
         shoulder = sol.shoulder[0]
         distance = float(np.linalg.norm(wrist - shoulder))
-        reach = arm.max_reach
+        reach = arm.arm_length
         if distance <= reach:
             return Diagnosis(OUT_OF_REACH, distance=distance, missing=0.0)
         waist = np.asarray(arm.waist, dtype=float)

@@ -76,9 +76,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .arm import Pose, frame_turn
-from .generator import hand_coefficients
-from .numeric import cross
+from .arm import Pose, frame_turn, hand_coefficients, hand_orientation
 
 
 @dataclass
@@ -98,7 +96,7 @@ class HandReport:
 @dataclass(frozen=True)
 class HandGrid:
     """The wrist-angle states: ``angles`` (S, 2) degrees, ``coefficients`` (S, 3) (see
-    :func:`~reach_addon.core.generator.hand_coefficients`), ``turn`` (S, S) degrees between
+    :func:`~reach_addon.core.arm.hand_coefficients`), ``turn`` (S, S) degrees between
     their directions, ``bend`` (S,) degrees from neutral; ``start`` the start state."""
 
     angles: np.ndarray
@@ -357,10 +355,7 @@ class HandPass:
         if o is None:
             axes = self._gen(0).hand_axes(pose.joints, pose.bend)     # rows f, p, h
             d = self._coefficients(pose, grid) @ axes
-            h = axes[2]
-            g = h[None, :] - (d @ h)[:, None] * d
-            g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
-            o = np.stack([d, g, cross(d, g)])
+            o = np.moveaxis(hand_orientation(d, axes[2][None, :]), -1, 0)
             self._dirs[id(pose)] = o
         return o
 

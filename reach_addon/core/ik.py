@@ -26,6 +26,7 @@ per-sample quantity is a short numpy expression over all samples of all wrists a
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 from functools import lru_cache
 
 import numpy as np
@@ -34,7 +35,7 @@ from . import strength
 from .arm import ArmConfig, ArmModel, Pose
 from .collision import segment_distance_float
 from .numeric import ARRAY, SCALAR
-from .torso import body_rotation_deg
+from .torso import body_rotation_deg, turn_about_spine
 
 
 #: Up to this many valid candidates of one wrist are scored as floats, more as arrays.
@@ -63,9 +64,21 @@ def swivel_basis(step_deg: float):
 
 
 def side_normal(wrist, shoulder, waist, m=ARRAY):
-    """Algorithm 1's normal n̂ = normalize[(s - w) × (a - s)] of the plane P through wrist,
+    r"""Algorithm 1, RightArmSide(w, e, s, a): the normal of the plane P through wrist,
     shoulder and waist, from (x, y, z) component tuples (floats with ``m`` = SCALAR, arrays
-    with ARRAY). Returns (n_x, n_y, n_z, degenerate): degenerate where P is undefined."""
+    with ARRAY). Returns (n_x, n_y, n_z, degenerate): degenerate where P is undefined.
+
+    .. math::
+        \hat n = \mathrm{normalize}[(s - w) × (a - s)],\quad
+        \hat p = \mathrm{normalize}(e - e_P),\quad
+        \text{RIGHT} \iff \hat p = \hat n
+
+    where ``e_P`` is the projection of the elbow ``e`` on P; callers test ``p̂ = n̂`` as
+    ``(e - s) · n̂ > 0`` (:func:`solve` for every swivel sample at once, with ``e - s``
+    affine in the swivel angle). Where P is degenerate every elbow counts as RIGHT. For a
+    right arm reaching forward n̂ points outward and down, so RIGHT is the natural,
+    elbow-out side; in the canonical frame a left arm is mirrored into a right arm and the
+    same rule gives its natural (left) side."""
     px, py, pz = shoulder[0] - wrist[0], shoulder[1] - wrist[1], shoulder[2] - wrist[2]
     qx, qy, qz = waist[0] - shoulder[0], waist[1] - shoulder[1], waist[2] - shoulder[2]
     kx, ky, kz = py * qz - pz * qy, pz * qx - px * qz, px * qy - py * qx
@@ -73,34 +86,6 @@ def side_normal(wrist, shoulder, waist, m=ARRAY):
     degenerate = kn < 1e-9
     kn = m.maximum(kn, 1e-12)
     return kx / kn, ky / kn, kz / kn, degenerate
-
-
-def right_arm_side(wrist, elbow, shoulder, waist):
-    """Algorithm 1, RightArmSide(w, e, s, a): True where the elbow lies on the RIGHT side
-    of the plane P through wrist, shoulder and waist.
-
-    .. math::
-        \\hat n = \\mathrm{normalize}[(s - w) × (a - s)],\\quad
-        \\hat p = \\mathrm{normalize}(e - e_P),\\quad
-        \\text{RIGHT} \\iff \\hat p = \\hat n
-
-    where ``e_P`` is the projection of ``e`` on P; ``p̂ = n̂`` is tested as
-    ``(e - s) · n̂ > 0``. Broadcasts over leading axes of (..., 3) arrays; where P is
-    degenerate (wrist, shoulder and waist in a line) every elbow counts as RIGHT. For a
-    right arm reaching forward n̂ points outward and down, so RIGHT is the natural,
-    elbow-out side; in the canonical frame a left arm is mirrored into a right arm and the
-    same rule gives its natural (left) side. (:func:`solve` evaluates the same test for all
-    swivel samples at once, with ``e - s`` affine in the swivel angle.)
-    """
-    w, e, s, a = (np.moveaxis(np.asarray(v, dtype=float), -1, 0) for v in (wrist, elbow,
-                                                                         shoulder, waist))
-    nx, ny, nz, degenerate = side_normal(w, s, a)
-    return ((e[0] - s[0]) * nx + (e[1] - s[1]) * ny + (e[2] - s[2]) * nz > 0) | degenerate
-
-
-def _cross(a, b):
-    """Cross product of vectors stored as component tuples (broadcasting)."""
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 class Solutions:
@@ -113,7 +98,7 @@ class Solutions:
     :attr:`legal` is worked out when first asked for (the planner's inner loop only needs
     :attr:`valid`)."""
 
-    def __init__(self, wrists, body, sternum, shoulder, elbow_coef, fore_coef, cos_phi,
+    def __init__(self, *, wrists, body, sternum, shoulder, elbow_coef, fore_coef, cos_phi,
                  sin_phi, angles, flex, reachable, valid, f_r, second, wrong_side,
                  hand_length, upper, fore, turn, eps, gamma_prev, limits, require_side,
                  legal=None, ranked=None):
@@ -245,16 +230,6 @@ class Solutions:
         cb, sb = self._turn[i].tolist()
         return np.array([cb * bx + sb * by, cb * by - sb * bx, bz])
 
-    @property
-    def bend(self) -> np.ndarray:
-        """Bend directions of every sample, (W, 3, S), canonical frame."""
-        w, s = self.valid.shape
-        out = np.empty((w, 3, s))
-        for i in range(w):
-            for k in range(s):
-                out[i, :, k] = self.bend_at(i, k)
-        return out
-
     def config(self, i: int, k: int) -> ArmConfig:
         a, b, g, _t = self.angles[i, :, k].tolist()
         return ArmConfig(float(self.body[i]), a, b, g, float(self.flex[i]))
@@ -344,19 +319,19 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
             body = np.broadcast_to(np.asarray(body_rotation, dtype=float), (n_w,)).copy()
     values, reachable, degenerate, flex = _wrist_terms(arm, wx, wy, wz, body, st, m)
     if m is SCALAR:
-        packed = np.array(values)[None]                                  # (1, 57)
+        packed = np.array(values)[None]                                  # (1, TERMS.size)
         wrist_ok = bool(reachable and st.elbow_min <= flex <= st.elbow_max)
     else:
-        packed = np.stack(values, -1)                                    # (W, 57)
+        packed = np.stack(values, -1)                                    # (W, TERMS.size)
         wrist_ok = reachable & (flex >= st.elbow_min) & (flex <= st.elbow_max)
-    straight = values[52] < _STRAIGHT
-    sternum, shoulder = packed[:, 0:3], packed[:, 3:6]
-    elbow_coef = packed[:, 6:15].reshape(n_w, 3, 3)
-    fore_coef = packed[:, 15:24].reshape(n_w, 3, 3)
-    eps, turn = packed[:, 51:53], packed[:, 53:55]
+    straight = values[_SIN_EPS] < _STRAIGHT
+    sternum, shoulder = packed[:, TERMS.sternum], packed[:, TERMS.shoulder]
+    elbow_coef = packed[:, TERMS.elbow_coef].reshape(n_w, 3, 3)
+    fore_coef = packed[:, TERMS.fore_coef].reshape(n_w, 3, 3)
+    eps, turn = packed[:, TERMS.eps], packed[:, TERMS.turn]
 
     # --- per sample: (W, 9, S) = chest-frame u, f, the side value, (u × f)_x, (u × f)_z --
-    p = packed[:, 24:51].reshape(n_w, 9, 3) @ basis
+    p = packed[:, TERMS.rows].reshape(n_w, 9, 3) @ basis
     ux, uy, uz, fx, fy, fz, side, cross_x, cross_z = p.transpose(1, 0, 2)
     angles = np.empty((n_w, 4, n_s))
     theta, gamma = angles[:, 3], angles[:, 2]                            # views, (W, S)
@@ -371,7 +346,7 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
     # f·r (1 - u_z) = u_x (u × f)_z + (1 - u_z) (u × f)_x.
     # A straight elbow shows no twist: keep the previous one.
     down = 1.0 - uz
-    cos_eps = packed[:, 51:52]
+    cos_eps = eps[:, 0:1]
     np.degrees(np.arctan2(ux * (cos_eps - fz) - down * fx, ux * cross_z + down * cross_x),
                out=gamma)
     # Algorithm 1: side = (e - s)·n̂, affine in (cos φ, sin φ) like e.
@@ -393,7 +368,7 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         previous.alpha, previous.beta, previous.gamma)
     smooth_bound = previous is not None and max_change is not None
     if m is SCALAR:
-        body_, flex_, ok_ = packed[:, 55], packed[:, 56], wrist_ok
+        body_, flex_, ok_ = packed[:, TERMS.body], packed[:, TERMS.flex], wrist_ok
         bounds = _valid_bounds(st, previous, body, flex, max_change) if smooth_bound else limits
         if bounds is None:                       # the body or the elbow moves too far
             valid = np.zeros((1, n_s), dtype=bool)
@@ -429,10 +404,14 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
             ranked = (st.elbow_side, _rank(ks, f_r, second, wrong))
         else:
             f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
-        return Solutions(w, body_, sternum, shoulder, elbow_coef, fore_coef, cos_phi[0],
-                         sin_phi[0], angles, flex_, ok_, valid, f_r, second, wrong_side,
-                         arm.hand_length, p[:, 0:3], p[:, 3:6], turn, eps, float(gamma_prev),
-                         limits, require, None if smooth_bound else valid, ranked)
+        return Solutions(wrists=w, body=body_, sternum=sternum, shoulder=shoulder,
+                         elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
+                         sin_phi=sin_phi[0], angles=angles, flex=flex_, reachable=ok_,
+                         valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
+                         hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6],
+                         turn=turn, eps=eps, gamma_prev=float(gamma_prev), limits=limits,
+                         require_side=require, legal=None if smooth_bound else valid,
+                         ranked=ranked)
 
     legal = np.logical_and.reduce((angles >= limits[0]) & (angles <= limits[1]), 1)
     if require:
@@ -444,9 +423,13 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
     else:
         f_r, second = np.zeros((n_w, n_s), dtype=np.int8), np.zeros((n_w, n_s))
-    return Solutions(w, body, sternum, shoulder, elbow_coef, fore_coef, cos_phi[0], sin_phi[0],
-                     angles, flex, wrist_ok, valid, f_r, second, wrong_side, arm.hand_length,
-                     p[:, 0:3], p[:, 3:6], turn, eps, float(gamma_prev), limits, require, legal)
+    return Solutions(wrists=w, body=body, sternum=sternum, shoulder=shoulder,
+                     elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
+                     sin_phi=sin_phi[0], angles=angles, flex=flex, reachable=wrist_ok,
+                     valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
+                     hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6], turn=turn,
+                     eps=eps, gamma_prev=float(gamma_prev), limits=limits, require_side=require,
+                     legal=legal)
 
 
 _LAST_LIMITS: list = [None, None]
@@ -489,7 +472,7 @@ def _valid_bounds(st, previous: ArmConfig, body: float, flex: float, max_change:
     twist = max_change
     g_lo, g_hi, split = st.gamma_min, st.gamma_max, False
     if twist < 180.0:
-        centre = (previous.gamma + 180.0) % 360.0 - 180.0
+        centre = float(wrap_degrees(previous.gamma))
         pieces = [(max(g_lo, centre + k - twist), min(g_hi, centre + k + twist))
                   for k in (-360.0, 0.0, 360.0)]
         pieces = [q for q in pieces if q[0] <= q[1]]
@@ -505,8 +488,8 @@ def _valid_bounds(st, previous: ArmConfig, body: float, flex: float, max_change:
 
 
 def _smooth_angles(previous: ArmConfig, body, angles, flex, max_change, m):
-    """:func:`smooth` on the (W, 4, S) angle block of :func:`solve` (α, β, γ, θ): the
-    twist difference folded as min(|Δγ| mod 360, 360 - |Δγ| mod 360)."""
+    """:func:`smooth` on the (W, 4, S) angle block of :func:`solve` (α, β, γ, θ), the
+    twist's change by :func:`twist_change`."""
     if m is SCALAR:
         if not (abs(flex - previous.elbow) <= max_change
                 and abs(body - previous.body_rotation) <= max_change):
@@ -518,9 +501,7 @@ def _smooth_angles(previous: ArmConfig, body, angles, flex, max_change, m):
                     & (np.abs(body - previous.body_rotation) <= max_change))[:, None]
         limit = np.full((len(flex), 3, 1), float(max_change))
     d = np.abs(angles[:, :3] - np.array([[previous.alpha], [previous.beta], [previous.gamma]]))
-    g = d[:, 2]
-    np.remainder(g, 360.0, out=g)
-    np.minimum(g, 360.0 - g, out=g)
+    d[:, 2] = twist_change(angles[:, 2], previous.gamma)
     within = d <= limit
     return within[:, 0] & within[:, 1] & within[:, 2] & wrist_ok
 
@@ -532,16 +513,46 @@ def _min_reach(l1: float, l2: float, elbow_max: float) -> float:
     return math.sqrt(max(l1 * l1 + l2 * l2 - 2 * l1 * l2 * math.cos(interior), 0.0))
 
 
+class WristTerms(NamedTuple):
+    """Where each quantity of :func:`_wrist_terms` sits in its flat row of numbers (one row
+    per wrist: the rows are stacked into one array, and these slices read it)."""
+
+    sternum: slice          # (3,)
+    shoulder: slice         # (3,)
+    elbow_coef: slice       # (3 × 3,): the elbow's centre, r·b1, r·b2
+    fore_coef: slice        # (3 × 3,): the unit forearm direction's coefficients
+    rows: slice             # (9 × 3,): chest-frame rows of u (3), f (3), the side value and
+    #                         (u × f)_x, (u × f)_z, each multiplying (1, cos φ, sin φ)
+    eps: slice              # (cos ε, sin ε)
+    turn: slice             # (cos, sin) of the chest turn
+    body: int               # the chest rotation
+    flex: int               # the elbow flexion
+    size: int
+
+
+def _term_layout(**sizes) -> WristTerms:
+    fields, start = {}, 0
+    for name, size in sizes.items():
+        fields[name] = start if size == 0 else slice(start, start + size)
+        start += max(size, 1)
+    return WristTerms(**fields, size=start)
+
+
+#: The layout of :func:`_wrist_terms`' values (0: a single number).
+TERMS = _term_layout(sternum=3, shoulder=3, elbow_coef=9, fore_coef=9, rows=27, eps=2, turn=2,
+                     body=0, flex=0)
+_SIN_EPS = TERMS.eps.start + 1
+
+
 def _wrist_terms(arm: ArmModel, wx, wy, wz, body, st, m):
     """Everything about one wrist position that does not depend on the swivel angle,
     written once for floats (``m`` = SCALAR) and for arrays of wrists (``m`` = ARRAY).
 
-    Returns (values, reachable, degenerate, flexion), ``values`` being 57 numbers: sternum
-    (3), shoulder (3), elbow coefficients (3×3: centre, r·b1, r·b2), forearm direction
-    coefficients (3×3), the chest-frame coefficient rows of u (3 rows), f (3 rows),
-    Algorithm 1's side value (1 row) and the x and z components of u × f (2 rows), each
-    row multiplying (1, cos φ, sin φ); then cos ε, sin ε, the cos and sin of the chest
-    turn, the chest rotation and the elbow flexion."""
+    Returns (values, reachable, degenerate, flexion), ``values`` being the numbers laid out
+    by :data:`TERMS` (:class:`WristTerms`): sternum, shoulder, elbow coefficients,
+    forearm direction coefficients, the chest-frame coefficient rows of u, f, Algorithm
+    1's side value and the x and z components of u × f; then cos ε, sin ε, the cos and
+    sin of the chest turn, the chest rotation and the elbow flexion."""
     l1, l2 = arm.upper_arm_length, arm.forearm_length
     rad = m.radians(body)
     cb, sb = m.cos(rad), m.sin(rad)
@@ -610,6 +621,13 @@ def wrap_degrees(angle):
     return (np.asarray(angle) + 180.0) % 360.0 - 180.0
 
 
+def twist_change(gamma, previous_gamma):
+    """How far the humeral twist turns from ``previous_gamma`` to ``gamma`` (degrees), the
+    short way round the circle: |wrap(γ - γ_prev)| ∈ [0°, 180°] (:func:`wrap_degrees`).
+    The smoothness bound (:func:`smooth`) and its window (:func:`_valid_bounds`) use it."""
+    return np.abs(wrap_degrees(np.asarray(gamma) - previous_gamma))
+
+
 def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
     """The smoothness bound: no joint angle changes by more than ``max_change`` degrees from
     ``previous``. Shapes: ``body``/``flex`` (W,) (or floats for one wrist), the shoulder
@@ -620,31 +638,41 @@ def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
         if not (abs(flex - previous.elbow) <= max_change
                 and abs(body - previous.body_rotation) <= max_change):
             return np.zeros(np.shape(alpha), dtype=bool)
-        twist = np.abs((gamma - (previous.gamma - 180.0)) % 360.0 - 180.0)
         return ((np.abs(alpha - previous.alpha) <= max_change)
-                & (np.abs(beta - previous.beta) <= max_change) & (twist <= max_change))
+                & (np.abs(beta - previous.beta) <= max_change)
+                & (twist_change(gamma, previous.gamma) <= max_change))
     else:
         flex = np.asarray(flex)
         wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
                     & (np.abs(np.asarray(body) - previous.body_rotation) <= max_change))[:, None]
     return (wrist_ok & (np.abs(alpha - previous.alpha) <= max_change)
             & (np.abs(beta - previous.beta) <= max_change)
-            & (np.abs(wrap_degrees(gamma - previous.gamma)) <= max_change))
+            & (twist_change(gamma, previous.gamma) <= max_change))
 
 
-def body_capsules_at(arm: ArmModel, body: float):
-    """The body's capsules with the chest turned by ``body`` degrees, as float tuples
-    (a, b, centre, half length, radius) for quick scalar tests (the turn of
-    :meth:`ArmModel.capsules_at`, on floats)."""
+class BodyCapsule(NamedTuple):
+    """A body capsule on floats, for the scalar body test of every pose tried: its ends,
+    centre, half length and radius (:func:`body_capsules_at`)."""
+
+    a: list
+    b: list
+    centre: list
+    half: float
+    radius: float
+
+
+def body_capsules_at(arm: ArmModel, body: float) -> list:
+    """The body's capsules with the chest turned by ``body`` degrees (those that turn with
+    the chest, :func:`~reach_addon.core.torso.rotate_about_spine`), as float tuples
+    (:class:`BodyCapsule`)."""
     body = float(body)
     c, s = math.cos(math.radians(body)), math.sin(math.radians(body))
     out = []
-    for p, q, mid, half, r, turn in arm._capsule_floats:
+    for p, q, mid, half, r, turn in arm.capsule_floats:
         if turn and body != 0.0:
-            p = [p[0] * c + p[1] * s, p[1] * c - p[0] * s, p[2]]
-            q = [q[0] * c + q[1] * s, q[1] * c - q[0] * s, q[2]]
+            p, q = turn_about_spine(p, c, s), turn_about_spine(q, c, s)
             mid, half = [0.5 * (p[i] + q[i]) for i in range(3)], 0.5 * math.dist(p, q)
-        out.append((p, q, mid, half, r))
+        out.append(BodyCapsule(p, q, mid, half, r))
     return out
 
 

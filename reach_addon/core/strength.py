@@ -56,6 +56,8 @@ from __future__ import annotations
 
 import math
 
+from functools import cache
+
 import numpy as np
 
 # Each curve is a list of pieces (lower, upper, upper_inclusive, (c0, c1, c2)) giving
@@ -74,12 +76,9 @@ _S_V_PIECES = (
 
 
 def _evaluate(pieces, x):
+    """A curve at ``x``: a float, or an array of any shape (the pieces on arrays)."""
     if isinstance(x, (float, int)):
-        x = min(max(float(x), pieces[0][0]), pieces[-1][1])
-        for _lo, hi, inclusive, (c0, c1, c2) in pieces:
-            if x < hi or (inclusive and x == hi):
-                return c0 + x * (c1 + c2 * x)
-        return c0 + x * (c1 + c2 * x)
+        return _float_curve(pieces)(float(x))
     x = np.minimum(np.maximum(np.asarray(x, dtype=float), pieces[0][0]), pieces[-1][1])
     _lo, _hi, _inc, (c0, c1, c2) = pieces[-1]
     out = c0 + x * (c1 + c2 * x) if c2 else c0 + c1 * x
@@ -89,8 +88,10 @@ def _evaluate(pieces, x):
     return out if out.ndim else float(out)
 
 
+@cache
 def _float_curve(pieces):
-    """:func:`_evaluate` for one float, specialised to one curve (no type checks)."""
+    """A curve's pieces as a function of one float (no type checks: the scorer of the few
+    candidates of one wrist calls it for each)."""
     lo, hi = pieces[0][0], pieces[-1][1]
     rows = tuple((h, inclusive, c0, c1, c2) for _lo, h, inclusive, (c0, c1, c2) in pieces)
     *_, (_h, _i, c0_last, c1_last, c2_last) = rows

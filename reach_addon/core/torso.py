@@ -197,6 +197,13 @@ def spine_rotation_matrix(angle_deg):
     ], -2)
 
 
+def turn_about_spine(p, cos_t: float, sin_t: float) -> list:
+    """:func:`rotate_about_spine` of one point (a float 3-sequence) by the angle whose
+    cosine and sine are given, on plain floats (the body test turns the chest's capsules
+    for every chest rotation it meets)."""
+    return [p[0] * cos_t + p[1] * sin_t, p[1] * cos_t - p[0] * sin_t, p[2]]
+
+
 def rotate_about_spine(points, angle_deg):
     """Points carried by a chest rotation of ``angle_deg`` (broadcasts over angles):
     the initial shoulder position rotated about the vertical axis through the spine,

@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings as hyp_settings, strategies as st
+from hypothesis import assume, given, settings as hyp_settings, strategies as st
 
 from geometry import HANGING, standard_arm
 from reach_addon.core import ArmConfig, ReachError, Settings, forward_kinematics
 from reach_addon.core.arm import (bend_direction, config_from_joints, shoulder_angles,
                                   twist_angle, upper_arm_direction)
-from reach_addon.core.ik import right_arm_side, solve
+from reach_addon.core.ik import solve
 
 
 @pytest.mark.parametrize("direction, alpha, beta", [
@@ -47,13 +47,12 @@ def test_no_jump_inside_the_reachable_range(alpha, beta, vx, vy, vz):
     """Nudging the arm's direction by a small angle changes (α, β) by at most the map's
     stretch θ / sin θ times that angle — at most 170° / sin 170° ≈ 17 at the elevation
     limit — so the decomposition has no jump wherever the arm may be."""
-    if np.hypot(alpha, beta) > 170 or np.linalg.norm([vx, vy, vz]) < 1e-3:
-        return
+    # outside the elevation limit the test says nothing: such examples are discarded
+    assume(np.hypot(alpha, beta) <= 170 and np.linalg.norm([vx, vy, vz]) >= 1e-3)
     u1 = upper_arm_direction(alpha, beta)
     u2 = u1 + 0.01 * np.array([vx, vy, vz]) / np.linalg.norm([vx, vy, vz])
     u2 /= np.linalg.norm(u2)
-    if np.degrees(np.arccos(-u2[2])) > 170:
-        return
+    assume(np.degrees(np.arccos(-u2[2])) <= 170)
     a1, b1 = shoulder_angles(u1)
     a2, b2 = shoulder_angles(u2)
     # the angle between them by atan2 (arccos loses it below ~1e-6° near 1)
@@ -92,16 +91,18 @@ reachable_points = st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1
 @hyp_settings(max_examples=150, deadline=None)
 @given(reachable_points)
 def test_every_candidate_puts_the_wrist_on_the_target(sample):
-    """FK of every legal IK candidate reproduces the wrist to 1e-6 arm lengths."""
+    """FK of every legal IK candidate reproduces the wrist to 1e-6 arm lengths. A wrist
+    with no legal candidate (about 3 in 10 of the samples: behind the body, or where the
+    joint limits leave no pose) checks nothing, so it is discarded."""
     arm = standard_arm()
     s = Settings()
     x, y, z, r = sample
     direction = np.array([x, y, z])
-    if np.linalg.norm(direction) < 1e-3:
-        return
+    assume(np.linalg.norm(direction) >= 1e-3)
     wrist = arm.shoulder + direction / np.linalg.norm(direction) * r * arm.arm_length
     sol = solve(arm, wrist[None], s)
     legal = np.flatnonzero(sol.legal[0])
+    assume(len(legal) > 0)
     for k in legal:
         c = sol.config(0, k)
         joints, _ = forward_kinematics(arm, c.as_array())
@@ -129,15 +130,6 @@ def test_unreachable_wrist_has_no_candidates():
     assert not sol.reachable[0] and not sol.legal.any()
     near = arm.shoulder + np.array([0.0, 0.05, 0.0])   # needs more than 150° of elbow flexion
     assert not solve(arm, near[None], Settings()).legal.any()
-
-
-def test_algorithm_1_elbow_side():
-    shoulder, waist = np.array([0.19, 0, 0]), np.array([0, 0, -0.45])
-    wrist = np.array([0.19, 0.5, 0.0])                # reaching forward at shoulder height
-    out_down = np.array([0.30, 0.25, -0.08])          # elbow outward and down: natural
-    in_up = np.array([0.08, 0.25, 0.08])              # elbow inward and up
-    assert right_arm_side(wrist, out_down, shoulder, waist)
-    assert not right_arm_side(wrist, in_up, shoulder, waist)
 
 
 def test_required_side_keeps_only_preferred_elbows():

@@ -11,7 +11,8 @@ from geometry import HANGING, arm_penetration, obstacles, standard_arm, triangle
 from reach_addon.core import Planner, Settings, Task
 from reach_addon.core.arm import ArmConfig, forward_kinematics, hand_angles, hand_direction
 from reach_addon.core.collision import Obstacles
-from reach_addon.core.generator import ConfigurationGenerator, hand_coefficients
+from reach_addon.core.arm import hand_coefficients
+from reach_addon.core.generator import ConfigurationGenerator
 from reach_addon.core.hand import plan_hand
 from reach_addon.core.motion import time_path
 from reach_addon.demo import WORKPLACE, demo_tasks

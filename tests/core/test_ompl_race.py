@@ -76,7 +76,9 @@ def test_validity_is_the_cores_acceptance(planner, space):
     for row in q:
         joints = joints_of(arm, row)[0]
         legal = math.hypot(row[1], row[2]) <= st.elevation_max
-        legal &= bool(ik.right_arm_side(joints[3], joints[2], joints[1], arm.waist))
+        # Algorithm 1: the elbow on the side of n = (s - w) × (a - s), or P degenerate
+        n = np.cross(joints[1] - joints[3], arm.waist - joints[1])
+        legal &= bool((joints[2] - joints[1]) @ n > 0 or np.linalg.norm(n) < 1e-9)
         body_clear = not ik.self_collision(arm, float(row[0]), joints[None], include_hand=True)[0]
         clear = not checker.collides(arm.to_world_points(joints), include_hand=True)
         expected = bool(legal and body_clear and clear)

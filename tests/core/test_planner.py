@@ -296,7 +296,7 @@ def test_beyond_the_arm_says_whether_leaning_or_a_step_would_reach(arm, beyond, 
     assert not p.success and p.reason == reason, p.message
     assert "'Box' is out of reach" in p.message and words in p.message
     # the distance missing, in centimetres, from the geometry (the figure is in metres)
-    missing_cm = 100 * (np.linalg.norm(target - shoulder_of(arm)) - arm.max_reach)
+    missing_cm = 100 * (np.linalg.norm(target - shoulder_of(arm)) - arm.arm_length)
     if reason == NEEDS_LEAN:
         assert f"{missing_cm:.1f} cm" in p.message
 

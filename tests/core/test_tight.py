@@ -55,7 +55,7 @@ def test_the_target_is_free_and_within_reach(scenes):
         target = scene.target
         assert not obstacles.point_inside(target)
         assert obstacles.distance(target, arm.arm_length) >= scene.limb_radius + scene.margin
-        assert np.linalg.norm(scene.target_c - arm.shoulder) <= arm.max_reach
+        assert np.linalg.norm(scene.target_c - arm.shoulder) <= arm.arm_length
         pose = Planner(arm, obstacles, Settings()).generator.solve(scene.target_c)
         assert pose is not None
         np.testing.assert_allclose(pose.wrist, scene.target_c, atol=1e-9)
