@@ -193,7 +193,7 @@ def _apply_presets(names, settings):
 
     from . import ensure_registered, unregister
     from .ui import presets as presets_mod
-    from .ui.properties import overrides_of, settings_from, settings_to
+    from .ui.properties import bone_overrides, settings_from, settings_to
 
     registered = ensure_registered()
     scene = bpy.data.scenes.new("Reach presets")
@@ -206,7 +206,7 @@ def _apply_presets(names, settings):
             for name in names:
                 presets_mod.apply_named(name)
             out = settings_from(scene.reach.settings)
-            bones = {k[len("bone_"):]: v for k, v in overrides_of(scene.reach).items()}
+            bones = bone_overrides(scene.reach)
     finally:
         if window_scene is not None:
             bpy.context.window.scene = window_scene

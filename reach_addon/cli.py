@@ -250,13 +250,13 @@ def _bake_open_file(args, scene_path, output, bones, written) -> int:
 
     from .blender import pipeline
     from .ui import presets
-    from .ui.properties import overrides_of, settings_from
+    from .ui.properties import bone_overrides, settings_from
 
     props = bpy.context.scene.reach
     for name in args.preset:
         presets.apply_named(name)
     settings = settings_from_args(args, settings_from(props.settings))
-    overrides = {k[len("bone_"):]: v for k, v in overrides_of(props).items()}
+    overrides = bone_overrides(props)
     overrides.update(bones)
     request = pipeline.Request(
         armature=args.armature, targets=list(args.targets), task=args.task, side=args.arm,

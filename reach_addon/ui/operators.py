@@ -24,7 +24,7 @@ import bpy
 
 from ..blender import live, pipeline, rig, viz
 from ..core import ReachError
-from .properties import last_result, request_from, set_live
+from .properties import BONE_PREFIX, last_result, request_from, set_live
 
 SLICE_S = 0.03
 
@@ -195,7 +195,7 @@ class REACH_OT_detect_bones(bpy.types.Operator):
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         for key, name in bmap.to_dict().items():
-            setattr(props, f"bone_{key}", name or "")
+            setattr(props, BONE_PREFIX + key, name or "")
         props.use_overrides = True
         self.report({"INFO"}, f"Bones of {props.armature.name}: " +
                     ", ".join(f"{k}={v}" for k, v in bmap.to_dict().items() if v))

@@ -10,6 +10,7 @@ import bpy
 from ..blender import live
 from ..core.settings import GROUPS, fields
 from .operators import result_lines
+from .properties import OVERRIDES
 
 
 class _Reach:
@@ -114,9 +115,7 @@ class REACH_PT_bones(_Reach, bpy.types.Panel):
         col = layout.column()
         col.enabled = props.use_overrides
         arm = props.armature
-        for name in props.bl_rna.properties.keys():
-            if not name.startswith("bone_"):
-                continue
+        for name in OVERRIDES:
             if arm is not None and arm.type == "ARMATURE":
                 col.prop_search(props, name, arm.data, "bones")
             else:

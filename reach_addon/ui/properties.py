@@ -26,9 +26,11 @@ ROLE_LABELS = {
     "hand": "Hand",
 }
 SIDES = ("right", "left")
+#: The bone override properties are this prefix and the role they name (bone_chest, ...).
+BONE_PREFIX = "bone_"
 #: Names of the bone override properties: chest, then each arm role per side.
-OVERRIDES = ["bone_chest"] + [f"bone_{role}_{side}" for side in SIDES
-                              for role in ("clavicle", "upper_arm", "forearm", "hand")]
+OVERRIDES = [BONE_PREFIX + "chest"] + [f"{BONE_PREFIX}{role}_{side}" for side in SIDES
+                                       for role in ("clavicle", "upper_arm", "forearm", "hand")]
 
 
 def _settings_annotations():
@@ -161,7 +163,7 @@ def _scene_annotations():
     }
     for name in OVERRIDES:
         parts = name.split("_")
-        label = "Chest" if name == "bone_chest" else \
+        label = "Chest" if name == BONE_PREFIX + "chest" else \
             f"{ROLE_LABELS['_'.join(parts[1:-1])]} ({parts[-1]})"
         ann[name] = StringProperty(name=label, default="", description="Bone name (blank: detect)")
     return ann
@@ -173,11 +175,13 @@ REACH_PG_scene = type("REACH_PG_scene", (bpy.types.PropertyGroup,), {
 })
 
 
-def overrides_of(props) -> dict:
-    """{property name: bone name} of the filled-in overrides (when enabled)."""
+def bone_overrides(props) -> dict:
+    """{role: bone name} of the filled-in bone overrides (when enabled), as the pipeline
+    and the rig take them (``chest``, ``hand_right``, ...)."""
     if not props.use_overrides:
         return {}
-    return {name: getattr(props, name) for name in OVERRIDES if getattr(props, name)}
+    return {name.removeprefix(BONE_PREFIX): getattr(props, name) for name in OVERRIDES
+            if getattr(props, name)}
 
 
 def request_from(props) -> pipeline.Request:
@@ -190,7 +194,6 @@ def request_from(props) -> pipeline.Request:
         targets = sorted(ob.name for ob in props.targets.all_objects)[:1]
     else:
         targets = []
-    over = {k[len("bone_"):]: v for k, v in overrides_of(props).items()}
     return pipeline.Request(
         armature=props.armature.name if props.armature else "",
         targets=targets,
@@ -201,7 +204,7 @@ def request_from(props) -> pipeline.Request:
         frame_start=None if props.use_current_frame else props.frame_start,
         duration_s=None if props.auto_duration else props.duration,
         settings=settings_from(props.settings),
-        overrides=over,
+        overrides=bone_overrides(props),
         new_action=props.new_action,
         bake_closest=props.bake_closest,
         show_guides=props.show_guides,
