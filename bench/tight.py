@@ -556,10 +556,10 @@ def plan_scene(scene: Scene, ompl_time_s: float, settings: Settings | None = Non
     secs, cpu = time.perf_counter() - t0, time.process_time() - c0
     seg = plan.segments[0]
     out.update(reach_planned=bool(plan.success), reach_reason=plan.reason,
-               reach_method=getattr(seg, "method", "best-first") if plan.success else None,
+               reach_method=seg.method if plan.success else None,
                reach_time_s=secs, reach_cpu_s=cpu, reach_search_time_s=plan.stats.search_time_s,
                reach_nodes=plan.stats.nodes_searched,
-               reach_sampling_states=int(getattr(plan.stats, "sampling_states", 0)),
+               reach_sampling_states=int(plan.stats.sampling_states),
                reach_frames=len(plan.poses))
     m = contacts(space, tris, np.array([pose_row(p) for p in plan.poses]), check_hand)
     out.update(reach_collisions=m["collisions"], reach_arm_collisions=m["arm_collisions"],
