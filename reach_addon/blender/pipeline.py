@@ -35,6 +35,7 @@ import bpy
 import numpy as np
 
 from ..core import Planner, ReachError, Settings, Task
+from ..core.steps import drain, relay
 from ..core.tasks import chase_steps
 from . import bake as bake_mod
 from . import rig as rig_mod
@@ -310,12 +311,8 @@ def steps(context, request: Request, bake: bool = True):
 def _progress(plan_steps, k: int, count: int):
     """Drive a planner's steps for task ``k`` of ``count``, yielding the pipeline's
     progress; returns the plan."""
-    while True:
-        try:
-            fraction, message = next(plan_steps)
-        except StopIteration as done:
-            return done.value
-        yield 0.05 + 0.85 * (k + fraction) / count, message
+    return relay(plan_steps, lambda progress: (0.05 + 0.85 * (k + progress[0]) / count,
+                                               progress[1]))
 
 
 def _carrying_bone(ob, armature, seen=None):
@@ -468,12 +465,7 @@ def _sample_chase(context, target, exclude, collection, obstacles, f0, f1):
 
 def run(context, request: Request, bake: bool = True) -> Outcome:
     """Run the pipeline to the end (see :func:`steps`)."""
-    gen = steps(context, request, bake)
-    while True:
-        try:
-            next(gen)
-        except StopIteration as done:
-            return done.value
+    return drain(steps(context, request, bake))
 
 
 def _results(info, plans, keyed, request, residual=None):

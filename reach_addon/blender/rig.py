@@ -62,7 +62,7 @@ import numpy as np
 
 from ..core import ArmConfig, ArmModel, Capsule, ReachError, config_from_joints
 from ..core.arm import forward_kinematics, hand_angles
-from ..core.collision import segment_distance
+from ..core.collision import segment_distance_float
 
 ROLES = ("clavicle", "upper_arm", "forearm", "hand")
 SIDES = ("right", "left")
@@ -700,7 +700,7 @@ def clear_of_start(capsules, segments, arm_length):
     the body cannot be wider there than the arm lets it be."""
     out = []
     for c in capsules:
-        gap = min(float(segment_distance(a, b, c.a, c.b)) - r for a, b, r in segments) - c.radius
+        gap = min(segment_distance_float(a, b, c.a, c.b) - r for a, b, r in segments) - c.radius
         if gap < -1e-4 * arm_length:
             radius = max(c.radius + gap - START_BODY_GAP * arm_length, MIN_BODY_RADIUS * c.radius)
             c = Capsule(c.name, c.a, c.b, radius, c.turns_with_chest)
