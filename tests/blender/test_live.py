@@ -12,10 +12,11 @@ import textwrap
 from pathlib import Path
 
 import bpy
+import clearance
 import numpy as np
 import pytest
 import rigs
-from geometry import angle_deg, segment_clearance
+from geometry import angle_deg
 from test_bake import SKIN_CHAIN, triangles, world_heads
 
 def heads(armature, names):
@@ -45,9 +46,11 @@ def set_up(kind, addon):
     return arm, info, target, plate
 
 
-def settle(live, chain_of, settings, length, tris=None, clearance=None):
-    """Run updates until the session rests; check every pose shown. Returns the last
-    (shoulder, elbow, wrist) and the number of poses shown."""
+def settle(live, chain_of, settings, length, tris=None, capsules=None):
+    """Run updates until the session rests; check every pose shown (and, given the
+    obstacle's triangles ``tris``, that the arm's ``capsules``, a ``clearance.Arm``, keep
+    clear of them). Returns the last (shoulder, elbow, wrist) and the number of poses
+    shown."""
     before = chain_of()
     shown = 0
     for _ in range(10000):
@@ -56,9 +59,7 @@ def settle(live, chain_of, settings, length, tris=None, clearance=None):
             now = chain_of()
             check_jump(settings, length, before, now)
             if tris is not None:
-                worst = min(segment_clearance(now[0], now[1], tris),
-                            segment_clearance(now[1], now[2], tris))
-                assert worst > clearance, "an arm bone passes through the obstacle"
+                capsules.check(tris, f"the pose shown with the wrist at {now[2].round(4)}")
             before, shown = now, shown + 1
         if not report.busy:
             return before, shown
@@ -81,12 +82,13 @@ def test_live_follows_a_dragged_target_round_an_obstacle(fresh, addon, kind):
     # small steps, as G does
     path = [goal] + [goal + 0.03 * length * k * (f.up + 0.5 * f.right) for k in range(1, 9)]
     total = 0
+    capsules = clearance.Arm(arm, info, chain)
     for p in path:
         target.location = p
-        last, shown = settle(live, lambda: heads(arm, chain), settings, length, tris,
-                             0.3 * info.arm.forearm_radius)
+        last, shown = settle(live, lambda: heads(arm, chain), settings, length, tris, capsules)
         total += shown
         assert np.linalg.norm(last[2] - p) <= 0.005 * length, "wrist on the target"
+    print(f"{kind}: worst margins (arm lengths): {capsules.report()}")
     assert total >= len(path)
     state = live.state()
     assert state.cache.builds == 1, "moving the target never rebuilds the obstacles"
@@ -222,8 +224,10 @@ def test_moving_obstacles_are_rebuilt_only_when_they_change(fresh, addon):
     plate.location = np.array(plate.location) + 0.5 * (wrist - np.array(plate.location))
     bpy.context.view_layer.update()
     target.location = np.array(target.location) + 0.04 * length * info.frame.up
+    capsules = clearance.Arm(arm, info, chain)
     last, _ = settle(live, lambda: heads(arm, chain), settings, length, triangles(plate),
-                     0.3 * info.arm.forearm_radius)
+                     capsules)
+    print(f"moved plate: worst margins (arm lengths): {capsules.report()}")
     assert live.state().cache.builds == 2
     # an edit of the plate's mesh (no transform change) is seen through the depsgraph
     for v in plate.data.vertices:

@@ -6,8 +6,9 @@ Each scene is built around the rig in its own body frame and scaled by its own a
 across the straight path (``rigs.plate_scene``), and a ledge the hand must reach over. At
 every instant:
 
-* every bone of the arm and of the hand, finger bones included, stays clear of the
-  obstacles' triangles (exact distances, numpy);
+* the arm's capsules (upper arm, forearm, hand) keep clear of the obstacles' triangles by
+  their radii (``clearance``: exact distances, numpy), and no bone of the arm or of the
+  hand, finger bones included, passes through them;
 * the hand's direction relative to the forearm (the forearm bone's own matrix, as Blender
   evaluates it) turns at most the hand turn speed limit per frame, and no bone of the hand
   turns in space faster than the hand turn speed in space;
@@ -16,15 +17,16 @@ every instant:
 """
 
 import bpy
+import clearance
 import numpy as np
 import pytest
 import rigs
 import synthetic
-from geometry import angle_deg, point_triangle_distance
+from clearance import hand_bones, segments
+from geometry import angle_deg, segment_triangle_distances
 from test_bake import triangles
 
 INSTANTS = (0.0, 0.25, 0.5, 0.75)
-HELPER = ("_end", "ik", "fk", "pole", "tweak", "mch", "org", "ctrl")
 
 
 def bulky():
@@ -58,30 +60,11 @@ def ledge_scene(info):
     return target, ledge
 
 
-def hand_bones(armature, hand):
-    """The hand bone and every bone below it that is not a helper."""
-    out = [hand]
-    for b in armature.pose.bones[hand].children_recursive:
-        if not any(t in b.name.lower() for t in HELPER):
-            out.append(b.name)
-    return out
-
-
-def segments(armature, names):
-    """World (head, tail) of pose bones as Blender evaluates them now."""
-    mw = np.array(armature.matrix_world)
-    pts = []
-    for n in names:
-        pb = armature.pose.bones[n]
-        pts.append((mw[:3, :3] @ np.array(pb.head) + mw[:3, 3],
-                    mw[:3, :3] @ np.array(pb.tail) + mw[:3, 3]))
-    return pts
-
-
-def segment_distance(p, q, tris, spacing):
-    n = max(2, int(np.ceil(np.linalg.norm(q - p) / spacing)) + 1)
-    pts = p + np.linspace(0, 1, n)[:, None] * (q - p)
-    return float(point_triangle_distance(pts, tris).min())
+def bone_distances(armature, names, tris):
+    """Exact distances from the bones ``names`` (head to tail, as Blender evaluates them now)
+    to the triangles."""
+    segs = segments(armature, names)
+    return segment_triangle_distances([p for p, _q in segs], [q for _p, q in segs], tris)
 
 
 def hand_in_forearm(armature, forearm, bones):
@@ -114,7 +97,7 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
     chain = [bones.upper_arm, bones.forearm]
     hand = hand_bones(armature, bones.hand)
     planned = plan.world_joints()
-    spacing = 0.005 * length
+    capsules = clearance.Arm(armature, info)
     # a rig driven through constraints (Rigify) is settled against its evaluated pose: the
     # keyed wrist is on the plan's everywhere, chest turned or not, up to the residual the
     # bake reports (the spine's own stretch), which stays within a percent of the arm
@@ -127,10 +110,10 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
     for f in range(res.frame_start, res.frame_end + 1):
         for sub in INSTANTS if f < res.frame_end else (0.0,):
             scene_.frame_set(f, subframe=sub)
-            for name, (p, q) in zip(chain + hand, segments(armature, chain + hand)):
-                d = segment_distance(p, q, tris, spacing)
-                if d < worst:
-                    worst, worst_at = d, (f, sub, name)
+            capsules.check(tris, f"{kind} {scene}: frame {f + sub:g}")
+            d = bone_distances(armature, chain + hand, tris)
+            if d.min() < worst:
+                worst, worst_at = float(d.min()), (f, sub, (chain + hand)[int(d.argmin())])
             if sub == 0.0:
                 # the keyed hand is the planned hand: the wrist where the plan has it, and
                 # the hand's axis (wrist → mean of its finger joints) along the plan's hand
@@ -150,6 +133,7 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
                     turns.append(angle_deg(prev_dir, now))
                     space.append(max(angle_deg(a, b) for a, b in zip(prev_bones, bones_now)))
                 prev_dir, prev_bones = now, bones_now
+    print(f"{kind} {scene}: worst margins (arm lengths): {capsules.report()}")
     assert worst > 0.0, f"{worst_at}: a bone passes through the {obstacle.name}"
     assert max(turns) <= s.hand_turn_speed / fps + 2.0, \
         f"the hand turns {max(turns):.1f}° relative to the forearm in one frame"
@@ -164,7 +148,10 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
 def test_fingertips_a_centimetre_from_a_wall_start_out_of_contact(fresh, addon, kind):
     """A start within the clearance of a wall is planned out of contact (it used to be
     refused): the hand's bones get no nearer the wall on the way out, and nothing passes
-    through it at any instant."""
+    through it at any instant. The hand's capsule starts inside the wall (a hand resting on
+    a surface sinks its round capsule into it) and comes out at every instant, no capsule
+    nearer the wall than at the instant before, until it is clear by the whole margin;
+    from then on the capsules keep the room they keep everywhere (``clearance``)."""
     armature = load(kind)
     info = addon.blender.rig.build(armature, "right")
     f, length = info.frame, info.arm.arm_length
@@ -183,7 +170,7 @@ def test_fingertips_a_centimetre_from_a_wall_start_out_of_contact(fresh, addon, 
     wall = rigs.add_box("Wall", centre, (0.04 * length, 0.8 * length, 0.8 * length),
                         np.column_stack([f.right, f.forward, f.up]))
     tris = triangles(wall)
-    start = min(segment_distance(p, q, tris, 0.002 * length) for p, q in segments(armature, hand))
+    start = bone_distances(armature, hand, tris).min()
     assert start < request_margin(addon) * length, "the fingertips must start within the clearance"
     target = rigs.add_target("Cup", info.joints_world["shoulder"] + 0.65 * length * f.forward
                              - 0.1 * length * f.up)
@@ -192,15 +179,28 @@ def test_fingertips_a_centimetre_from_a_wall_start_out_of_contact(fresh, addon, 
     outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
     res = outcome.results[0]
     assert res.success, res.message
-    near = []
+    capsules = clearance.Arm(armature, info)
+    near, room, instants = [], [], []
     for fr in range(res.frame_start, res.frame_end + 1):
         for sub in INSTANTS if fr < res.frame_end else (0.0,):
             bpy.context.scene.frame_set(fr, subframe=sub)
-            near.append(min(segment_distance(p, q, tris, 0.002 * length)
-                            for p, q in segments(armature, [bones.upper_arm, bones.forearm] + hand)))
+            near.append(bone_distances(armature, [bones.upper_arm, bones.forearm] + hand,
+                                       tris).min())
+            room.append(min(capsules.margins(tris).values()))
+            instants.append(fr + sub)
     assert min(near) > 0.0, "a bone passes through the wall"
     clear_at = next(i for i, d in enumerate(near) if d >= request_margin(addon) * length)
     assert all(b >= a - 0.001 * length for a, b in zip(near[:clear_at], near[1:clear_at + 1]))
+    assert room[0] < 0.0, "the hand's capsule must start inside the wall"
+    out = next(i for i, m in enumerate(room)
+               if m >= request_margin(addon) - clearance.TOLERANCE)
+    assert all(b >= a - 0.001 for a, b in zip(room[:out], room[1:out + 1])), \
+        f"a capsule gets nearer the wall on the way out: {room[:out + 1]}"
+    worst = int(np.argmin(room[out:])) + out
+    print(f"{kind}: out of contact at frame {instants[out]:g}; then least room "
+          f"{room[worst]:+.4f} arm lengths at frame {instants[worst]:g}")
+    assert room[worst] >= capsules.required, \
+        f"frame {instants[worst]:g}: a capsule {room[worst]:+.4f} arm lengths from the wall"
 
 
 def request_margin(addon):

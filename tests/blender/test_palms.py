@@ -12,11 +12,13 @@ one, so their bakes are as before (``test_bake.py``).
 from __future__ import annotations
 
 import bpy
+import clearance
 import numpy as np
 import pytest
 import rigs
 import synthetic as syn
 from geometry import angle_deg
+from test_bake import triangles
 
 # name maps for the palm rigs: the hand's bones are Palm1.R … (or Palm1R … for the robot's)
 PALM_MAPS = {"plain": syn.PLAIN, "mixamo": syn.MIXAMO, "robot": syn.ROBOT_NAMES}
@@ -148,7 +150,8 @@ def bend_hand(arm, forearm, palms, degrees):
 def test_the_palms_turn_together(fresh, addon, key, proportions, bent):
     """A reach round a plate; on two rigs from a hand bent 30° at the start (the plan
     brings it back toward neutral as it goes), on the other as straight as it is built (the
-    plate makes it bend)."""
+    plate makes it bend). The arm and the hand of three palms keep clear of the plate by
+    their radii at every instant (``clearance``)."""
     rig = addon.blender.rig
     arm, names, palms = palm_rig(key, proportions=proportions)
     if bent:
@@ -156,7 +159,7 @@ def test_the_palms_turn_together(fresh, addon, key, proportions, bent):
     info = rig.build(arm, "right")
     forearm = info.bones.arms["right"].forearm
     length = info.arm.arm_length
-    target, _plate = rigs.plate_scene(info, arm)
+    target, plate = rigs.plate_scene(info, arm)
     outcome, task = bake_reach(addon, arm, info, target)
     plan, frame0 = outcome.plans[0]
     planned = plan.world_joints()
@@ -175,6 +178,9 @@ def test_the_palms_turn_together(fresh, addon, key, proportions, bent):
         j = planned[f - frame0]
         assert angle_deg(joints.mean(0) - wrist, j[4] - j[3]) < 0.5, f"frame {f}"
     assert max(bends) > 10.0, "the wrist bends during the reach"
+    capsules = clearance.Arm(arm, info)
+    capsules.check_instants(triangles(plate), range(task.frame_start, task.frame_end + 1))
+    print(f"{key}: worst margins (arm lengths): {capsules.report()}")
     assert set(palms["right"]) <= set(task.bones_keyed)
     bpy.context.scene.frame_set(task.frame_end)
     wrist = world(arm, arm.pose.bones[palms["right"][0]].head)

@@ -31,11 +31,11 @@ gets going there.
 from __future__ import annotations
 
 import bpy
+import clearance
 import numpy as np
 import pytest
 import rigs
 import synthetic as syn
-from geometry import segment_clearance
 from test_bake import triangles
 from test_palms import check_rigid_hand
 
@@ -144,7 +144,7 @@ def start_joints(addon, info):
 
 
 def test_body_capsules_leave_room_for_the_arm_it_stands_with(fresh, addon, rig):
-    segment_distance = addon.core.collision.segment_distance
+    segment_distance = addon.core.collision.segment_distance_float
     info = rig.build(robot(), "right")
     a, h = info.arm, info.frame.shoulder_half_width
     length = a.arm_length
@@ -219,8 +219,8 @@ def test_the_scenes_are_ordinary(fresh, addon, name):
 @pytest.mark.parametrize("name", SCENES)
 def test_the_robot_in_ordinary_scenes(fresh, addon, name):
     """Baked, and checked on Blender's evaluated bones: the wrist on the target at the end,
-    the upper arm and forearm clear of every obstacle by their radii at every frame, the
-    three palms one rigid hand. The shelf: see the module docstring."""
+    the upper arm, forearm and hand clear of every obstacle by their radii at every instant
+    (``clearance``), the three palms one rigid hand. The shelf: see the module docstring."""
     arm = robot()
     info = addon.blender.rig.build(arm, "right")
     a = info.arm
@@ -240,11 +240,12 @@ def test_the_robot_in_ordinary_scenes(fresh, addon, name):
         if name not in ("front", "side", "chase") else None
     for f in range(task.frame_start, task.frame_end + 1):
         bpy.context.scene.frame_set(f)
-        shoulder, elbow, wrist = (np.array(arm.matrix_world @ arm.pose.bones[b].head) for b in chain)
+        wrist = np.array(arm.matrix_world @ arm.pose.bones[chain[2]].head)
         check_rigid_hand(arm, bones.forearm, info.hand_bones, length)
-        if tris is not None:
-            assert segment_clearance(shoulder, elbow, tris) > a.upper_arm_radius, f"frame {f}"
-            assert segment_clearance(elbow, wrist, tris) > a.forearm_radius, f"frame {f}"
+    if tris is not None:
+        capsules = clearance.Arm(arm, info, chain)
+        capsules.check_instants(tris, range(task.frame_start, task.frame_end + 1), f"{name}: ")
+        print(f"{name}: worst margins (arm lengths): {capsules.report()}")
     goal = np.array(target.matrix_world.translation)
     tolerance = addon.core.Settings().goal_tolerance
     assert np.linalg.norm(wrist - goal) <= (tolerance + 1e-4) * length

@@ -1,0 +1,166 @@
+"""The independent clearance check of the Blender tests: how far the arm that Blender shows
+stays from the obstacles, against what the planner promises.
+
+**What the planner promises** (``core.collision.CollisionChecker``, ``core.hand``,
+``Settings.clearance``): the arm is three capsules, each a segment between two joints swept
+by a radius of the rig model (``ArmModel``, read from the skin by the rig adapter) — the
+upper arm (shoulder → elbow, ``upper_arm_radius``), the forearm (elbow → wrist,
+``forearm_radius``) and the hand (wrist → the hand's far end, ``hand_radius``; the far end is
+``hand_length`` from the wrist toward the middle of the fingers' joints). A keyed pose keeps
+every capsule a margin of ``Settings.clearance`` arm lengths (0.02 by default) clear of every
+obstacle surface; the instants between two keys, as the keys interpolate (the planner checks
+``Settings.instants_per_frame`` = 4 of them a frame), and the frames the hand pass samples
+between two poses of the path may use up to half of that margin. So at every instant each
+segment is at least its radius plus half the clearance (0.01 arm lengths) from every
+obstacle triangle. (A start pose already inside the margin is another promise: it moves out,
+every step farther, first; ``test_motion`` checks that case.)
+
+**What is measured here** shares nothing with the planner: the joints are the heads of the
+arm's pose bones as Blender evaluates them (after ``frame_set``, sub-frames included), the
+hand's far end is read from its finger bones the same way, and the distances are exact
+segment-to-triangle distances (``geometry.segment_triangle_distances``, numpy) to the
+obstacles' evaluated triangles. Only the radii, the hand's length and the clearance are the
+planner's numbers: they are what is promised.
+
+**The tolerance** (:data:`TOLERANCE`, 0.002 arm lengths, about 1 mm on an adult): how much
+of its promised room a capsule may lack here. It covers what Blender shows differently from
+what the planner checked: the keyed rotations interpolated by Blender's F-curves rather
+than the planner's linear interpolation of the joint angles (over a quarter frame of a
+reach, joints a few degrees apart: a fraction of a millimetre at the hand), the bake's error
+in reproducing the planned joints on a rig driven through constraints (Rigify's, reported as
+``rig_residual_arm_lengths``; its reaches here keep 0.021 arm lengths) and the hand's axis
+read from the evaluated
+finger joints (within a fraction of a degree of the plan's; over the hand's length under
+0.002 arm lengths at its far end). Measured over these tests the least room left is 0.0103
+arm lengths (the robot's hand in its shelf, between two keys) against the 0.008 asked. A
+threshold of 0.3 forearm radii, as these tests once had, passed a forearm 70 % sunk into an
+obstacle.
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+from geometry import segment_triangle_distances
+
+#: How much of its promised room (arm lengths) a capsule may lack: see the module docstring.
+TOLERANCE = 0.002
+#: Distances beyond this many arm lengths are not measured (reported as this).
+HORIZON = 0.5
+
+# bone names of helpers, not of the hand's shape: the hand's far end is read from the rest
+HELPER = ("_end", "ik", "fk", "pole", "tweak", "mch", "org", "ctrl")
+
+
+def hand_bones(armature, hand):
+    """The hand bone and every bone below it that is not a helper."""
+    out = [hand]
+    for b in armature.pose.bones[hand].children_recursive:
+        if not any(t in b.name.lower() for t in HELPER):
+            out.append(b.name)
+    return out
+
+
+def segments(armature, names):
+    """World (head, tail) of pose bones as Blender evaluates them now."""
+    mw = np.array(armature.matrix_world)
+    pts = []
+    for n in names:
+        pb = armature.pose.bones[n]
+        pts.append((mw[:3, :3] @ np.array(pb.head) + mw[:3, 3],
+                    mw[:3, :3] @ np.array(pb.tail) + mw[:3, 3]))
+    return pts
+
+
+def hand_end(armature, hands, wrist, length):
+    """The hand's far end: ``length`` from the wrist toward the mean of the hand's finger
+    joints (heads and tails of the bones below the hand bones ``hands``, helpers left out),
+    or along the hand bone for a hand without fingers."""
+    joints = [x for h in hands for seg in segments(armature, hand_bones(armature, h)[1:])
+              for x in seg]
+    if joints:
+        axis = np.mean(joints, axis=0) - wrist
+    else:
+        axis = np.mean([t for _h, t in segments(armature, hands)], axis=0) - wrist
+    return wrist + length * axis / np.linalg.norm(axis)
+
+
+class Arm:
+    """The reaching arm's capsules as Blender shows them, for one rig.
+
+    ``arm``: the rig model (``RigInfo.arm``) whose radii and hand length the planner used;
+    ``chain``: the bones whose heads are the shoulder, the elbow and the wrist (default the
+    rig's detected arm); ``hands``: the hand's bones (default the rig's hand group);
+    ``clearance``: the planner's ``Settings.clearance`` (default its default).
+
+    ``required``: the least margin (distance − radius, arm lengths) a capsule must keep at
+    every instant: half the clearance less :data:`TOLERANCE`."""
+
+    PARTS = ("upper arm", "forearm", "hand")
+
+    def __init__(self, armature, info, chain=None, hands=None, clearance=None):
+        if clearance is None:
+            from reach_addon.core import Settings
+
+            clearance = Settings().clearance
+        self.required = 0.5 * clearance - TOLERANCE
+        bones = info.bones.arms[info.side]
+        self.armature = armature
+        self.model = info.arm
+        self.length = info.arm.arm_length
+        self.chain = tuple(chain or (bones.upper_arm, bones.forearm, bones.hand))
+        self.hands = tuple(hands or getattr(info, "hand_bones", ()) or (bones.hand,))
+        a = info.arm
+        self.radii = (a.upper_arm_radius, a.forearm_radius, a.hand_radius)
+        self.worst = {}          # part -> (margin in arm lengths, where)
+
+    def capsules(self):
+        """[(part, p, q, radius)] at the current evaluation."""
+        mw = np.array(self.armature.matrix_world)
+        shoulder, elbow, wrist = (mw[:3, :3] @ np.array(self.armature.pose.bones[n].head)
+                                  + mw[:3, 3] for n in self.chain)
+        tip = hand_end(self.armature, self.hands, wrist, self.model.hand_length)
+        ends = ((shoulder, elbow), (elbow, wrist), (wrist, tip))
+        return [(part, p, q, r) for part, (p, q), r in zip(self.PARTS, ends, self.radii)]
+
+    def margins(self, tris, parts=PARTS):
+        """{part: (distance to the triangles − radius) / arm length} now (at most
+        :data:`HORIZON`)."""
+        caps = [c for c in self.capsules() if c[0] in parts]
+        horizon = HORIZON * self.length + max(r for *_pq, r in caps)
+        d = segment_triangle_distances([c[1] for c in caps], [c[2] for c in caps], tris, horizon)
+        return {part: min((dist - r) / self.length, HORIZON)
+                for (part, _p, _q, r), dist in zip(caps, d)}
+
+    def check(self, tris, where, parts=PARTS):
+        """Assert every capsule of ``parts`` keeps its radius plus :attr:`required` arm
+        lengths from the triangles now; keep the worst margin of each part (``worst``).
+        Returns the margins."""
+        now = self.margins(tris, parts)
+        for part, m in now.items():
+            if part not in self.worst or m < self.worst[part][0]:
+                self.worst[part] = (m, where)
+        bad = {part: round(m, 4) for part, m in now.items() if m < self.required}
+        assert not bad, (f"{where}: capsule(s) nearer an obstacle than their radius + "
+                         f"{self.required:.4f} arm lengths (distance - radius, arm lengths: "
+                         f"{bad})")
+        return now
+
+    def check_instants(self, tris_at, frames, where="", subframes=(0.0, 0.25, 0.5, 0.75),
+                       parts=PARTS):
+        """:meth:`check` at every instant of ``frames`` (a range of frames): each frame and
+        its ``subframes`` (Blender's ``frame_set(f, subframe=s)``), but only the frame itself
+        at the last. ``tris_at()`` gives the obstacles' triangles at the current
+        evaluation (a callable, for obstacles that move) or is the triangles."""
+        scene = bpy.context.scene
+        frames = list(frames)
+        for f in frames:
+            for sub in subframes if f < frames[-1] else (0.0,):
+                scene.frame_set(f, subframe=sub)
+                tris = tris_at() if callable(tris_at) else tris_at
+                self.check(tris, f"{where}frame {f + sub:g}", parts)
+        return self.worst
+
+    def report(self):
+        """The worst margins seen, one line (for -s runs and failure messages)."""
+        return ", ".join(f"{part} {m:+.4f} at {where}" for part, (m, where) in self.worst.items())
