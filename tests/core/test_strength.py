@@ -114,12 +114,6 @@ def test_prefer_side_is_a_first_key():
     assert rank_order(level, second, np.array([False, True])).tolist() == [0, 1]
 
 
-def test_module_exposes_the_paper_names():
-    for name in ("strength_horizontal", "strength_vertical", "f_h", "f_v", "f_r", "f_e", "f_s",
-                 "f_t", "S_H_MIN", "S_V_MIN"):
-        assert hasattr(strength, name)
-
-
 # --- the two readings of α and β --------------------------------------------------------------
 
 def _raised(elevation_deg, toward):
