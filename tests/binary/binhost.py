@@ -2,14 +2,14 @@
 it with a timeout, reading what its scripts print, reading screenshots.
 
 Without the system tools (``tools/system-deps.sh`` installs them) these tests skip, except
-under ``CI=true``, where they fail and say how to install them.
+under CI, where they fail and say how to install them (the rule is ``system_tools``'s,
+shared with every test that needs them).
 """
 
 from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import subprocess
 from dataclasses import dataclass
@@ -17,30 +17,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from system_tools import missing, require  # noqa: F401  (the binary tests' rule)
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = Path(__file__).resolve().parent / "scripts"
 OUT = ROOT / "out" / "gui"
 SCREEN = "1600x1000"
 RIG = "quaternius"                    # tests/data/rigs/Quaternius_Female_Casual.fbx
-PACKAGES = {"blender": "blender", "xvfb-run": "xvfb", "xdotool": "xdotool",
-            "convert": "imagemagick", "numpy": "python3-numpy"}
-
-
-def missing(what: list[str]):
-    """Fail under CI, else skip, naming what is missing and how to install it."""
-    pkgs = " ".join(sorted({PACKAGES[w] for w in what}))
-    msg = (f"{', '.join(what)} not available: run tools/system-deps.sh "
-           f"(apt-get install -y {pkgs})")
-    if os.environ.get("CI") == "true":
-        pytest.fail(msg, pytrace=False)
-    pytest.skip(msg)
-
-
-def require(*tools: str):
-    absent = [t for t in tools if shutil.which(t) is None]
-    if absent:
-        missing(absent)
 
 
 def run(cmd, *, env=None, timeout, cwd=None) -> subprocess.CompletedProcess:

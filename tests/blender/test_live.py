@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import rigs
 from geometry import angle_deg
+from system_tools import missing, require
 from test_bake import SKIN_CHAIN, triangles, world_heads
 
 def heads(armature, names):
@@ -451,12 +452,11 @@ def test_live_in_blenders_own_event_loop(tmp_path):
     """A real Blender (Debian's 3.4 binary, the add-on installed the pre-4.2 way) with its
     window under Xvfb: the script only moves the target; the depsgraph handler, the timer and
     the update run from Blender's own event loop. Then K, typed over the 3D View (xdotool),
-    keys the pose."""
+    keys the pose. Without those tools it skips, and fails under CI (``system_tools``)."""
     import shutil
 
     root = Path(__file__).resolve().parents[2]
-    if not all(shutil.which(t) for t in ("blender", "xvfb-run", "xdotool")):
-        pytest.skip("needs a Blender binary, xvfb-run and xdotool (tools/system-deps.sh)")
+    require("blender", "xvfb-run", "xdotool")
     addon = tmp_path / "scripts" / "addons" / "reach_addon"
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
     shutil.copytree(root / "reach_addon", addon, ignore=ignore)
@@ -474,7 +474,7 @@ def test_live_in_blenders_own_event_loop(tmp_path):
                            "--factory-startup", "--python", str(script), "--", str(out)],
                           capture_output=True, text=True, timeout=420, env=env)
     if "No module named 'numpy'" in proc.stdout + proc.stderr:
-        pytest.skip("Blender's Python has no numpy (apt-get install python3-numpy)")
+        missing(["numpy"])
     assert out.is_file(), proc.stdout[-3000:] + proc.stderr[-3000:]
     seen = json.loads(out.read_text())
     assert "error" not in seen, seen["error"]
