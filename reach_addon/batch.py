@@ -77,7 +77,6 @@ from . import atomic
 from .core import ReachError
 
 MARK = "@@reach-result "
-RESULT_TIMING = ("search_time_s", "preprocess_time_s", "planning_time_s", "wall_time_s")
 PACKAGE_PARENT = Path(__file__).resolve().parent.parent
 PACKAGE = __package__ or "reach_addon"
 

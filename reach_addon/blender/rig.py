@@ -175,15 +175,6 @@ def _scene_objects(armature):
     return scenes[0].objects if scenes else [armature]
 
 
-def _descendants(bone, depth):
-    """(bone, distance in steps) of descendants up to ``depth`` steps, nearest first."""
-    out, frontier = [], [bone]
-    for d in range(1, depth + 1):
-        frontier = [c for b in frontier for c in b.children]
-        out += [(c, d) for c in frontier]
-    return out
-
-
 def _ancestors(bone):
     out = []
     while bone.parent is not None:
