@@ -36,11 +36,12 @@ channels inside the baked frame range are replaced; every other key stays. With
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import bpy
 import numpy as np
-from mathutils import Euler, Matrix, Quaternion
+from mathutils import Euler, Matrix, Quaternion, Vector
 
 from ..core import ReachError
 from ..core.torso import spine_rotation_matrix
@@ -306,69 +307,42 @@ def _parent_target(parent, name_to_role, targets_arm, start_pose, n):
     return a_target @ (np.linalg.inv(start_pose[anc.name]) @ s_p)[None]
 
 
-def matrix_quaternions(m):
-    """Unit quaternions (F, 4) (w, x, y, z) of matrices (F, 3, 3) whose columns are scaled
-    rotation axes (the scale is divided out first), by Shepperd's method: each row takes the
-    largest of the four diagonal combinations as its pivot, so no division is near zero."""
-    r = m / np.linalg.norm(m, axis=1, keepdims=True)
-    t = np.stack([r[:, 0, 0] + r[:, 1, 1] + r[:, 2, 2], r[:, 0, 0], r[:, 1, 1], r[:, 2, 2]], 1)
-    pivot = np.argmax(t, 1)
-    q = np.empty((len(r), 4))
-    for k in range(4):
-        rows = pivot == k
-        if not rows.any():
-            continue
-        a = r[rows]
-        if k == 0:
-            w = np.sqrt(1.0 + t[rows, 0]) / 2
-            q[rows] = np.column_stack([w, (a[:, 2, 1] - a[:, 1, 2]) / (4 * w),
-                                       (a[:, 0, 2] - a[:, 2, 0]) / (4 * w),
-                                       (a[:, 1, 0] - a[:, 0, 1]) / (4 * w)])
-            continue
-        i = k - 1
-        j, l = (i + 1) % 3, (i + 2) % 3
-        v = np.sqrt(np.maximum(1.0 + 2 * a[:, i, i] - t[rows, 0], 0.0)) / 2
-        out = np.empty((len(a), 4))
-        out[:, 0] = (a[:, l, j] - a[:, j, l]) / (4 * v)
-        out[:, 1 + i] = v
-        out[:, 1 + j] = (a[:, j, i] + a[:, i, j]) / (4 * v)
-        out[:, 1 + l] = (a[:, l, i] + a[:, i, l]) / (4 * v)
-        q[rows] = out
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
-
-
-def continuous(q, previous):
-    """Flip the signs of quaternions (F, 4) so that each is in the hemisphere of the one
-    before it (the first of ``previous``, the bone's current value): no 360° spins."""
-    ref = np.vstack([previous[None], q])
-    flips = np.einsum("ij,ij->i", ref[1:], ref[:-1]) < 0
-    # a row's sign is flipped once per sign change of the raw rows before it
-    raw_dots = np.einsum("ij,ij->i", q[1:], q[:-1]) < 0
-    sign = np.ones(len(q))
-    sign[0] = -1.0 if flips[0] else 1.0
-    sign[1:] = sign[0] * np.cumprod(np.where(raw_dots, -1.0, 1.0))
-    return q * sign[:, None]
+def _compatible_quaternions(rotations, previous):
+    """The unit quaternion of each rotation matrix, each in the hemisphere of the one before
+    it (the first in that of ``previous``, the bone's current value): no 360° spins.
+    ``previous`` must be of unit length: ``make_compatible`` gives its result the length of
+    the quaternion it is made compatible with."""
+    prev = previous
+    for r in rotations:
+        q = r.to_quaternion()
+        q.make_compatible(prev)
+        yield q
+        prev = q
 
 
 def channel_values(pose_bone, locals_):
-    """Rotation channel values (F, k) and the data path for a bone's rotation mode."""
+    """Rotation channel values (F, k) and the data path for a bone's rotation mode, from its
+    local matrices (F, 4, 4) with the scale divided out, each frame continuous with the one
+    before (the first with the bone's current value)."""
     mode = pose_bone.rotation_mode
-    out = []
+    rotations = [Matrix(m.tolist()).to_3x3().normalized() for m in locals_]
     if mode == "QUATERNION":
-        q = matrix_quaternions(np.asarray(locals_)[:, :3, :3])
-        return "rotation_quaternion", continuous(q, np.array(pose_bone.rotation_quaternion))
+        qs = _compatible_quaternions(rotations, pose_bone.rotation_quaternion.normalized())
+        return "rotation_quaternion", np.array([tuple(q) for q in qs])
     if mode == "AXIS_ANGLE":
-        prev = Quaternion(pose_bone.rotation_axis_angle[1:], pose_bone.rotation_axis_angle[0])
-        for m in locals_:
-            q = Matrix(m.tolist()).to_3x3().normalized().to_quaternion()
-            q.make_compatible(prev)
-            axis, angle = q.to_axis_angle()
-            out.append((angle, *axis))
-            prev = q
+        # The channel's own quaternion: mathutils' Quaternion(axis, angle) wraps an angle of
+        # 180° or more into ±180°, which is the other hemisphere.
+        angle, *axis = pose_bone.rotation_axis_angle
+        current = Quaternion((math.cos(angle / 2), *(math.sin(angle / 2) * Vector(axis).normalized())))
+        out = []
+        for q in _compatible_quaternions(rotations, current):
+            q_axis, q_angle = q.to_axis_angle()
+            out.append((q_angle, *q_axis))
         return "rotation_axis_angle", np.array(out)
     prev = pose_bone.rotation_euler.copy()
-    for m in locals_:
-        e = Matrix(m.tolist()).to_3x3().normalized().to_euler(mode, prev)
+    out = []
+    for r in rotations:
+        e = r.to_euler(mode, prev)
         out.append(tuple(e))
         prev = Euler(e, mode)
     return "rotation_euler", np.array(out)
