@@ -18,7 +18,7 @@ import pytest
 import rigs
 from geometry import angle_deg
 from system_tools import missing, require
-from test_bake import SKIN_CHAIN, triangles, world_heads
+from test_bake import SKIN_CHAIN, set_up, triangles, world_heads
 
 def heads(armature, names):
     bpy.context.view_layer.update()
@@ -37,14 +37,12 @@ def check_jump(settings, length, a, b):
     assert angle_deg(a[1] - a[0], b[1] - b[0]) <= (1 + math.sqrt(2)) * bound + 0.5
 
 
-def set_up(kind, addon):
-    arm = rigs.load(kind)
-    rigs.rest_still(arm)
-    info = addon.blender.rig.build(arm, "right")
-    target, plate = rigs.plate_scene(info, arm)
-    props = bpy.context.scene.reach
-    props.armature, props.target, props.arm = arm, target, "RIGHT"
-    return arm, info, target, plate
+def open_metarig(addon):
+    """:func:`test_bake.set_up` on the metarig without its plate: (armature, rig info,
+    target, the live module, the skin chain, default settings)."""
+    arm, info, target, plate = set_up("metarig", addon)
+    bpy.data.objects.remove(plate)
+    return arm, info, target, addon.blender.live, SKIN_CHAIN["metarig"], addon.core.Settings()
 
 
 def settle(live, chain_of, settings, length, tris=None, capsules=None):
@@ -154,12 +152,8 @@ def test_turning_live_off_is_one_undo_step(fresh, addon):
 
 
 def test_undo_while_live_is_on_follows_the_restored_scene(fresh, addon):
-    arm, info, target, plate = set_up("metarig", addon)
-    bpy.data.objects.remove(plate)
-    live = addon.blender.live
+    arm, info, target, live, chain, settings = open_metarig(addon)
     length, f = info.arm.arm_length, info.frame
-    chain = SKIN_CHAIN["metarig"]
-    settings = addon.core.Settings()
     names = arm.name, target.name
     assert bpy.ops.reach.live() == {"FINISHED"}
     settle(live, lambda: heads(arm, chain), settings, length)
@@ -180,16 +174,13 @@ def test_undo_while_live_is_on_follows_the_restored_scene(fresh, addon):
 
 
 def test_key_pose_keys_what_is_shown_chest_included(fresh, addon):
-    arm, info, target, plate = set_up("metarig", addon)
-    bpy.data.objects.remove(plate)
-    live = addon.blender.live
+    arm, info, target, live, chain, settings = open_metarig(addon)
     length, f = info.arm.arm_length, info.frame
-    chain = SKIN_CHAIN["metarig"]
     # far round to the side: Table 1 turns the chest
     target.location = info.joints_world["shoulder"] + 0.8 * length * f.right - 0.3 * length * f.forward
     bpy.context.scene.frame_set(7)
     assert bpy.ops.reach.live() == {"FINISHED"}
-    last, _ = settle(live, lambda: heads(arm, chain), addon.core.Settings(), length)
+    last, _ = settle(live, lambda: heads(arm, chain), settings, length)
     pose = live.state().session.pose
     assert abs(pose.config.body_rotation) > 1.0, "the chest turned"
     assert bpy.ops.reach.key_pose() == {"FINISHED"}
@@ -241,12 +232,8 @@ def test_moving_obstacles_are_rebuilt_only_when_they_change(fresh, addon):
 
 
 def test_scrubbing_an_animated_target_and_moving_the_armature(fresh, addon):
-    arm, info, target, plate = set_up("metarig", addon)
-    bpy.data.objects.remove(plate)
-    live = addon.blender.live
+    arm, info, target, live, chain, settings = open_metarig(addon)
     length, f = info.arm.arm_length, info.frame
-    chain = SKIN_CHAIN["metarig"]
-    settings = addon.core.Settings()
     shoulder = info.joints_world["shoulder"]
     a = shoulder + 0.7 * length * f.forward + 0.1 * length * f.right
     b = a + 0.25 * length * f.up - 0.15 * length * f.right
@@ -267,12 +254,8 @@ def test_scrubbing_an_animated_target_and_moving_the_armature(fresh, addon):
 
 
 def test_live_waits_for_a_bake_and_follows_a_new_target(fresh, addon):
-    arm, info, target, plate = set_up("metarig", addon)
-    bpy.data.objects.remove(plate)
-    live = addon.blender.live
+    arm, info, target, live, chain, settings = open_metarig(addon)
     length, f = info.arm.arm_length, info.frame
-    chain = SKIN_CHAIN["metarig"]
-    settings = addon.core.Settings()
     props = bpy.context.scene.reach
     assert bpy.ops.reach.live() == {"FINISHED"}
     settle(live, lambda: heads(arm, chain), settings, length)
