@@ -8,8 +8,10 @@ taken for an obstacle, and :func:`clear` removes it all (objects, their data, ma
 
 from __future__ import annotations
 
+import bmesh
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from .scene import VIZ_TAG
 
@@ -88,29 +90,18 @@ def trajectory(scene, points, name="Reach Trajectory", radius=0.006):
 
 
 def _spheres_mesh(name, centres, radius, segments=12, rings=6):
-    """One mesh of small UV spheres (enough for markers; no bmesh needed)."""
-    theta = np.linspace(0, np.pi, rings + 1)[1:-1]
-    phi = np.linspace(0, 2 * np.pi, segments, endpoint=False)
-    ring = np.stack([np.outer(np.sin(theta), np.cos(phi)), np.outer(np.sin(theta), np.sin(phi)),
-                     np.outer(np.cos(theta), np.ones_like(phi))], -1).reshape(-1, 3)
-    unit = np.vstack([[0, 0, 1], ring, [0, 0, -1]])
-    faces = []
-    for j in range(segments):
-        k = (j + 1) % segments
-        faces.append((0, 1 + j, 1 + k))
-        for r in range(rings - 2):
-            a, b = 1 + r * segments, 1 + (r + 1) * segments
-            faces.append((a + j, b + j, b + k, a + k))
-        last = 1 + (rings - 2) * segments
-        faces.append((last + j, len(unit) - 1, last + k))
-    verts, all_faces = [], []
-    for c in np.atleast_2d(centres):
-        base = len(verts)
-        verts += (unit * radius + c).tolist()
-        all_faces += [tuple(base + i for i in f) for f in faces]
-    mesh = bpy.data.meshes.new(name)
+    """One mesh of UV spheres of ``radius`` at ``centres``: ``segments`` around, ``rings``
+    from pole to pole (62 vertices a sphere: enough for markers)."""
+    bm = bmesh.new()
+    try:
+        for c in np.atleast_2d(centres):
+            bmesh.ops.create_uvsphere(bm, u_segments=segments, v_segments=rings, radius=radius,
+                                      matrix=Matrix.Translation(c.tolist()))
+        mesh = bpy.data.meshes.new(name)
+        bm.to_mesh(mesh)
+    finally:
+        bm.free()
     mesh[VIZ_TAG] = True
-    mesh.from_pydata(verts, [], all_faces)
     return mesh
 
 
