@@ -32,6 +32,7 @@ session from the restored pose.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 import traceback
@@ -338,45 +339,48 @@ def _wake():
         bpy.app.timers.register(_tick, first_interval=0.0)
 
 
+def _handler(fn):
+    """A Blender handler of ``fn``: an exception is printed, never raised into Blender."""
+    @functools.wraps(fn)
+    def handler(*args):
+        try:
+            fn(*args)
+        except Exception:
+            traceback.print_exc()
+    return handler
+
+
+@_handler
 def _on_depsgraph(scene, depsgraph=None):
-    try:
-        st = _state
-        if st is None or _in_update:
-            return
-        if depsgraph is not None:
-            for u in depsgraph.updates:
-                if u.is_updated_geometry and isinstance(u.id, bpy.types.Object):
-                    st.cache.note_geometry(u.id.name)
+    st = _state
+    if st is None or _in_update:
+        return
+    if depsgraph is not None:
+        for u in depsgraph.updates:
+            if u.is_updated_geometry and isinstance(u.id, bpy.types.Object):
+                st.cache.note_geometry(u.id.name)
+    _wake()
+
+
+@_handler
+def _on_frame(*_args):
+    if _state is not None:
+        _state.frame_changed = True
         _wake()
-    except Exception:
-        traceback.print_exc()
 
 
-def _on_frame(scene, depsgraph=None):
-    try:
-        if _state is not None:
-            _state.frame_changed = True
-            _wake()
-    except Exception:
-        traceback.print_exc()
-
-
+@_handler
 def _on_undo(*_args):
-    try:
-        if _state is not None:
-            _state.rebuild = True
-            _wake()
-    except Exception:
-        traceback.print_exc()
+    if _state is not None:
+        _state.rebuild = True
+        _wake()
 
 
+@_handler
 def _on_load_pre(*_args):
     global _last_status
-    try:
-        if stop(push_undo=False):
-            _last_status = "Live stopped: another file was opened"
-    except Exception:
-        traceback.print_exc()
+    if stop(push_undo=False):
+        _last_status = "Live stopped: another file was opened"
 
 
 _HANDLERS = (("depsgraph_update_post", _on_depsgraph), ("frame_change_post", _on_frame),
