@@ -28,15 +28,28 @@ def test_reach_tab_shows_the_reach_panel(gui):
 
 def test_statistics_are_shown_after_plan_and_bake(gui):
     """After Plan and after Bake the Result sub-panel is drawn with the plan's statistics,
-    and the sidebar shows several more lines than before planning."""
+    and the sidebar shows several more lines than before planning. The panel's text is
+    read from the sidebar region as Blender drew it (its labels' buttons,
+    ``scripts/drawn_text.py``): every line the operator's ``result_lines`` makes of the
+    result, in order, and nothing else; a line the region could not fit is drawn clipped
+    ("…"), never another text."""
+    shot = gui["steps_by_name"]["shot:before"]["result_text"]
+    assert shot["drawn"] is None and shot["computed"] is None, "no result before planning"
     for step in ("planned", "baked"):
         info = gui["steps_by_name"][step]
         task = info["result"]["tasks"][0]
         assert task["success"], task["message"]
         panel = gui["steps_by_name"][f"shot:{step}"]["panels"].get("REACH_PT_result")
         assert panel and panel["where"] == ["VIEW_3D", "UI"], f"no Result panel drawn when {step}"
+        text = gui["steps_by_name"][f"shot:{step}"]["result_text"]
+        assert text["drawn"], f"{step}: the sidebar drew no Result panel"
+        lines = [given for given, _shown in text["drawn"]]
+        assert lines == text["computed"], \
+            f"{step}: the panel drew {lines}, the operator made {text['computed']}"
+        for given, shown in text["drawn"]:
+            assert shown == given or ("…" in shown and all(
+                part in given for part in shown.split("…"))), (given, shown)
         st = task["stats"]
-        lines = panel["lines"]
         assert lines[0] == f"{task['target']}: reached"
         assert f"frames {task['frame_start']}–{task['frame_end']}" in lines[1]
         assert f"nodes {st['nodes_searched']} searched, {st['nodes_in_solution']} in path" in lines[2]

@@ -16,7 +16,10 @@ in the live event loop with its redraws:
 3. Plan, then Bake (searched straight at the plate, so that they run long enough to watch
    their progress), each invoked as the panel's buttons do and waited for; the trajectory's
    points projected into the view are recorded, to find it in the screenshot;
-4. screenshots (``screen.screenshot``) at each stage, the last at the reach's end frame.
+4. screenshots (``screen.screenshot``) at each stage, the last at the reach's end frame;
+   with each, the Result panel's labels as the sidebar drew them, read from the region's
+   own buttons (``drawn_text``), beside the lines the operator's ``result_lines`` gives for
+   the same result: the test compares the two.
 
 Everything seen goes to ``OUT_DIR/session.json`` (the test reads it and the screenshots);
 then Blender quits. Any error is recorded there too, and ends the session.
@@ -31,6 +34,7 @@ from pathlib import Path
 import bpy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import drawn_text  # noqa: E402
 import timer_session  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
@@ -52,10 +56,6 @@ def _hook(panel_name):
         d = seen["draws"].setdefault(panel_name, {"count": 0})
         d["count"] += 1
         d["where"] = [context.area.type, context.region.type]
-        if panel_name == "REACH_PT_result":
-            from reach_addon.ui.operators import result_lines
-
-            d["lines"] = result_lines(context.scene.reach)
     return hook
 
 
@@ -89,15 +89,29 @@ def override():
     return bpy.context.temp_override(window=win, area=area, region=regions["WINDOW"])
 
 
+def result_text():
+    """The Result panel as the sidebar last drew it — [text given, text drawn] of each of its
+    labels, read from the region (``drawn_text``), or None if it drew none — and the lines
+    the operator's ``result_lines`` makes of the scene's result (None without one)."""
+    from reach_addon.ui.operators import result_lines
+
+    props = bpy.context.scene.reach
+    drawn = drawn_text.panel_text(ui()[2]["UI"], "REACH_PT_result")
+    return {"drawn": None if drawn is None else [list(b) for b in drawn],
+            "computed": result_lines(props) if props.last_result else None}
+
+
 def screenshot(name, redraws=1):
     """The whole window as a PNG, after drawing it (panels that just appeared slide into
-    place over more than one redraw) so the picture is what the user now sees."""
+    place over more than one redraw) so the picture is what the user now sees; and the
+    Result panel's text as drawn (:func:`result_text`)."""
     win, area, regions = ui()
     with bpy.context.temp_override(window=win, area=area, region=regions["WINDOW"]):
         bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=redraws)
         bpy.ops.screen.screenshot(filepath=str(OUT / f"{name}.png"))
     note("screenshot", name=name, geometry=geometry(),
-         panels=json.loads(json.dumps(seen["draws"])))     # what had been drawn by then
+         panels=json.loads(json.dumps(seen["draws"])),     # what had been drawn by then
+         result_text=result_text())
 
 
 def xdotool(*args):
@@ -224,7 +238,8 @@ def session():
     for ob in bpy.context.view_layer.objects:       # nothing selected: no outlines in the view
         ob.select_set(False)
     note("start", geometry=geometry(), addon="reach_addon" in bpy.context.preferences.addons,
-         panel_registered=hasattr(bpy.types, "REACH_PT_main"))
+         panel_registered=hasattr(bpy.types, "REACH_PT_main"),
+         uiblocks_offset=drawn_text.sdna_offset("ARegion", "uiblocks"))
     frame_the_arm()
     area.spaces.active.show_region_ui = True
     yield 1.0
