@@ -26,13 +26,13 @@ GATHERS = 4
 
 def main(argv):
     kind, out = argv
-    import reach_addon
+    from reach_addon.blender import rig as rig_mod
     from reach_addon.blender import scene as scene_mod
     from reach_addon.blender.scene import ObstacleCache
 
     arm = rigs.load(kind)
     rigs.rest_still(arm)
-    info = reach_addon.blender.rig.build(arm, "right")
+    info = rig_mod.build(arm, "right")
     made = obstacle_scene.every_type(info)
     f, length = info.frame, info.arm.arm_length
     cup = rigs.add_target("Cup", info.joints_world["shoulder"] + length * (0.6 * f.forward + 0.1 * f.up))
