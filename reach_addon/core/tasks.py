@@ -317,7 +317,8 @@ class Planner:
         (``Settings.sampling_fallback``). A target diagnosed unreachable
         (:meth:`ConfigurationGenerator.diagnose_target`) gets only the searches, each on a
         shorter leash (``stall_budget / 4``). A generator: yields the nodes searched every
-        ``chunk`` nodes (and between slices of the grid) and returns a :class:`Route`.
+        ``chunk`` nodes (and between slices of the grid) and returns a :class:`Route`. The
+        count yielded is the route's so far, every search of it together: it never falls.
 
         ``diagnosis``: the target's, if the caller has it; else (:data:`UNDIAGNOSED`) it is
         worked out only when needed (live mode: most moves of the target are caught within
@@ -325,6 +326,13 @@ class Planner:
         search, which restarts on the shorter leash if the target is unreachable."""
         s, gen = self.settings, self.generator
         leash = {"stall_budget": max(20, s.stall_budget // 4)}
+        spent = [0]                     # nodes of the searches before the one running
+
+        def counted(steps):
+            return relay(steps, lambda nodes: spent[0] + nodes)
+
+        def search(guided_, **limits_):
+            return counted(self.search_steps(start, target_c, guided_, chunk, keep, **limits_))
         blocked = not guided and s.guide_when_blocked and not self.line_clear(start.wrist, target_c)
         if blocked and diagnosis is UNDIAGNOSED:
             diagnosis = gen.diagnose_target(target_c)
@@ -333,9 +341,9 @@ class Planner:
             # it (a straight best-first search would fill the space in front of it first)
             guided = True
         if guided:
-            yield from self.workspace_steps(chunk)
+            yield from counted(self.workspace_steps(chunk))
         limits = {} if diagnosis in (None, UNDIAGNOSED) else leash
-        steps = self.search_steps(start, target_c, guided, chunk, keep, **limits)
+        steps = search(guided, **limits)
         if diagnosis is UNDIAGNOSED:
             try:
                 nodes = next(steps)
@@ -346,21 +354,22 @@ class Planner:
                 if diagnosis is not None:
                     steps.close()
                     limits = leash
-                    steps = self.search_steps(start, target_c, guided, chunk, keep, **limits)
+                    steps = search(guided, **limits)
                 yield nodes
                 result = yield from steps
             if not result.success:
                 diagnosis = gen.diagnose_target(target_c)
         else:
             result = yield from steps
+        spent[0] = result.nodes_searched
         if not result.success and diagnosis is None and s.guided_fallback:
             # The other route, the hand still continuous: through the guiding nodes after a
             # straight search, straight after a guided one (a guided search can pass every
             # guiding node and still stall in the last approach, which the straight one
             # makes from another side).
             if not guided:
-                yield from self.workspace_steps(chunk)
-            retry = yield from self.search_steps(start, target_c, not guided, chunk, keep)
+                yield from counted(self.workspace_steps(chunk))
+            retry = yield from search(not guided)
             retry.nodes_searched += result.nodes_searched
             retry.search_time_s += result.search_time_s
             if retry.success or retry.closest_distance < result.closest_distance:
@@ -368,24 +377,25 @@ class Planner:
             else:
                 result.nodes_searched = retry.nodes_searched
                 result.search_time_s = retry.search_time_s
+            spent[0] = result.nodes_searched
         left = s.node_budget - result.nodes_searched
         if not result.success and left > 0:
             # The hand kept continuous can shut the search out of a way the arm has (a hand
             # caught in a pocket of clear directions): search once more with the hand free,
             # with what is left of the node budget, and keep that if it does better; the
             # hand pass then reports what it could not make smooth and clear.
-            free = yield from self.search_steps(start, target_c, guided, chunk, keep,
-                                                hand_continuity=False,
-                                                **{**limits, "node_budget": left})
+            free = yield from search(guided, hand_continuity=False,
+                                     **{**limits, "node_budget": left})
             free.nodes_searched += result.nodes_searched
             free.search_time_s += result.search_time_s
             if free.success or free.closest_distance < result.closest_distance - gen.step_length:
                 result = free
             else:
                 result.nodes_searched, result.search_time_s = free.nodes_searched, free.search_time_s
+            spent[0] = result.nodes_searched
         sampled = False
         if not result.success and diagnosis is None and s.sampling_fallback:
-            result = yield from self._sampling(start, target_c, chunk, result)
+            result = yield from counted(self._sampling(start, target_c, chunk, result))
             sampled = True
         return Route(result, None if diagnosis is UNDIAGNOSED else diagnosis, sampled)
 

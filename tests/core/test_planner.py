@@ -412,3 +412,23 @@ def test_a_blocked_straight_line_is_searched_through_the_guiding_nodes(arm):
     assert planner.line_clear(planner.generator.config_pose(HANGING).wrist, free_c)
     clear = planner.plan(Task("reach", arm.to_world_points(free_c)[None], HANGING))
     assert clear.success and len(clear.segments[0].guiding_nodes) == 0
+
+
+def test_progress_never_falls_back_when_the_search_falls_back(arm):
+    """A straight search that stalls at the plate, then the guided one after it (and the
+    grid built in between): the positions counted go on from where the first search
+    stopped, so a progress bar never runs backwards."""
+    obs, _tris, target = _plate_across_the_line(arm, HANGING)
+    planner = Planner(arm, obs, Settings(guide_when_blocked=False))
+    steps = planner.plan_steps(Task("reach", target[None], HANGING), chunk=25)
+    progress = []
+    while True:
+        try:
+            progress.append(next(steps)[0])
+        except StopIteration as done:
+            result = done.value
+            break
+    assert result.success, result.message
+    assert len(result.segments[0].guiding_nodes) > 0, "the guided fallback did not run"
+    assert progress == sorted(progress), progress
+    assert len(set(progress)) >= 10
