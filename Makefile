@@ -26,7 +26,7 @@ BPY_4.2 := 4.2.23
 BPY_4.5 := 4.5.15
 MATRIX_TESTS := tests/blender/test_extension.py tests/blender/test_bake.py \
 	tests/blender/test_bad_input.py tests/blender/test_presets.py \
-	tests/blender/test_obstacle_types.py
+	tests/blender/test_obstacle_types.py tests/blender/test_quaternions.py
 
 .PHONY: setup test demo bench lint dist clean system-deps matrix fuzz
 
