@@ -286,11 +286,10 @@ class CollisionChecker:
         hit = tree.find_nearest(point, bound)
         return bound if hit[0] is None else hit[3]
 
-    def segment_clear(self, p, q, d_p: float, d_q: float, segment) -> bool:
-        """Is the capsule p-q (world points as 3 floats) clear, given lower bounds ``d_p``,
-        ``d_q`` of the obstacle distance at its ends? Test 1, then test 2 of the class
-        docstring."""
-        r, length = segment.radius, segment.length
+    def segment_clear(self, p, q, d_p: float, d_q: float, r: float, length: float) -> bool:
+        """Is the capsule p-q (world points as 3 floats) of radius ``r`` (the clearance
+        included) and length ``length`` clear, given lower bounds ``d_p``, ``d_q`` of the
+        obstacle distance at its ends? Test 1, then test 2 of the class docstring."""
         if d_p < r or d_q < r:
             return False
         if d_p + d_q - length >= 2.0 * r:
@@ -353,7 +352,8 @@ class CollisionChecker:
         dist = [self.distance(points[i], bounds[i]) for i in range(last)]
         for segment in segments:
             a, b = segment.a, segment.b
-            if self.segment_clear(points[a], points[b], dist[a], dist[b], segment):
+            if self.segment_clear(points[a], points[b], dist[a], dist[b], segment.radius,
+                                  segment.length):
                 continue
             index = self._segment_hit(tree, j[a], j[b], segment, bounded=False)
             if index is None:   # the sphere row missed what the bisection found: the nearest
@@ -371,8 +371,7 @@ class CollisionChecker:
         r = radius + self.margin
         length = math.dist(p, q)
         bound = length + 2.0 * r
-        return self.segment_clear(p, q, self.distance(p, bound), self.distance(q, bound),
-                                  ArmSegment("capsule", 0, 1, r, length, np.zeros((0, 1)), r))
+        return self.segment_clear(p, q, self.distance(p, bound), self.distance(q, bound), r, length)
 
     def collides(self, world_joints, include_hand: bool = True) -> bool:
         """Does a pose (world joints, (5, 3)) come within the clearance of an obstacle?"""

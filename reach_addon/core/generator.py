@@ -214,13 +214,14 @@ class ConfigurationGenerator:
         d_s = checker.distance(s_w, checker.bound_shoulder)
         upper_seg, fore_seg, clavicle = self._seg_upper, self._seg_fore, self._seg_clavicle
         r_u, r_f = upper_seg.radius, fore_seg.radius
+        l_u, l_f = upper_seg.length, fore_seg.length
         if d_s < r_u:
             return None                          # the shoulder itself is against an obstacle
         d_t = d_s - clavicle.length              # Lipschitz bound at the sternum
         if not (d_t >= clavicle.radius and d_s + d_t - clavicle.length >= 2.0 * clavicle.radius):
             t_w = self._world(t_c)
             d_t = checker.distance(t_w, checker.bound_sternum)
-            if not checker.segment_clear(t_w, s_w, d_t, d_s, clavicle):
+            if not checker.segment_clear(t_w, s_w, d_t, d_s, clavicle.radius, clavicle.length):
                 return None
         caps = self._capsules(float(sol.body[0]))
         caps_upper = caps_fore = caps_hand = caps
@@ -247,8 +248,8 @@ class ConfigurationGenerator:
             if not elbows_clear:
                 e_w = self._world(e_c)
                 d_e = max(d_e0, checker.distance(e_w, checker.bound_elbow))
-                if not checker.segment_clear(s_w, e_w, d_s, d_e, upper_seg) or \
-                        not checker.segment_clear(e_w, w_w, d_e, d_w, fore_seg):
+                if not checker.segment_clear(s_w, e_w, d_s, d_e, r_u, l_u) or \
+                        not checker.segment_clear(e_w, w_w, d_e, d_w, r_f, l_f):
                     continue
             # ... and against the body (the elbow half of the upper arm, the forearm)
             if caps_upper:
@@ -319,8 +320,8 @@ class ConfigurationGenerator:
                 return False
             if not clear_far:
                 t_w = self._world(tip)
-                if not checker.segment_clear(w_w, t_w, d_w,
-                                             checker.distance(t_w, checker.bound_hand), seg):
+                if not checker.segment_clear(w_w, t_w, d_w, checker.distance(t_w, checker.bound_hand),
+                                             seg.radius, seg.length):
                     return False
             return True
 
@@ -393,7 +394,8 @@ class ConfigurationGenerator:
         elif d_w - arm.hand_length < seg.radius:
             for i, tip in enumerate(self.arm.to_world_points(tips).tolist()):
                 if out[i] and not checker.segment_clear(
-                        w_w, tip, d_w, checker.distance(tip, checker.bound_hand), seg):
+                        w_w, tip, d_w, checker.distance(tip, checker.bound_hand), seg.radius,
+                        seg.length):
                     out[i] = False
         return out
 

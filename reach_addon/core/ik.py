@@ -472,7 +472,7 @@ def _valid_bounds(st, previous: ArmConfig, body: float, flex: float, max_change:
     twist = max_change
     g_lo, g_hi, split = st.gamma_min, st.gamma_max, False
     if twist < 180.0:
-        centre = float(wrap_degrees(previous.gamma))
+        centre = (previous.gamma + 180.0) % 360.0 - 180.0     # wrap_degrees, on a float
         pieces = [(max(g_lo, centre + k - twist), min(g_hi, centre + k + twist))
                   for k in (-360.0, 0.0, 360.0)]
         pieces = [q for q in pieces if q[0] <= q[1]]
