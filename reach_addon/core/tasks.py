@@ -282,14 +282,11 @@ class Planner:
         generator = self.generator.for_reach(start, target_c)
         return BestFirstSearch(generator, start, target_c, guides, radius, **limits)
 
-    def search(self, start: Pose, target_c, guided: bool = False, **limits) -> SearchResult:
-        """One best-first search (canonical target), through guiding nodes if ``guided``."""
-        return drain(self.search_steps(start, target_c, guided, **limits))
-
     def search_steps(self, start: Pose, target_c, guided: bool = False, chunk: int = 0,
                      keep=None, **limits):
-        """:meth:`search` as a generator: yields the nodes searched so far every ``chunk``
-        nodes (never, if 0) and returns the :class:`SearchResult`. ``keep`` (if given) is
+        """One best-first search (canonical target), through guiding nodes if ``guided``, as a
+        generator: yields the nodes searched so far every ``chunk`` nodes (never, if 0) and
+        returns the :class:`SearchResult`. ``keep`` (if given) is
         called with the :class:`BestFirstSearch` before it runs (live mode keeps it, to
         resume from its progress when the target moves)."""
         searcher = self.searcher(start, target_c, guided, **limits)
@@ -333,6 +330,7 @@ class Planner:
 
         def search(guided_, **limits_):
             return counted(self.search_steps(start, target_c, guided_, chunk, keep, **limits_))
+
         blocked = not guided and s.guide_when_blocked and not self.line_clear(start.wrist, target_c)
         if blocked and diagnosis is UNDIAGNOSED:
             diagnosis = gen.diagnose_target(target_c)
@@ -409,13 +407,12 @@ class Planner:
         operator, live mode): it yields ``(fraction done, what it is doing)`` every
         ``chunk`` searched nodes and between stages, and returns the :class:`Plan`. The
         plan is the same however it is consumed."""
+        if task.kind == "chase":        # every frame against the same obstacles
+            return (yield from chase_steps([self] * len(task.targets), task, 1 if chunk else 0))
         t0 = time.perf_counter()
         start = self.generator.config_pose(task.start, task.start_hand)
         require_finite("start pose", start.joints)
-        if task.kind == "chase":
-            plan = yield from _chase([self] * len(task.targets), task, start, 1 if chunk else 0)
-        else:
-            plan = yield from self._reaches(task, start, task.kind == "guided", chunk)
+        plan = yield from self._reaches(task, start, task.kind == "guided", chunk)
         plan.stats.planning_time_s = time.perf_counter() - t0
         return plan
 
@@ -673,19 +670,13 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     if len(planners) != len(task.targets):
         raise ValueError(f"one planner per frame: {len(task.targets)} frames, "
                          f"{len(planners)} planners")
-    start = planners[0].generator.config_pose(task.start, task.start_hand)
-    require_finite("start pose", start.joints)
-    plan = yield from _chase(planners, task, start, chunk)
-    plan.stats.planning_time_s = time.perf_counter() - t0
-    return plan
-
-
-def _chase(planners: list, task: Task, start: Pose, chunk: int):
-    """The chase task from ``start`` (see :func:`chase_steps`)."""
     first = planners[0]
     arm, s = first.arm, first.settings
+    start = first.generator.config_pose(task.start, task.start_hand)
+    require_finite("start pose", start.joints)
     way_out, failed = first.start_escape(task, start)
     if failed is not None:
+        failed.stats.planning_time_s = time.perf_counter() - t0
         return failed
     length = arm.arm_length
     steps = chase_steps_per_frame(s, task.fps)
@@ -744,6 +735,7 @@ def _chase(planners: list, task: Task, start: Pose, chunk: int):
     total = Stats()
     total.add(stats)
     total.frames = len(poses)
+    total.planning_time_s = time.perf_counter() - t0
     return Plan(task, arm, s, poses, [seg], total, first.built_workspace)
 
 
