@@ -279,6 +279,9 @@ def run_task(spec: dict) -> dict:
             **{k: st[k] for k in ("search_time_s", "preprocess_time_s", "planning_time_s",
                                   "nodes_searched", "nodes_in_solution",
                                   "path_length_arm_lengths", "mean_f_r", "frames")},
+            # Match orientation (settings = { match_orientation = true }): null when off
+            "orientation_error_deg": st["orientation_error_deg"],
+            "orientation_met": st["orientation_met"],
         })
     except ReachError as exc:
         result.update(success=False, reason="bad_input", message=str(exc))

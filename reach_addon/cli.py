@@ -42,7 +42,9 @@ EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 #: The hand's figures of each task in the report (README, "The report").
 HAND_REPORT_KEYS = ("max_wrist_turn_deg_per_frame", "max_hand_turn_deg_per_frame",
                     "mean_wrist_bend_deg", "max_wrist_bend_deg", "inserted_frames",
-                    "unbounded_hand_turns", "touching_transitions")
+                    "unbounded_hand_turns", "touching_transitions",
+                    # Match orientation (core.orient): null when it was not asked for
+                    "orientation_error_deg", "orientation_met")
 
 
 class Interrupted(BaseException):
@@ -135,6 +137,9 @@ def build_parser() -> argparse.ArgumentParser:
     bake.add_argument("--render", metavar="DIR",
                       help="render a still of the last frame and an MP4 of the motion here")
     _add_settings_flags(bake)
+    bake.add_argument("--orient", dest="set_match_orientation", action="store_const", const=True,
+                      help="the palm arrives aligned with each target's axes (the same as "
+                           "--match-orientation; axes: --finger-axis, --palm-axis=-z)")
     bake.set_defaults(func=cmd_bake)
 
     batch = sub.add_parser("batch", help="run a study of many tasks (see reach_addon.batch)")

@@ -9,7 +9,11 @@ segment to the planned one:
 
 * upper arm: (u, b, u × b), with u the upper arm direction and b the bend direction;
 * forearm: (f, h, f × h), with h = u × b the elbow's hinge axis;
-* hand: (d, g, d × g), with d the hand direction and g the hinge made perpendicular to d;
+* hand: (d, g, d × g), with d the hand direction and g the hinge made perpendicular to d,
+  turned by the pose's palm roll ψ about d (*Match orientation*,
+  :mod:`reach_addon.core.orient`); the forearm's frame is turned by
+  :data:`~reach_addon.core.orient.FOREARM_SHARE` of ψ about its own axis (neither moves a
+  joint, so the hand's direction and every position stay the plan's);
 * chest: the chest rotation about the body's up axis through the chest bone's head;
 * clavicle: carried by the chest.
 
@@ -44,6 +48,8 @@ import numpy as np
 from mathutils import Euler, Matrix, Quaternion, Vector
 
 from ..core import ReachError
+from ..core.arm import roll_frames
+from ..core.orient import FOREARM_SHARE
 from ..core.torso import spine_rotation_matrix
 from .rig import hand_group
 
@@ -91,6 +97,14 @@ def target_matrices(info, plan, start_world, chest_head_world):
         "forearm": _frames(fore, hinge),
         "hand": _frames(hand, hinge),
     }
+    rolls = np.array([p.roll for p in plan.poses])
+    if rolls.any():
+        # the plan's roll is about d in the canonical frame; a world frame's third column
+        # (a cross product) flips where the canonical frame is mirrored (a left arm), and
+        # the roll with it: F_w R_x(det(M) ψ)
+        sign = float(np.sign(np.linalg.det(m)))
+        frames["hand"] = roll_frames(frames["hand"], sign * rolls)
+        frames["forearm"] = roll_frames(frames["forearm"], sign * FOREARM_SHARE * rolls)
     joint_of = {"upper_arm": 1, "forearm": 2, "hand": 3}
     out = {}
     n = len(plan.poses)

@@ -239,13 +239,17 @@ def steps(context, request: Request, bake: bool = True):
                           start_hand=info.start_hand)]
         else:
             positions = np.array([np.array(t.matrix_world.translation) for t in targets])
+            rotations = target_rotations(targets) if settings.match_orientation else None
             if request.task == "reach":
                 tasks = [Task("reach", positions[i:i + 1], info.start, fps, request.duration_s,
-                              names=names[i:i + 1], start_hand=info.start_hand)
+                              names=names[i:i + 1], start_hand=info.start_hand,
+                              orientations=None if rotations is None else rotations[i:i + 1],
+                              start_palm=info.start_palm)
                          for i in range(len(targets))]
             else:
                 tasks = [Task(request.task, positions, info.start, fps, request.duration_s,
-                              names=names, start_hand=info.start_hand)]
+                              names=names, start_hand=info.start_hand, orientations=rotations,
+                              start_palm=info.start_palm)]
 
         planner = Planner(info.arm, obstacles, settings)
         plans = []
@@ -306,6 +310,23 @@ def steps(context, request: Request, bake: bool = True):
     finally:
         if scene.frame_current != original_frame:
             scene.frame_set(original_frame)
+
+
+def target_rotations(targets) -> np.ndarray:
+    """The targets' world rotations (k, 3, 3) for *Match orientation*: each object's world
+    matrix with its scale divided out of the columns (its local axes in world space; a
+    mirrored object keeps its mirrored axes, as the viewport draws them). A target scaled
+    to nothing on an axis has no orientation: ReachError naming it."""
+    out = []
+    for t in targets:
+        m = np.array(t.matrix_world)[:3, :3]
+        scale = np.linalg.norm(m, axis=0)
+        if not (scale > 1e-9).all():
+            raise ReachError(f"target '{t.name}' is scaled to zero on an axis, so it has no "
+                             "orientation to match; give it a non-zero scale or turn off "
+                             "Match orientation")
+        out.append(m / scale)
+    return np.array(out)
 
 
 def _progress(plan_steps, k: int, count: int):

@@ -620,6 +620,7 @@ class RigInfo:
     joints_world: dict       # role -> world position at the start (shoulder, elbow, wrist)
     start_hand: tuple = (0.0, 0.0)   # the wrist's two angles at the start (core.arm.hand_angles)
     hand_bones: tuple = ()   # the hand's bones (hand_group): the hand bone, then its palm siblings
+    start_palm: np.ndarray | None = None   # the palm's normal at the start (canonical; palm_normal)
 
 
 def hand_shape(armature, hand_name, forearm_len, group=None):
@@ -660,6 +661,66 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     length = float(np.clip(along.max(), 0.4 * forearm_len, 1.0 * forearm_len))
     spread = float(np.linalg.norm(rel - along[:, None] * axis, axis=1).max())
     return axis, length, spread
+
+
+#: Name tokens of the finger on the thumb's side of the palm, of the one on the other side,
+#: and of the thumb (:func:`palm_normal`).
+_INDEX = {"index", "pointer"}
+_LITTLE = {"pinky", "little", "small"}
+_THUMB = {"thumb"}
+
+
+def palm_normal(armature, group, hand_axis, up, to_canonical):
+    """The direction the palm faces in the pose on screen, canonical arm frame (unit,
+    perpendicular to the hand's axis), for :mod:`reach_addon.core.orient`.
+
+    In the canonical frame every arm is a right arm (x toward its side, y forward, z up;
+    a left arm's frame is mirrored), so one rule serves both sides: n = a × d, with d the
+    hand's axis (``hand_axis``, world, :func:`hand_shape`) and a the direction across the
+    palm toward the thumb, made perpendicular to d. (A right hand hanging palm forward:
+    d down, a outward, a × d forward.) a is read from the fingers below the hand's bones
+    (``group``, :func:`hand_group`), by name: from the little finger's joints to the index
+    finger's (the knuckles lie in the palm's plane); failing those, from the wrist to the
+    thumb's joints (the thumb also stands a little toward the palm, so this tilts n by that
+    much). A hand without named fingers is assumed to face down in the rest pose, as in a T
+    or A pose (``up``: the body's up, world): that normal is carried by the hand bone from
+    rest to the pose on screen. ``to_canonical``: the 3 × 3 map of world vectors into the
+    canonical frame."""
+    mw = np.array(armature.matrix_world)
+    m3 = mw[:3, :3]
+    kids = [b for n in group for b in armature.pose.bones[n].children_recursive
+            if not set(tokens(b.name)) & _HELPER]
+
+    def centre(words):
+        pts = [p for b in kids if set(tokens(b.name)) & words for p in (b.head, b.tail)]
+        return m3 @ np.mean(pts, axis=0) + mw[:3, 3] if pts else None
+
+    d = to_canonical @ np.asarray(hand_axis, dtype=float)
+    index, little, thumb = centre(_INDEX), centre(_LITTLE), centre(_THUMB)
+    across = None
+    if index is not None and little is not None:
+        across = index - little
+    elif thumb is not None:
+        wrist = m3 @ np.array(armature.pose.bones[group[0]].head) + mw[:3, 3]
+        across = thumb - wrist
+    if across is not None:
+        a = to_canonical @ across
+        a = a - (a @ d) * d
+        if np.linalg.norm(a) > 1e-9:
+            n = np.cross(a, d)
+            return n / np.linalg.norm(n)
+    # no named fingers: palm down at rest, carried to the pose on screen
+    bone, pose_bone = armature.data.bones[group[0]], armature.pose.bones[group[0]]
+    rest = np.array(bone.matrix_local)[:3, :3]
+    down = -np.linalg.solve(m3, np.asarray(up, dtype=float))          # armature space
+    axis = rest[:, 1] / max(float(np.linalg.norm(rest[:, 1])), 1e-12)
+    down = down - (down @ axis) * axis
+    if np.linalg.norm(down) < 1e-9:
+        down = rest[:, 2]
+    now = np.array(pose_bone.matrix)[:3, :3] @ np.linalg.solve(rest, down)
+    n = to_canonical @ (m3 @ now)
+    n = n - (n @ d) * d
+    return n / max(float(np.linalg.norm(n)), 1e-12)
 
 
 #: Room (arm lengths) left between the arm in its start pose and a body capsule that had to
@@ -771,8 +832,10 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     joints, bend = forward_kinematics(arm, start.as_array())
     start_hand = hand_angles(joints[2] - joints[1], bend, joints[3] - joints[2],
                              inv[:3, :3] @ hand_axis)
+    palm = palm_normal(armature, hands, hand_axis, frame.up, inv[:3, :3])
     return RigInfo(armature.name, bmap, frame, arm, side, start,
-                   {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}, start_hand, hands)
+                   {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}, start_hand, hands,
+                   palm)
 
 
 def _metres_per_unit(armature) -> float:

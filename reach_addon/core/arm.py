@@ -199,13 +199,16 @@ class Pose:
     """A solved posture: its angles, its joint positions (canonical frame, in
     :data:`JOINTS` order; "hand" is the hand's far end), the unit direction the forearm
     bends toward (perpendicular to the upper arm; defined even with a straight elbow, from
-    γ), its strength category f_R and the wrist's two angles (:func:`hand_direction`)."""
+    γ), its strength category f_R, the wrist's two angles (:func:`hand_direction`) and the
+    palm's roll about the hand's own axis (degrees, forearm twist; :mod:`.orient`: 0 unless
+    the hand is matched to a target's orientation)."""
 
     config: ArmConfig
     joints: np.ndarray
     bend: np.ndarray
     f_r: int
     hand: tuple = (0.0, 0.0)
+    roll: float = 0.0
 
     @property
     def wrist(self) -> np.ndarray:
@@ -364,10 +367,24 @@ def hand_orientation(d, hinge) -> np.ndarray:
     return np.stack([d, g, cross(d, g)], -1)
 
 
+def roll_frames(frames, psi):
+    """Frames (..., 3, 3) of columns (d, g, c) turned by ψ (degrees, (...)) about their own
+    first column: F R_x(ψ), i.e. g' = g cos ψ + c sin ψ, c' = c cos ψ − g sin ψ (the palm's
+    roll, :attr:`Pose.roll`)."""
+    f = np.asarray(frames, dtype=float)
+    p = np.radians(np.asarray(psi, dtype=float))[..., None]
+    cos, sin = np.cos(p), np.sin(p)
+    g, c = f[..., :, 1], f[..., :, 2]
+    return np.stack([f[..., :, 0], g * cos + c * sin, c * cos - g * sin], -1)
+
+
 def frame_turn(a: Pose, b: Pose) -> float:
     """The angle (degrees) of the rotation that takes the hand of ``a`` to that of ``b``
-    (:func:`hand_frame`)."""
-    m = hand_frame(b) @ hand_frame(a).T
+    (:func:`hand_frame`, turned by each pose's :attr:`~Pose.roll`)."""
+    fa, fb = hand_frame(a), hand_frame(b)
+    if a.roll or b.roll:
+        fa, fb = roll_frames(fa, a.roll), roll_frames(fb, b.roll)
+    m = fb @ fa.T
     return float(np.degrees(np.arccos(np.clip((np.trace(m) - 1.0) / 2.0, -1.0, 1.0))))
 
 

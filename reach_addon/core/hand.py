@@ -40,7 +40,10 @@ places:
      so no bone of the hand turns faster.
    * **Cost.** Σ (turn / bound)² + ``wrist_relax_weight`` · (bend from neutral / 45°)²:
      the hand turns no faster and no farther than it must, and drifts back toward neutral
-     when it is free.
+     when it is free. With *Match orientation* (a ``goal``, :mod:`.orient`) the last
+     frames also cost ``orientation_weight`` · (palm frame's error after the best roll /
+     45°)², weighted up to the last frame (:func:`~reach_addon.core.orient.frame_weights`),
+     and the grid holds one more state, the wanted direction within the wrist's range.
    * **Between keys** (lazy, as in lazy PRM: only the chosen path is checked). Each
      transition is checked at ``Settings.instants_per_frame`` − 1 instants between its
      keys, the arm's five angles and the wrist's two interpolated linearly (what
@@ -77,6 +80,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .arm import Pose, frame_turn, hand_coefficients, hand_orientation
+from .orient import best_roll_error, frame_weights, wanted_hand_angles
 
 
 @dataclass
@@ -112,9 +116,10 @@ def wrist_turn(coefficients_a, coefficients_b):
     return np.degrees(np.arccos(np.clip(dot, -1.0, 1.0)))
 
 
-def hand_grid(settings, start_hand, bound: float) -> HandGrid:
+def hand_grid(settings, start_hand, bound: float, extra=()) -> HandGrid:
     """The grid of wrist angles, plus the start hand and a chain of states (at most half
-    the bound apart) from it to the nearest grid state."""
+    the bound apart) from it to the nearest grid state, then the ``extra`` states (the
+    wanted hand of :mod:`.orient`, when the hand is matched to a target's orientation)."""
     step = settings.hand_grid_step
     b_max, s_max = settings.wrist_bend_max, settings.wrist_side_max
     bends = np.linspace(-b_max, b_max, 2 * math.ceil(b_max / step) + 1) if b_max > 0 else [0.0]
@@ -134,6 +139,7 @@ def hand_grid(settings, start_hand, bound: float) -> HandGrid:
                       start[1] + t * (grid[near][1] - start[1])))
     if not chain:
         chain = [start]
+    chain += [(float(b), float(s)) for b, s in extra]
     angles = np.array(grid + chain)
     coefficients = np.vstack([coef, [hand_coefficients(b, s) for b, s in chain]])
     turn = wrist_turn(coefficients[:, None], coefficients[None])
@@ -158,7 +164,7 @@ class HandPass:
     BANS_BEFORE_REFINING = 4
 
     def __init__(self, generators, fps: float, may_insert: bool = True, arcs=None,
-                 sampler=None, escape=None):
+                 sampler=None, escape=None, goal=None):
         self.generators = generators
         gen = generators[0] if isinstance(generators, list) else generators
         self.arm, self.settings = gen.arm, gen.settings
@@ -177,6 +183,10 @@ class HandPass:
         self._coefs: dict = {}     # id(pose) -> the states' coefficients there
         self._alive: list = []     # every pose whose id is a key (see _coefficients)
         self._loose: set = set()   # ids of poses whose own hand keeps only half the margin
+        # the orientation the hand should arrive with (core.orient.OrientGoal), or None;
+        # its cost per state at each pose, kept per pose
+        self.goal = goal
+        self._orient: dict = {}
 
     def _gen(self, k):
         if self.escape is not None and self.arcs[min(k, len(self.arcs) - 1)] < self.escape[1]:
@@ -189,7 +199,10 @@ class HandPass:
         poses = list(poses)
         if len(poses) < 2 or not self._gen(0).checker.check_hand:
             return self._report(poses, [p.hand for p in poses], 0, 0, [])
-        grid = self._grid = hand_grid(s, poses[0].hand, self.bound)
+        extra = () if self.goal is None else \
+            (wanted_hand_angles(self._gen(0).hand_axes(poses[-1].joints, poses[-1].bend),
+                                self.goal, s),)
+        grid = self._grid = hand_grid(s, poses[0].hand, self.bound, extra)
         budget = int(s.slowdown_budget * len(poses)) if self.may_insert else 0
         inserted = 0
         feasible = [None] + [self._feasible(k, p, grid) for k, p in enumerate(poses) if k]
@@ -359,6 +372,19 @@ class HandPass:
             self._dirs[id(pose)] = o
         return o
 
+    def _orient_cost(self, pose: Pose, grid: HandGrid) -> np.ndarray:
+        """Every state's orientation cost at ``pose`` (S + 1,): ``orientation_weight`` ·
+        (error / 45°)², the error being the palm frame's angle from the wanted one after
+        the best roll within the forearm's range (:func:`~reach_addon.core.orient.best_roll_error`);
+        kept per pose."""
+        c = self._orient.get(id(pose))
+        if c is None:
+            o = self._orientations(pose, grid)                  # (3, S, 3): d, g, d × g
+            _psi, error = best_roll_error(np.stack([o[0], o[1], o[2]], -1), self.goal)
+            c = self.goal.weight * (error / 45.0) ** 2
+            self._orient[id(pose)] = c
+        return c
+
     def _dp(self, poses, grid: HandGrid, feasible, banned, lifted):
         """(least-cost state path (a state index per frame), None), or (None, (k,
         reachable, lost)) with the first frame ``k`` no bounded, clear state can reach,
@@ -384,6 +410,7 @@ class HandPass:
         back = np.zeros((len(poses), n_grid + 1), dtype=np.int64)
         cols = np.arange(n_grid + 1)
         space_cos = math.cos(math.radians(self.space_bound)) - 1e-12
+        weights = frame_weights(len(poses)) if self.goal is not None else None
         lost = None
         prev_c = self._coefficients(poses[0], grid)
         for k in range(1, len(poses)):
@@ -417,6 +444,8 @@ class HandPass:
             node[own] = s.wrist_relax_weight * (bend_own / 45.0) ** 2 + \
                 (self.LOOSE_COST if id(poses[k]) in self._loose else 0.0)
             best = m[arg, cols] + node
+            if self.goal is not None and weights[k] > 0.0:
+                best = best + weights[k] * self._orient_cost(poses[k], grid)
             best[~feasible[k]] = np.inf
             if np.isfinite(cost[own]) and not np.isfinite(best[own]) and feasible[k][own]:
                 lost = k
@@ -538,8 +567,10 @@ class HandPass:
 
 
 def plan_hand(generators, poses, fps: float, may_insert: bool = True, arcs=None,
-              sampler=None, escape=None) -> HandReport:
+              sampler=None, escape=None, goal=None) -> HandReport:
     """Run the hand pass over ``poses`` (see the module docstring); ``arcs`` and
     ``sampler`` (from :func:`~reach_addon.core.motion.time_path`) let it slow down along
-    the validated path."""
-    return HandPass(generators, fps, may_insert, arcs, sampler, escape).run(poses)
+    the validated path. ``goal`` (:class:`~reach_addon.core.orient.OrientGoal`): the
+    orientation the hand should arrive with, sought on the last frames (a cost, never a
+    constraint; :mod:`.orient`)."""
+    return HandPass(generators, fps, may_insert, arcs, sampler, escape, goal).run(poses)

@@ -15,6 +15,7 @@ import dataclasses
 from dataclasses import dataclass, field
 
 from .errors import ReachError
+from .orient import AXES
 from .strength import PREFERRED_LEVEL_H, PREFERRED_LEVEL_V, READINGS, S_H_MIN, S_V_MIN
 from .torso import CHEST_ROTATION_MAX_DEG, TABLE1_HAND_POINT, TABLE1_REFERENCE_ARM_LENGTH_M
 
@@ -26,7 +27,8 @@ def _f(default, label, doc, group, lo=None, hi=None, unit="", choices=None):
     return field(default=default, metadata=meta)
 
 
-GROUPS = ("strength", "limits", "body", "ik", "collision", "search", "workspace", "motion")
+GROUPS = ("strength", "limits", "body", "ik", "collision", "search", "workspace", "motion",
+          "orientation")
 
 
 @dataclass(frozen=True)
@@ -280,6 +282,33 @@ class Settings:
     min_duration: float = _f(0.5, "Shortest reach", "Automatic duration is at least this",
                              "motion", 0.0, 60.0, "s")
 
+    # --- the hand oriented to the target (core.orient) -------------------------------------
+    match_orientation: bool = _f(
+        False, "Match orientation", "The palm arrives aligned with the target's axes (an "
+        "Empty's or a mesh's rotation): the finger and palm axes below say which is which; "
+        "the error left is reported", "orientation")
+    finger_axis: str = _f(
+        "+y", "Finger axis", "The target's local axis the fingers point along (wrist to "
+        "fingers); with Plain Axes the default +y, with the Single Arrow preset its arrow, +z",
+        "orientation", choices=AXES)
+    palm_axis: str = _f(
+        "-z", "Palm axis", "The target's local axis the palm faces (its outward normal); "
+        "default -z: a hand lying on the target's XY plane, palm down", "orientation",
+        choices=AXES)
+    pronation_max: float = _f(
+        80.0, "Pronation limit", "Greatest forearm pronation from neutral (thumb up, elbow "
+        "bent 90°) that the palm's roll may use (AAOS: 80°)", "orientation", 0.0, 90.0, "deg")
+    supination_max: float = _f(
+        80.0, "Supination limit", "Greatest forearm supination from neutral (AAOS: 80°)",
+        "orientation", 0.0, 90.0, "deg")
+    orientation_tolerance: float = _f(
+        10.0, "Orientation tolerance", "The orientation counts as met when the palm's frame "
+        "is within this angle of the wanted one", "orientation", 0.1, 90.0, "deg")
+    orientation_weight: float = _f(
+        100.0, "Orientation weight", "How strongly the hand pass seeks the wanted direction "
+        "on the last frames against turning and relaxing the wrist: arriving 45° off costs "
+        "this much, a turn at the speed limit 1 a frame", "orientation", 0.0, 1000.0)
+
     def __post_init__(self):
         validate(self)
 
@@ -339,3 +368,6 @@ def validate(settings: Settings) -> None:
         raise ReachError("shoulder limits: each minimum must be below its maximum")
     if settings.gamma_min >= settings.gamma_max or settings.elbow_min >= settings.elbow_max:
         raise ReachError("twist/elbow limits: each minimum must be below its maximum")
+    if settings.finger_axis[1] == settings.palm_axis[1]:
+        raise ReachError(f"finger axis {settings.finger_axis} and palm axis {settings.palm_axis} "
+                         "must be different axes of the target (perpendicular); e.g. +y and -z")

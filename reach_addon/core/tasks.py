@@ -46,6 +46,7 @@ from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_R
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
 from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
+from .orient import apply_roll, goal_for, pose_error
 from .sampling import joints_of, pose_row, sampling_steps
 from .search import BestFirstSearch, SearchResult, chase_step
 from .settings import Settings
@@ -76,7 +77,11 @@ class Task:
     reach (None = from the path length, :func:`~reach_addon.core.motion.auto_duration`).
     ``names``: what the user calls each target (for messages). ``start_hand``: the wrist's
     two angles at the first frame (:func:`~reach_addon.core.arm.hand_angles`; the rig's
-    own hand), which the motion starts from."""
+    own hand), which the motion starts from. ``orientations``: the targets' world rotations
+    (k, 3, 3), for ``Settings.match_orientation`` (:mod:`~reach_addon.core.orient`; None:
+    positions only). ``start_palm``: the palm's normal at the first frame (canonical; the
+    rig's, :func:`~reach_addon.blender.rig.palm_normal`), None for the palm at forearm
+    neutral."""
 
     kind: str
     targets: np.ndarray
@@ -85,6 +90,8 @@ class Task:
     duration_s: float | None = None
     names: tuple = ()
     start_hand: tuple = (0.0, 0.0)
+    orientations: np.ndarray | None = None
+    start_palm: np.ndarray | None = None
 
     def __post_init__(self):
         if self.kind not in TASK_KINDS:
@@ -102,6 +109,14 @@ class Task:
             raise ReachError(f"frame rate must be positive, got {self.fps}")
         if self.duration_s is not None and not (self.duration_s > 0):
             raise ReachError(f"duration must be positive seconds, got {self.duration_s}")
+        if self.orientations is not None:
+            rot = require_finite("target rotation", self.orientations).reshape(-1, 3, 3)
+            if len(rot) != len(targets):
+                raise ReachError(f"{len(rot)} target rotations for {len(targets)} targets; "
+                                 "give one per target")
+            object.__setattr__(self, "orientations", rot)
+        if self.start_palm is not None:
+            object.__setattr__(self, "start_palm", require_finite("palm normal", self.start_palm))
 
     def name(self, i: int) -> str:
         return self.names[i] if i < len(self.names) else f"target {i + 1}"
@@ -134,6 +149,10 @@ class Stats:
     touching_transitions: int = 0
     # states the sampling fallback (core.sampling) tested, beyond the nodes searched
     sampling_states: int = 0
+    # match orientation (core.orient): the angle left between the palm's frame and the
+    # wanted one at the last frame, and whether it is within the tolerance (None: not asked)
+    orientation_error_deg: float | None = None
+    orientation_met: bool | None = None
 
     @property
     def mean_f_r(self) -> float:
@@ -159,6 +178,10 @@ class Stats:
                                     zip(self.strength_categories, other.strength_categories)]
         self.min_clearance_arm_lengths = min(self.min_clearance_arm_lengths,
                                              other.min_clearance_arm_lengths)
+        if other.orientation_error_deg is not None:       # the worst target's
+            self.orientation_error_deg = max(self.orientation_error_deg or 0.0,
+                                             other.orientation_error_deg)
+            self.orientation_met = self.orientation_met is not False and bool(other.orientation_met)
 
     def to_dict(self) -> dict:
         d = {k: getattr(self, k) for k in self.__dataclass_fields__}
@@ -460,10 +483,14 @@ class Planner:
         segments = []
         total = Stats()
         n = len(task.targets)
+        goals = [None] * n
+        if self.settings.match_orientation and task.orientations is not None:
+            goals = [goal_for(self.arm, self.settings, start, r, task.start_palm)
+                     for r in task.orientations]
         for i, target in enumerate(task.targets):
             steps = self._reach_segment(task, i, poses[-1], target, guided,
                                         frame_start=len(poses) - 1, chunk=chunk,
-                                        way_out=way_out if i == 0 else None)
+                                        way_out=way_out if i == 0 else None, goal=goals[i])
             seg, seg_poses = yield from _progress(steps, i, n, task.name(i))
             poses += seg_poses[1:]
             segments.append(seg)
@@ -473,10 +500,11 @@ class Planner:
                     self._workspace)
 
     def _reach_segment(self, task: Task, i: int, start: Pose, target_w, guided: bool,
-                       frame_start: int, chunk: int = 0, way_out=None):
+                       frame_start: int, chunk: int = 0, way_out=None, goal=None):
         """One target's reach from ``start``; with ``way_out`` (an
         :class:`~reach_addon.core.contact.Escape` from ``start``) the search starts where
-        the escape ends and the motion leads with it."""
+        the escape ends and the motion leads with it; with ``goal`` (an
+        :class:`~reach_addon.core.orient.OrientGoal`) the hand arrives oriented."""
         s, arm, gen = self.settings, self.arm, self.generator
         first = start
         if way_out is not None:
@@ -493,7 +521,8 @@ class Planner:
         if self.has_workspace and not had_workspace:
             stats.preprocess_time_s = self._workspace.build_time_s
 
-        seg_poses, hand, wrist_length = self._motion(task, result, first, start, target, way_out)
+        seg_poses, hand, wrist_length = self._motion(task, result, first, start, target, way_out,
+                                                     goal)
         clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
         contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None) \
             if result.success else None
@@ -505,7 +534,7 @@ class Planner:
             if retry.method == "sampling":
                 result = retry
                 seg_poses, hand, wrist_length = self._motion(task, result, first, start,
-                                                             target, way_out)
+                                                             target, way_out, goal)
                 clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
                 contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None)
 
@@ -533,6 +562,9 @@ class Planner:
             hand.unclear_transitions = [k for k in hand.unclear_transitions
                                         if k < len(seg_poses) - 1]
         self._motion_stats(stats, seg_poses, wrist_length, hand, clearances[:len(seg_poses)])
+        if goal is not None:
+            stats.orientation_error_deg = pose_error(seg_poses[-1], goal)
+            stats.orientation_met = stats.orientation_error_deg <= goal.tolerance
         seg = Segment(i, name, np.asarray(target_w, float), success, reason, message,
                       frame_start, frame_start + len(seg_poses) - 1, stats,
                       arm.to_world_points(np.array([p.wrist for p in result.path])),
@@ -561,10 +593,12 @@ class Planner:
         return result
 
     def _motion(self, task: Task, result: SearchResult, first: Pose, start: Pose, target,
-                way_out):
+                way_out, goal=None):
         """The frames of one reach along a search's path: shortcut smoothing, minimum-jerk
-        timing and the hand pass. Returns (poses, the hand pass's report, the wrist's path
-        length in arm lengths)."""
+        timing and the hand pass (with ``goal``, the hand sought toward that orientation and
+        the palm rolled to it, :mod:`~reach_addon.core.orient`; a roll the reach starts
+        with is carried). Returns (poses, the hand pass's report, the wrist's path length
+        in arm lengths)."""
         s, length = self.settings, self.arm.arm_length
         gen = self.generator.for_reach(start, target)
         # a sampled path is already shortcut in joint space (its poses are not the IK's, so
@@ -589,7 +623,10 @@ class Planner:
                 seg_poses, arcs, sampler = time_path(gen, dense, frames)
         loose = None if way_out is None or sampler is None else \
             (way_out.generator, float(sampler.cum[len(lead)]))
-        hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler, escape=loose)
+        hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler, escape=loose,
+                         goal=goal)
+        if goal is not None or first.roll:
+            apply_roll(hand, first.roll, goal, s.hand_space_turn_speed / task.fps)
         return hand.poses, hand, wrist_length
 
     def explain_failure(self, name: str, result: SearchResult, diagnosis, start: Pose):

@@ -226,6 +226,9 @@ def result_lines(props) -> list:
             if st.get("touching_transitions") or st.get("unbounded_hand_turns"):
                 lines.append(f"  hand: {st['touching_transitions']} frame(s) touching between "
                              f"keys, {st['unbounded_hand_turns']} turn(s) over the limit")
+        if st.get("orientation_error_deg") is not None:
+            lines.append(f"  palm {st['orientation_error_deg']:.0f}° from the target's axes"
+                         + ("" if st["orientation_met"] else " (over tolerance)"))
         if not t["success"]:
             lines.append("  " + t["message"])
     return lines + obstacle_lines(res)

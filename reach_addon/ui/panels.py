@@ -37,6 +37,7 @@ class REACH_PT_main(_Reach, bpy.types.Panel):
                 col.prop(props, "target")
         else:
             col.prop(props, "target")
+        col.prop(props.settings, "match_orientation")
         col.prop(props, "obstacles")
         if props.obstacles == "COLLECTION":
             col.prop(props, "obstacle_collection", text="Collection")
@@ -159,7 +160,8 @@ class REACH_PT_settings(_Reach, bpy.types.Panel):
 _LABELS = {"strength": ("Strength", "strength"), "limits": ("Joint Limits", "body"),
            "body": ("Body Rotation", "body"), "ik": ("Inverse Kinematics", None),
            "collision": ("Collisions", None), "search": ("Search", None),
-           "workspace": ("Workspace", None), "motion": ("Motion", None)}
+           "workspace": ("Workspace", None), "motion": ("Motion", None),
+           "orientation": ("Orientation", "orientation")}
 
 classes = (REACH_PT_main, REACH_PT_result, REACH_PT_bones, REACH_PT_settings) + tuple(
     _settings_panel(g, *_LABELS[g]) for g in GROUPS)

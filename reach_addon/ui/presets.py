@@ -1,5 +1,6 @@
 """Presets through Blender's preset system: strength, body (joint limits and body
-rotation) and rig maps (bone names).
+rotation), rig maps (bone names) and orientation (which target axes the fingers and the
+palm follow, for *Match orientation*).
 
 Bundled presets live in the top-level ``presets/reach/<kind>/`` folder of the source tree,
 staged into the extension as ``reach_addon/presets/`` by ``make dist``; users' own presets
@@ -21,6 +22,7 @@ KINDS = {
     "strength": ("settings", [f.name for f in fields() if f.metadata["group"] == "strength"]),
     "body": ("settings", [f.name for f in fields() if f.metadata["group"] in ("limits", "body")]),
     "rigs": ("", ["use_overrides"] + OVERRIDES),
+    "orientation": ("settings", [f.name for f in fields() if f.metadata["group"] == "orientation"]),
 }
 
 

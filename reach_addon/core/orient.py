@@ -1,0 +1,289 @@
+"""Match orientation: the palm arrives aligned with the target's axes (opt-in).
+
+With ``Settings.match_orientation`` on, a target that has a rotation (an Empty, a mesh)
+says how the hand should arrive, not only where the wrist should.
+
+Convention
+----------
+Two of the target's local axes name the hand's frame: ``Settings.finger_axis`` is the
+direction the fingers point (wrist → fingers) and ``Settings.palm_axis`` the direction the
+palm faces (its outward normal). The default, fingers +Y and palm −Z, reads an Empty as
+Blender draws *Plain Axes* or *Arrows*: a hand lying on the XY plane, palm down, fingers
+along +Y. The bundled *Single Arrow* preset takes the arrow (+Z) as the fingers and −Y as
+the palm, so an Empty drawn as a single arrow points where the fingers go.
+
+The hand's frame on the rig
+---------------------------
+The finger direction is the planner's hand direction d (wrist → the mean of the finger
+joints, :func:`~reach_addon.blender.rig.hand_shape`). The palm normal n is read from the
+rig by the Blender layer (:func:`~reach_addon.blender.rig.palm_normal`) and given to the
+core in the canonical arm frame as ``Task.start_palm``; carried by the hand from the start
+pose, it has constant coordinates in the hand's frame (d, g, d × g) of
+:func:`~reach_addon.core.arm.hand_frame` (g: the elbow's hinge made perpendicular to d).
+Without one (the core alone) the palm is taken at forearm neutral, facing −g.
+
+How it is met
+-------------
+1. **The hand's direction** (:mod:`~reach_addon.core.hand`): the hand pass's dynamic
+   programme gets a cost on the last frames of each reach (:func:`frame_weights`), the
+   frame error after the best roll (:func:`best_roll_error`) in units of 45°, squared,
+   times ``Settings.orientation_weight``; and one more state, the wanted direction itself
+   within the wrist's range at the last frame (:func:`wanted_hand_angles`). Collisions
+   and the turn-speed bounds stay hard constraints: the hand approaches the wanted
+   direction where it is clear and within limits, and keeps the closest it can.
+2. **The palm's roll** ψ about the hand's own axis (forearm pronation/supination, which
+   the planner's arm has no joint for): at the last frame the roll that best aligns the
+   palm (:func:`best_roll`), kept within the forearm's range (:func:`roll_window`:
+   ``Settings.pronation_max`` and ``supination_max``, AAOS 80° each from neutral,
+   measured from the start pose's own twist, :func:`twist_of`). It is ramped in over the
+   reach (:func:`roll_increments`): the minimum-jerk profile over the reach's frames (the
+   arm's own timing), each frame's step at most what the hand's turn-speed bound in space
+   leaves after the hand's own turn there (``Settings.hand_space_turn_speed``), so the
+   hand, its fingers included, turns no faster than without it. The capsule of the hand
+   is round about its axis, so a roll never changes a collision. Poses carry ψ
+   (:attr:`~reach_addon.core.arm.Pose.roll`); the bake turns the hand by ψ and the
+   forearm by :data:`FOREARM_SHARE` of it, about their own axes, as real pronation
+   twists the forearm toward the wrist.
+3. **The error left** (:func:`frame_angle` of the achieved and wanted palm frames) is
+   reported in degrees per target (``orientation_error_deg``) and called met within
+   ``Settings.orientation_tolerance``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .arm import frame_turn, hand_frame, roll_frames
+from .numeric import cross
+
+#: The axis names a setting may take: the target's local axes, either way.
+AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
+#: Share of the palm's roll the bake gives the forearm bone (about its own axis); the hand
+#: gets all of it. Real pronation turns the radius about the ulna, so the forearm's skin
+#: twists more toward the wrist; half on the forearm keeps the wrist's skin from wringing.
+FOREARM_SHARE = 0.5
+#: Share of a reach's last frames on which the orientation is sought (its weight rising
+#: from 0 to full at the last frame, :func:`frame_weights`).
+APPROACH_SHARE = 0.35
+
+
+def axis_vector(name: str) -> np.ndarray:
+    """The unit vector of an axis name of :data:`AXES` ('+x' → (1, 0, 0), '-z' → (0, 0, -1))."""
+    v = np.zeros(3)
+    v["xyz".index(name[1])] = 1.0 if name[0] == "+" else -1.0
+    return v
+
+
+def wanted_axes(rotation, finger_axis: str, palm_axis: str):
+    """(finger, palm) unit vectors of a target's rotation (3 × 3, columns its local axes;
+    scale allowed): f = R e_finger / |·|, n = R e_palm made perpendicular to f."""
+    r = np.asarray(rotation, dtype=float)
+    f = r @ axis_vector(finger_axis)
+    f = f / max(float(np.linalg.norm(f)), 1e-12)
+    n = r @ axis_vector(palm_axis)
+    n = n - (n @ f) * f
+    return f, n / max(float(np.linalg.norm(n)), 1e-12)
+
+
+def palm_frame(d, n) -> np.ndarray:
+    """Columns (d, n, d × n) (..., 3, 3) of a hand's finger direction d and palm normal n
+    (both unit, perpendicular)."""
+    d, n = np.asarray(d, dtype=float), np.asarray(n, dtype=float)
+    return np.stack([d, n, cross(d, n)], -1)
+
+
+def frame_angle(a, b):
+    """The angle (degrees) of the rotation between two frames (..., 3, 3):
+    θ = acos((tr(A Bᵀ) − 1) / 2)."""
+    tr = np.einsum("...ij,...ij->...", a, b)
+    return np.degrees(np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0)))
+
+
+def best_roll(d, n, finger, palm):
+    """The roll ψ (degrees) about d that best aligns the palm frame (d, n) with the wanted
+    (f_w, n_w): with m = d × n and c_w = f_w × n_w, tr(A(ψ) Wᵀ) = d·f_w + cos ψ (n·n_w +
+    m·c_w) + sin ψ (m·n_w − n·c_w), greatest at ψ* = atan2(m·n_w − n·c_w, n·n_w + m·c_w).
+    Vectors (..., 3)."""
+    d, n = np.asarray(d, dtype=float), np.asarray(n, dtype=float)
+    m = cross(d, n)
+    c_w = cross(np.asarray(finger, float), np.asarray(palm, float))
+    sin = np.sum(m * palm, -1) - np.sum(n * c_w, -1)
+    cos = np.sum(n * palm, -1) + np.sum(m * c_w, -1)
+    return np.degrees(np.arctan2(sin, cos))
+
+
+def clamp_roll(psi, lo: float, hi: float):
+    """ψ (degrees, wrapped into (−180°, 180°]) limited to [lo, hi] (lo ≤ 0 ≤ hi): outside,
+    the bound nearer ψ round the circle (the frame error grows with the angle from ψ*)."""
+    psi = np.asarray(psi, dtype=float)
+    inside = (psi >= lo) & (psi <= hi)
+    gap_lo = np.abs((psi - lo + 180.0) % 360.0 - 180.0)
+    gap_hi = np.abs((psi - hi + 180.0) % 360.0 - 180.0)
+    return np.where(inside, psi, np.where(gap_lo < gap_hi, lo, hi))
+
+
+def twist_of(frame, n) -> float:
+    """The forearm's twist (degrees, supination +) of a palm normal n in the hand's frame
+    (d, g, c = d × g): ψ_a = atan2(n·(−c), n·(−g)). At neutral (thumb up with the elbow bent
+    at a right angle, palm down with the arm held out) the palm faces the elbow hinge's
+    inner side −g; full supination turns it toward the side the elbow bends to, −c = g × d.
+    A roll ψ about d (:func:`~reach_addon.core.arm.roll_frames`) adds ψ to it."""
+    f = np.asarray(frame, dtype=float)
+    n = np.asarray(n, dtype=float)
+    return float(np.degrees(math.atan2(-(n @ f[:, 2]), -(n @ f[:, 1]))))
+
+
+def roll_window(start_twist: float, settings) -> tuple:
+    """(lo, hi): the rolls ψ (degrees, added to the start pose's twist ψ_a0) that keep the
+    forearm within pronation and supination: [−pronation_max − ψ_a0, supination_max − ψ_a0],
+    widened to hold 0 (a start pose already beyond a limit may stay, not go farther)."""
+    lo = -settings.pronation_max - start_twist
+    hi = settings.supination_max - start_twist
+    return min(lo, 0.0), max(hi, 0.0)
+
+
+@dataclass(frozen=True)
+class OrientGoal:
+    """What one reach should arrive with (canonical arm frame): the wanted finger direction
+    and palm normal, the palm's coordinates in the hand's frame (constant as the hand is
+    carried, :func:`palm_in_hand`) and the window of rolls (:func:`roll_window`)."""
+
+    finger: np.ndarray
+    palm: np.ndarray
+    palm_local: np.ndarray
+    lo: float
+    hi: float
+    tolerance: float
+    weight: float
+
+
+def palm_in_hand(start_pose, start_palm=None) -> np.ndarray:
+    """The palm normal's coordinates in the start pose's hand frame (d, g, d × g): Fᵀ n,
+    with n made perpendicular to d; (0, −1, 0) (forearm neutral) without ``start_palm``."""
+    frame = hand_frame(start_pose)
+    if start_palm is None:
+        return np.array([0.0, -1.0, 0.0])
+    local = frame.T @ np.asarray(start_palm, dtype=float)
+    local[0] = 0.0
+    norm = float(np.linalg.norm(local))
+    return local / norm if norm > 1e-9 else np.array([0.0, -1.0, 0.0])
+
+
+def goal_for(arm, settings, start_pose, rotation, start_palm=None) -> OrientGoal:
+    """The :class:`OrientGoal` of a target whose world rotation is ``rotation`` (3 × 3), for
+    a motion that starts at ``start_pose`` (whose hand carries ``start_palm``, canonical)."""
+    finger, palm = wanted_axes(rotation, settings.finger_axis, settings.palm_axis)
+    inverse = arm.to_world[:3, :3].T                     # rigid: a reflection allowed
+    finger, palm = inverse @ finger, inverse @ palm
+    local = palm_in_hand(start_pose, start_palm)
+    twist = twist_of(np.eye(3), local)
+    lo, hi = roll_window(twist, settings)
+    return OrientGoal(finger, palm, local, lo, hi, settings.orientation_tolerance,
+                      settings.orientation_weight)
+
+
+def best_roll_error(frames, goal: OrientGoal):
+    """For hand frames (..., 3, 3) of columns (d, g, c) (no roll): (ψ, error) — the best
+    roll within the goal's window (:func:`best_roll`, :func:`clamp_roll`) and the angle
+    (degrees) left between the rolled palm frame and the wanted one."""
+    f = np.asarray(frames, dtype=float)
+    d = f[..., :, 0]
+    n = f @ goal.palm_local
+    psi = clamp_roll(best_roll(d, n, goal.finger, goal.palm), goal.lo, goal.hi)
+    rolled = roll_frames(f, psi)
+    achieved = palm_frame(d, rolled @ goal.palm_local)
+    wanted = palm_frame(goal.finger, goal.palm)
+    return psi, frame_angle(achieved, wanted)
+
+
+def pose_error(pose, goal: OrientGoal) -> float:
+    """The orientation error (degrees) of a pose, its roll included."""
+    f = roll_frames(hand_frame(pose), pose.roll)
+    achieved = palm_frame(f[:, 0], f @ goal.palm_local)
+    return float(frame_angle(achieved, palm_frame(goal.finger, goal.palm)))
+
+
+def wanted_hand_angles(axes, goal: OrientGoal, settings) -> tuple:
+    """The wrist's two angles (degrees, :func:`~reach_addon.core.arm.hand_coefficients`)
+    of the wanted finger direction at a pose whose hand frame rows are ``axes`` (f, p, h):
+    β_w = atan2(d·p, d·f), σ_w = asin(d·h), each limited to the wrist's range."""
+    c = np.asarray(axes, dtype=float) @ goal.finger
+    bend = math.degrees(math.atan2(c[1], c[0]))
+    side = math.degrees(math.asin(max(-1.0, min(1.0, float(c[2])))))
+    return (max(-settings.wrist_bend_max, min(settings.wrist_bend_max, bend)),
+            max(-settings.wrist_side_max, min(settings.wrist_side_max, side)))
+
+
+def frame_weights(n: int) -> np.ndarray:
+    """The weight (0..1) of the orientation cost at each of a reach's ``n`` frames: 0
+    before the last :data:`APPROACH_SHARE` of them, then (τ)² rising to 1 at the last frame,
+    τ the share of that approach gone by: the hand turns toward the wanted direction as it
+    arrives, not in a last-frame flick."""
+    w = np.zeros(n)
+    if n < 2:
+        return np.ones(n)
+    k0 = max(1, int(math.floor((1.0 - APPROACH_SHARE) * (n - 1))))
+    span = max(1, n - 1 - k0)
+    k = np.arange(k0, n)
+    w[k0:] = ((k - k0 + 1) / (span + 1)) ** 2
+    return w
+
+
+def minimum_jerk_steps(n: int) -> np.ndarray:
+    """Increments (n − 1,) of the minimum-jerk profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ over n
+    evenly spaced frames; they sum to 1."""
+    tau = np.linspace(0.0, 1.0, n)
+    s = 10 * tau ** 3 - 15 * tau ** 4 + 6 * tau ** 5
+    return np.diff(s)
+
+
+def roll_increments(delta: float, slack) -> np.ndarray:
+    """Per-transition roll steps (degrees, len(slack)) that add up to ``delta`` (or as
+    much of it as fits): the minimum-jerk profile scaled by λ and each step clipped to its
+    transition's slack s_k ≥ 0, δ_k = sign(Δ) min(λ |Δ| w_k, s_k), with λ ≥ 1 found by
+    bisection so that Σ δ_k = Δ. Where even Σ s_k < |Δ| every step is its slack."""
+    slack = np.maximum(np.asarray(slack, dtype=float), 0.0)
+    n = len(slack)
+    if n == 0 or delta == 0.0:
+        return np.zeros(n)
+    w = minimum_jerk_steps(n + 1)
+    need = abs(delta)
+    if slack.sum() <= need:
+        return math.copysign(1.0, delta) * slack
+    lo, hi = 0.0, 1.0
+    while np.minimum(hi * need * w, slack).sum() < need:
+        hi *= 2.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if np.minimum(mid * need * w, slack).sum() < need:
+            lo = mid
+        else:
+            hi = mid
+    steps = np.minimum(hi * need * w, slack)
+    steps *= need / steps.sum()
+    return math.copysign(1.0, delta) * steps
+
+
+def apply_roll(report, start_roll: float, goal, bound: float):
+    """Give the poses of a hand pass's ``report`` (a :class:`~reach_addon.core.hand.HandReport`,
+    changed in place) their palm roll: from ``start_roll`` (the pose the reach starts from)
+    to the best roll at the last frame within the forearm's range (:func:`best_roll_error`;
+    ``start_roll`` kept without a ``goal``), in steps of :func:`roll_increments` within what
+    the hand's turn-speed bound in space (``bound``, degrees a frame) leaves at each frame.
+    The hand's largest turn in space is measured again, the roll included."""
+    poses = report.poses
+    if len(poses) < 2:
+        report.poses = [dataclasses.replace(p, roll=float(start_roll)) for p in poses]
+        return report
+    end = start_roll if goal is None else float(best_roll_error(hand_frame(poses[-1]), goal)[0])
+    turns = np.array([frame_turn(a, b) for a, b in zip(poses[:-1], poses[1:])])
+    steps = roll_increments(end - start_roll, bound - turns)
+    rolls = start_roll + np.concatenate([[0.0], np.cumsum(steps)])
+    report.poses = [dataclasses.replace(p, roll=float(r)) for p, r in zip(poses, rolls)]
+    report.max_hand_turn_deg = max(frame_turn(a, b) for a, b in
+                                   zip(report.poses[:-1], report.poses[1:]))
+    return report
