@@ -179,3 +179,26 @@ def test_the_cli_flag_and_the_single_arrow_preset(fresh, addon, tmp_path):
         assert task["orientation_met"] and task["orientation_error_deg"] <= 10.0
     assert reports["arrow"]["orientation_error_deg"] == pytest.approx(
         reports["orient"]["orientation_error_deg"], abs=0.5)
+
+
+def test_a_batch_study_records_the_orientation_error(fresh, addon, tmp_path):
+    """``settings = { match_orientation = true }`` in a study: each task's result has the
+    error and whether it was met (null in a variant without it)."""
+    import importlib
+
+    batch = importlib.import_module(addon.__name__ + ".batch")
+    armature = rigs.load("metarig")
+    rigs.rest_still(armature)
+    info = addon.blender.rig.build(armature, "right")
+    place_target(info, "right", TURNS["x60z60"])
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"), copy=True)
+    (tmp_path / "study.toml").write_text(
+        'name = "orient"\narm = "right"\n'
+        '[[variants]]\nname = "on"\nsettings = { match_orientation = true }\n'
+        '[[variants]]\nname = "off"\n'
+        f'[[scenes]]\nfile = "scene.blend"\narmature = "{armature.name}"\ntargets = ["Goal"]\n')
+    study = batch.load_study(tmp_path / "study.toml")
+    results = {spec["variant"]: batch.run_task(spec) for spec in study.specs}
+    on, off = results["on"], results["off"]
+    assert on["success"] and on["orientation_met"] and on["orientation_error_deg"] <= 10.0
+    assert off["success"] and off["orientation_error_deg"] is None and off["orientation_met"] is None
