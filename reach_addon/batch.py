@@ -229,6 +229,7 @@ def run_task(spec: dict) -> dict:
     from .blender import pipeline
     from .blender import rig as rig_mod
     from .core import Settings
+    from .core.envelope import CLASSES, shoulder_frame_to_canonical
 
     global _open_file
     t0 = time.perf_counter()
@@ -246,12 +247,10 @@ def run_task(spec: dict) -> dict:
         target = spec["target"]
         if target is None:
             point = np.array(spec["point"], float)
-            if spec["frame"] == "shoulder":
+            if spec["frame"] == "shoulder":       # as the reach envelope places its points
                 armature = pipeline.find_object(spec["armature"], "armature")
-                info = rig_mod.build(armature, spec["arm"], spec["bones"])
-                side = info.frame.right if info.side == "right" else -info.frame.right
-                point = (info.joints_world["shoulder"] + info.arm.arm_length *
-                         (point[0] * info.frame.forward + point[1] * side + point[2] * info.frame.up))
+                arm = rig_mod.build(armature, spec["arm"], spec["bones"]).arm
+                point = arm.to_world_points(shoulder_frame_to_canonical(arm, point))
             added = bpy.data.objects.new("Reach Study Target", None)
             added.location = point.tolist()
             context.scene.collection.objects.link(added)
@@ -261,6 +260,9 @@ def run_task(spec: dict) -> dict:
             armature=spec["armature"], targets=[target], task=spec["task"], side=spec["arm"],
             obstacles=spec["obstacles"], settings=settings, overrides=spec["bones"], draw=False)
         outcome = pipeline.run(context, request, bake=False)
+        # the target's class in the reach envelope (same rig, obstacles and settings)
+        classed = pipeline.envelope(context, request, world=[np.array(
+            pipeline.find_object(target, "target").matrix_world.translation)]).envelope
         plan, _first = outcome.plans[-1]
         r = outcome.results[-1]
         final = plan.poses[-1]
@@ -271,6 +273,8 @@ def run_task(spec: dict) -> dict:
             "target_position": [float(v) for v in goal],
             "arm": r.arm, "success": r.success, "reason": r.reason, "message": r.message,
             "arm_length": float(outcome.rig.arm.arm_length),
+            "envelope_class": CLASSES[int(classed.classes[0])],
+            "envelope_f_r": int(classed.f_r[0]),
             "final_f_r": int(final.f_r),
             "final_angles_deg": dict(zip(("body_rotation", "alpha", "beta", "gamma", "elbow"),
                                          map(float, final.config.as_array()))),

@@ -9,7 +9,8 @@
         "import sys, reach_addon.cli as c; sys.exit(c.main(sys.argv[sys.argv.index('--') + 1:]))" \
         -- bake scene.blend --armature rig --target Cup --output out.blend
 
-Commands: ``bake`` (one .blend), ``batch`` (a study of many tasks, local processes or a
+Commands: ``bake`` (one .blend), ``envelope`` (the arm's reach envelope as a CSV, a still
+and optionally a mesh), ``batch`` (a study of many tasks, local processes or a
 Dask cluster), ``demo`` (the paper's four tasks). Exit status: 0 every task reached its
 target; 1 some did not (their reasons are in the report; the others are still baked and
 saved); 2 bad input, with one line on stderr naming what is wrong and no output written;
@@ -104,6 +105,16 @@ def _add_settings_flags(parser):
                                help=f"{meta['doc']} ({f.default})")
 
 
+def _add_character_args(parser):
+    parser.add_argument("--arm", default="auto", choices=("left", "right", "auto"))
+    parser.add_argument("--obstacles", metavar="COLLECTION",
+                        help="only this collection's objects are obstacles (default: all visible)")
+    parser.add_argument("--preset", action="append", default=[], metavar="NAME",
+                        help="a strength, body or rig-map preset by name (repeatable)")
+    parser.add_argument("--bone", action="append", default=[], metavar="ROLE=BONE",
+                        help="set a bone by hand, e.g. upper_arm_right=Arm.R or chest=Spine2")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="reach", description=__doc__.splitlines()[0],
                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -118,16 +129,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="reach: each target on its own, baked one after another; sequence: "
                            "in order; guided: through guiding nodes; chase: follow the "
                            "target's animation")
-    bake.add_argument("--arm", default="auto", choices=("left", "right", "auto"))
-    bake.add_argument("--obstacles", metavar="COLLECTION",
-                      help="only this collection's objects are obstacles (default: all visible)")
+    _add_character_args(bake)
     bake.add_argument("--frame-start", type=int, help="first frame (default: the file's current frame)")
     bake.add_argument("--duration", type=float, metavar="SECONDS",
                       help="seconds per reach (default: from the path length)")
-    bake.add_argument("--preset", action="append", default=[], metavar="NAME",
-                      help="a strength, body or rig-map preset by name (repeatable)")
-    bake.add_argument("--bone", action="append", default=[], metavar="ROLE=BONE",
-                      help="set a bone by hand, e.g. upper_arm_right=Arm.R or chest=Spine2")
     bake.add_argument("--new-action", action="store_true", help="bake into a copy of the action")
     bake.add_argument("--bake-closest", action="store_true",
                       help="bake the closest approach when a target cannot be reached")
@@ -141,6 +146,22 @@ def build_parser() -> argparse.ArgumentParser:
                       help="the palm arrives aligned with each target's axes (the same as "
                            "--match-orientation; axes: --finger-axis, --palm-axis=-z)")
     bake.set_defaults(func=cmd_bake)
+
+    env = sub.add_parser("envelope", help="the arm's reach envelope on a grid, as a CSV (and a "
+                                          "still): strength category, chest turn, blocked, out")
+    env.add_argument("scene", help="the .blend file to read (it is not changed)")
+    env.add_argument("--armature", required=True, help="the character's armature object")
+    env.add_argument("--target", action="append", default=[], dest="targets",
+                     help="an object left out of the obstacles (with --arm auto, the arm "
+                          "nearer the first one is taken)")
+    _add_character_args(env)
+    env.add_argument("--output", required=True, help="the CSV to write (one row per grid point)")
+    env.add_argument("--render", metavar="DIR",
+                     help="render a still of the envelope (envelope.png) here")
+    env.add_argument("--mesh", metavar="BLEND", help="also save the scene with the envelope as a "
+                                                     "mesh (per-class materials) to this .blend")
+    _add_settings_flags(env)
+    env.set_defaults(func=cmd_envelope)
 
     batch = sub.add_parser("batch", help="run a study of many tasks (see reach_addon.batch)")
     batch.add_argument("study", help="the study's TOML file")
@@ -207,11 +228,46 @@ def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
     }
 
 
-def cmd_bake(args) -> int:
+@contextmanager
+def _opened(scene_path: Path):
+    """``scene_path`` opened (a ReachError if it is no .blend file), with Reach registered
+    while it is (unregistered after, if this registered it)."""
     import bpy
 
     from . import ensure_registered, unregister
 
+    if not scene_path.is_file():
+        raise ReachError(f"scene file '{scene_path}' not found")
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(scene_path), load_ui=False)
+    except RuntimeError as exc:
+        raise ReachError(f"cannot open '{scene_path}' as a .blend file: "
+                         f"{str(exc).strip().splitlines()[-1]}") from None
+    registered = ensure_registered()
+    try:
+        yield
+    finally:
+        if registered:
+            unregister()
+
+
+def _settings_and_bones(args):
+    """(settings, bone overrides) of the open file's Reach properties after ``--preset``,
+    the settings flags and ``--bone``."""
+    import bpy
+
+    from .ui import presets
+    from .ui.properties import bone_overrides, settings_from
+
+    props = bpy.context.scene.reach
+    for name in args.preset:
+        presets.apply_named(name)
+    overrides = bone_overrides(props)
+    overrides.update(_bones(args.bone))
+    return settings_from_args(args, settings_from(props.settings)), overrides
+
+
+def cmd_bake(args) -> int:
     scene_path = Path(args.scene)
     if not scene_path.is_file():
         raise ReachError(f"scene file '{scene_path}' not found")
@@ -222,22 +278,12 @@ def cmd_bake(args) -> int:
     output = scene_path if args.in_place else Path(args.output)
     if not args.in_place and output.resolve() == scene_path.resolve():
         raise ReachError("--output is the input file; use --in-place to save over it")
-    bones = _bones(args.bone)
+    _bones(args.bone)                           # bad input: before the file is opened
 
     written = []
     try:
-        with _interruptible():
-            try:
-                bpy.ops.wm.open_mainfile(filepath=str(scene_path), load_ui=False)
-            except RuntimeError as exc:
-                raise ReachError(f"cannot open '{scene_path}' as a .blend file: "
-                                 f"{str(exc).strip().splitlines()[-1]}") from None
-            registered = ensure_registered()
-            try:
-                return _bake_open_file(args, scene_path, output, bones, written)
-            finally:
-                if registered:
-                    unregister()
+        with _interruptible(), _opened(scene_path):
+            return _bake_open_file(args, scene_path, output, written)
     except Interrupted as exc:
         if written:
             exc.note = "wrote " + ", ".join(f"'{p}'" for p in written) + " and nothing after"
@@ -250,19 +296,12 @@ def cmd_bake(args) -> int:
         raise
 
 
-def _bake_open_file(args, scene_path, output, bones, written) -> int:
+def _bake_open_file(args, scene_path, output, written) -> int:
     import bpy
 
     from .blender import pipeline
-    from .ui import presets
-    from .ui.properties import bone_overrides, settings_from
 
-    props = bpy.context.scene.reach
-    for name in args.preset:
-        presets.apply_named(name)
-    settings = settings_from_args(args, settings_from(props.settings))
-    overrides = bone_overrides(props)
-    overrides.update(bones)
+    settings, overrides = _settings_and_bones(args)
     request = pipeline.Request(
         armature=args.armature, targets=list(args.targets), task=args.task, side=args.arm,
         obstacles=args.obstacles, frame_start=args.frame_start, duration_s=args.duration,
@@ -295,6 +334,48 @@ def _bake_open_file(args, scene_path, output, bones, written) -> int:
         written.append(args.report)
     print(f"saved {output}" + (f", report {args.report}" if args.report else ""), flush=True)
     return EXIT_OK if outcome.success else EXIT_FAILED
+
+
+def cmd_envelope(args) -> int:
+    """The reach envelope of one arm: a CSV, and a still and a .blend with its mesh if
+    asked. The input file is not changed."""
+    import bpy
+
+    from .blender import envelope as envelope_mod
+    from .blender import pipeline
+    from .core.envelope import CLASSES
+
+    scene_path = Path(args.scene)
+    _bones(args.bone)
+    if args.mesh and Path(args.mesh).resolve() == scene_path.resolve():
+        raise ReachError("--mesh is the input file; the envelope command does not change it, "
+                         "give another path")
+    with _interruptible(), _opened(scene_path):
+        settings, overrides = _settings_and_bones(args)
+        request = pipeline.Request(armature=args.armature, targets=list(args.targets),
+                                   side=args.arm, obstacles=args.obstacles, settings=settings,
+                                   overrides=overrides, draw=False)
+        outcome = pipeline.envelope(bpy.context, request)
+        env = outcome.envelope
+        counts = env.counts()
+        print(f"'{args.armature}' {outcome.rig.side} arm: {len(env.classes)} points in "
+              f"{env.time_s:.2f} s: " + ", ".join(f"{counts[c]} {c}" for c in CLASSES),
+              flush=True)
+        envelope_mod.write_csv(outcome, args.output)
+        written = [str(args.output)]
+        if args.render or args.mesh:
+            envelope_mod.write_mesh(bpy.context, outcome)
+        if args.render:
+            from .blender.render import render_still
+
+            points, _classes = envelope_mod.drawn(outcome)
+            written.append(render_still(bpy.context, outcome.rig, points,
+                                        Path(args.render) / "envelope.png"))
+        if args.mesh:
+            atomic.save_blend(Path(args.mesh))
+            written.append(str(args.mesh))
+    print("wrote " + ", ".join(written), flush=True)
+    return EXIT_OK
 
 
 def cmd_batch(args) -> int:

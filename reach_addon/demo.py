@@ -329,6 +329,7 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
         renders["video"] = render_outcome(bpy.context, outcome, out_dir, still=None,
                                           video="demo.mp4", frames=(1, frame - 1),
                                           size=(480, 270))["video"]
+        renders["envelope"] = _envelope_still(armature, out_dir, out)
     report = {"reach_version": __version__, "blender_version": bpy.app.version_string,
               "character": "Quaternius Female Casual (CC0)", "blend": str(blend),
               "tasks": reports, "renders": renders,
@@ -342,6 +343,39 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     print(f"\nsaved {blend}, report.json" + (", stills and demo.mp4" if render else "") +
           f" in {out_dir} ({report['total_time_s']:.0f} s)", file=out, flush=True)
     return 0 if all(ok for _n, ok, _s in rows) else 1
+
+
+def _envelope_still(armature, out_dir, out) -> str:
+    """The character's right-arm reach envelope among the workplace, at frame 1 (the rest
+    pose), rendered to ``envelope.png``; its mesh is removed again (demo.blend is saved
+    without it)."""
+    import bpy
+
+    from .blender import envelope as envelope_mod
+    from .blender import pipeline, viz
+    from .blender.render import render_still
+
+    scene = bpy.context.scene
+    scene.frame_set(1)
+    hidden = [c for c in scene.collection.children if c.name.startswith(viz.COLLECTION)
+              and not c.hide_render]
+    for coll in hidden:                         # the tasks' trajectories and markers
+        coll.hide_render = True
+    try:
+        outcome = pipeline.envelope(bpy.context, pipeline.Request(
+            armature=armature.name, targets=[], side="right"))
+        mesh = envelope_mod.write_mesh(bpy.context, outcome)
+        points, _classes = envelope_mod.drawn(outcome)
+        path = render_still(bpy.context, outcome.rig, points, out_dir / "envelope.png")
+        viz.remove(mesh.name)
+    finally:
+        for coll in hidden:
+            coll.hide_render = False
+    counts = outcome.envelope.counts()
+    print(f"{'envelope':15s} {len(outcome.envelope.classes)} points in "
+          f"{outcome.envelope.time_s:.2f} s: " + ", ".join(f"{n} {c}" for c, n in counts.items())
+          + "; rendered envelope.png", file=out, flush=True)
+    return path
 
 
 def _chest_against_table1(armature, outcome, frame_start):

@@ -35,6 +35,7 @@ import bpy
 import numpy as np
 
 from ..core import Planner, ReachError, Settings, Task
+from ..core import envelope as envelope_mod
 from ..core.steps import drain, relay
 from ..core.tasks import chase_steps
 from . import bake as bake_mod
@@ -123,9 +124,10 @@ def find_object(name, what):
     return ob
 
 
-def validate(context, request: Request, bake: bool):
+def validate(context, request: Request, bake: bool, need_targets: bool = True):
     """Check the request against the scene; returns (armature, target objects, obstacle
-    collection). Raises ReachError naming what is wrong and what to do."""
+    collection). Raises ReachError naming what is wrong and what to do. ``need_targets``:
+    whether a request without targets is an error (the reach envelope needs none)."""
     if request.task not in TASKS:
         raise ReachError(f"unknown task '{request.task}'; choose one of {', '.join(TASKS)}")
     if not request.armature:
@@ -137,7 +139,7 @@ def validate(context, request: Request, bake: bool):
                          "location, rotation and scale")
     if armature.name not in context.scene.objects:
         raise ReachError(f"armature '{armature.name}' is not in scene '{context.scene.name}'")
-    if not request.targets:
+    if need_targets and not request.targets:
         raise ReachError("no target chosen; pick the object to reach for")
     targets = [find_object(n, "target") for n in request.targets]
     for t in targets:
@@ -147,7 +149,7 @@ def validate(context, request: Request, bake: bool):
         m = np.array(t.matrix_world)
         if not finite(m):
             raise ReachError(f"target '{t.name}' has a NaN or infinite transform; fix its location")
-    if request.task == "reach" and request.side not in ("right", "left", "auto"):
+    if request.side not in ("right", "left", "auto"):
         raise ReachError(f"arm must be right, left or auto, not '{request.side}'")
     collection = None
     if request.obstacles:
@@ -310,6 +312,57 @@ def steps(context, request: Request, bake: bool = True):
     finally:
         if scene.frame_current != original_frame:
             scene.frame_set(original_frame)
+
+
+@dataclass
+class EnvelopeOutcome:
+    """The reach envelope of one arm (:mod:`reach_addon.core.envelope`) with where its points
+    are: ``world`` (n, 3) and ``shoulder`` (n, 3), the shoulder-frame coordinates (forward,
+    outward, up; arm lengths) a batch study's shoulder grid uses."""
+
+    request: Request
+    rig: rig_mod.RigInfo
+    envelope: envelope_mod.Envelope
+    world: np.ndarray
+    shoulder: np.ndarray
+    frame: int
+    obstacles: list = field(default_factory=list)   # (name, triangles) of each obstacle used
+
+
+def envelope_steps(context, request: Request, chunk: int = 64, world=None):
+    """The reach envelope of the request's arm at the current frame, as a generator like
+    :func:`steps` (yields (fraction, message), returns an :class:`EnvelopeOutcome`). The
+    same rig adapter, obstacles and planner as a plan (the request's obstacles, the
+    character and its targets left out); the grid and its classes are the core's
+    (:func:`reach_addon.core.envelope.envelope_steps`). ``world``: classify these points
+    (k, 3) instead of the grid (a batch task's target). Changes nothing in the scene."""
+    armature, targets, collection = validate(context, request, bake=False, need_targets=False)
+    context.view_layer.update()
+    first = np.array(targets[0].matrix_world.translation) if targets else None
+    info = rig_mod.build(armature, request.side, request.overrides, target=first)
+    yield 0.02, "reading the rig"
+    exclude = character_objects(armature, context.scene) | {t.name for t in targets}
+    pieces = gather_pieces(context, exclude, collection)
+    obstacles = obstacles_from_pieces(pieces, collection)
+    yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
+    s = request.settings
+    if world is None:
+        coords = envelope_mod.grid_coordinates(s.envelope_resolution, s.envelope_extent)
+        points = envelope_mod.shoulder_frame_to_canonical(info.arm, coords)
+    else:
+        points = info.arm.to_canonical_points(np.atleast_2d(np.asarray(world, dtype=float)))
+        coords = envelope_mod.canonical_to_shoulder_frame(info.arm, points)
+    planner = Planner(info.arm, obstacles, envelope_mod.exhaustive(s))
+    env = yield from relay(envelope_mod.envelope_steps(planner.generator, points, chunk),
+                           lambda done: (0.05 + 0.95 * done, f"{round(done * len(points))} of "
+                                         f"{len(points)} points"))
+    return EnvelopeOutcome(request, info, env, info.arm.to_world_points(points), coords,
+                           context.scene.frame_current, obstacles.triangle_counts())
+
+
+def envelope(context, request: Request, world=None) -> EnvelopeOutcome:
+    """:func:`envelope_steps` run to its end."""
+    return drain(envelope_steps(context, request, world=world))
 
 
 def target_rotations(targets) -> np.ndarray:

@@ -9,6 +9,7 @@ render setting restored afterwards.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 
 import bpy
@@ -49,15 +50,19 @@ def _stand_ins(armature, scene, min_length):
     return made
 
 
-def _camera(scene, outcome):
-    """A camera that frames the shoulder, the targets and the trajectory."""
-    info = outcome.rig
-    f, length = info.frame, info.arm.arm_length
-    side = f.right if info.side == "right" else -f.right
-    points = [info.joints_world["shoulder"], info.frame.origin]
+def _framed_points(outcome):
+    """The points a still of ``outcome`` frames: the targets and the trajectories."""
+    points = []
     for plan, _first in outcome.plans:
         points += list(plan.wrist_trajectory()) + list(plan.task.targets)
-    pts = np.array(points)
+    return points
+
+
+def _camera(scene, info, points):
+    """A camera that frames the shoulder, the body's origin and ``points`` (world)."""
+    f, length = info.frame, info.arm.arm_length
+    side = f.right if info.side == "right" else -f.right
+    pts = np.array([info.joints_world["shoulder"], info.frame.origin] + list(points))
     centre = pts.mean(0)
     radius = max(float(np.linalg.norm(pts - centre, axis=1).max()), 0.5 * length)
     view = (2.0 * f.forward + 1.3 * side + 0.6 * f.up)
@@ -81,14 +86,54 @@ def render_outcome(context, outcome, folder: Path, still: str | None = "last_fra
     skips that file. Returns {"still": path, "video": path} of what was written. Each file
     is rendered to a temporary name in ``folder`` and renamed into place when complete
     (:mod:`reach_addon.atomic`)."""
-    scene = context.scene
     folder = Path(folder).resolve()
     folder.mkdir(parents=True, exist_ok=True)
-    armature = bpy.data.objects[outcome.rig.armature_name]
     first = min(r.frame_start for r in outcome.results)
     last = max(r.frame_end for r in outcome.results)
     if frames is not None:
         first, last = frames
+    with _rendering(context, outcome.rig, _framed_points(outcome), size) as r:
+        written = {}
+        if still:
+            context.scene.frame_set(last)
+            written["still"] = str(folder / still)
+            _write_still(r, written["still"])
+        if video:
+            written["video"] = str(folder / video)
+            _set_format(r, "FFMPEG")
+            r.ffmpeg.format = "MPEG4"
+            r.ffmpeg.codec = "H264"
+            context.scene.frame_start, context.scene.frame_end = first, last
+            with atomic.replacing(written["video"]) as tmp:
+                r.filepath = str(tmp)
+                bpy.ops.render.render(animation=True)
+        return written
+
+
+def render_still(context, info, points, path, size=(640, 360)) -> str:
+    """A still of the current frame into ``path`` (PNG), the camera (if the scene has none)
+    framing the character of ``info`` and ``points`` (world), e.g. the reach envelope."""
+    path = Path(path).resolve()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with _rendering(context, info, points, size) as r:
+        _write_still(r, str(path))
+    return str(path)
+
+
+def _write_still(r, path):
+    _set_format(r, "PNG")
+    with atomic.replacing(path) as tmp:
+        r.filepath = str(tmp)
+        bpy.ops.render.render(write_still=True)
+
+
+@contextmanager
+def _rendering(context, info, points, size):
+    """Workbench set up for Reach's renders (stand-ins, a camera framing ``points`` where the
+    scene has none, material colours, ``size``); yields the render settings and restores
+    everything afterwards."""
+    scene = context.scene
+    armature = bpy.data.objects[info.armature_name]
     r = scene.render
     saved = {"engine": r.engine, "filepath": r.filepath, "x": r.resolution_x,
              "y": r.resolution_y, "pct": r.resolution_percentage, "start": scene.frame_start,
@@ -99,31 +144,14 @@ def render_outcome(context, outcome, folder: Path, still: str | None = "last_fra
     temporaries = []
     try:
         if not _skinned(armature, scene):
-            temporaries += _stand_ins(armature, scene, 0.08 * outcome.rig.arm.arm_length)
+            temporaries += _stand_ins(armature, scene, 0.08 * info.arm.arm_length)
         if scene.camera is None:
-            scene.camera = _camera(scene, outcome)
+            scene.camera = _camera(scene, info, points)
             temporaries.append(scene.camera)
         r.engine = "BLENDER_WORKBENCH"
         scene.display.shading.color_type = "MATERIAL"
         r.resolution_x, r.resolution_y, r.resolution_percentage = *size, 100
-        written = {}
-        if still:
-            scene.frame_set(last)
-            written["still"] = str(folder / still)
-            _set_format(r, "PNG")
-            with atomic.replacing(written["still"]) as tmp:
-                r.filepath = str(tmp)
-                bpy.ops.render.render(write_still=True)
-        if video:
-            written["video"] = str(folder / video)
-            _set_format(r, "FFMPEG")
-            r.ffmpeg.format = "MPEG4"
-            r.ffmpeg.codec = "H264"
-            scene.frame_start, scene.frame_end = first, last
-            with atomic.replacing(written["video"]) as tmp:
-                r.filepath = str(tmp)
-                bpy.ops.render.render(animation=True)
-        return written
+        yield r
     finally:
         for ob in temporaries:
             kind, data = ob.type, ob.data.name if ob.data else None

@@ -32,7 +32,8 @@ def collection(scene, create=True):
     return coll
 
 
-def _material(name, color):
+def material(name, color):
+    """Reach's material ``name`` (made once) in ``color``, solid viewport and renders."""
     mat = bpy.data.materials.get(name)
     if mat is None:
         mat = bpy.data.materials.new(name)
@@ -47,7 +48,8 @@ def _material(name, color):
     return mat
 
 
-def _link(scene, ob, color):
+def link(scene, ob, color):
+    """Tag ``ob`` as Reach's display and link it into the "Reach" collection."""
     ob[VIZ_TAG] = True
     ob.color = color                     # viewport colour in "Object" colour mode
     ob.hide_select = True
@@ -55,7 +57,8 @@ def _link(scene, ob, color):
     return ob
 
 
-def _replace(name):
+def remove(name):
+    """Remove Reach's display object ``name`` (and its data, once unused), if there is one."""
     old = bpy.data.objects.get(name)
     if old is not None and old.get(VIZ_TAG):
         data = old.data
@@ -74,7 +77,7 @@ def _remove_data(data):
 def trajectory(scene, points, name="Reach Trajectory", radius=0.006):
     """A red poly curve through ``points`` (world, (n, 3)) with a thin bevel so it shows in
     solid shading and in renders."""
-    _replace(name)
+    remove(name)
     points = np.asarray(points, dtype=float)
     curve = bpy.data.curves.new(name, "CURVE")
     curve[VIZ_TAG] = True
@@ -85,8 +88,8 @@ def trajectory(scene, points, name="Reach Trajectory", radius=0.006):
     spline.points.add(len(points) - 1)
     co = np.hstack([points, np.ones((len(points), 1))])
     spline.points.foreach_set("co", co.ravel())
-    curve.materials.append(_material("Reach Red", RED))
-    return _link(scene, bpy.data.objects.new(name, curve), RED)
+    curve.materials.append(material("Reach Red", RED))
+    return link(scene, bpy.data.objects.new(name, curve), RED)
 
 
 def _spheres_mesh(name, centres, radius, segments=12, rings=6):
@@ -107,16 +110,16 @@ def _spheres_mesh(name, centres, radius, segments=12, rings=6):
 
 def markers(scene, points, name="Reach Targets", radius=0.025, color=GREEN):
     """Green spheres at ``points`` (the paper's target markers)."""
-    _replace(name)
+    remove(name)
     mesh = _spheres_mesh(name, points, radius)
-    mesh.materials.append(_material("Reach Green", color))
-    return _link(scene, bpy.data.objects.new(name, mesh), color)
+    mesh.materials.append(material("Reach Green", color))
+    return link(scene, bpy.data.objects.new(name, mesh), color)
 
 
 def wire_cubes(scene, centres, size, name="Reach Workspace"):
     """Orange wire cubes (edges only) centred at ``centres`` with edge lengths ``size``
     (3,), e.g. the workspace's valid guiding nodes."""
-    _replace(name)
+    remove(name)
     corners = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
     edges = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7),
              (0, 4), (1, 5), (2, 6), (3, 7)]
@@ -130,8 +133,8 @@ def wire_cubes(scene, centres, size, name="Reach Workspace"):
     mesh.from_pydata(verts, all_edges, [])
     ob = bpy.data.objects.new(name, mesh)
     ob.display_type = "WIRE"
-    mesh.materials.append(_material("Reach Orange", ORANGE))
-    return _link(scene, ob, ORANGE)
+    mesh.materials.append(material("Reach Orange", ORANGE))
+    return link(scene, ob, ORANGE)
 
 
 def clear(scene) -> int:

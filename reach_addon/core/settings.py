@@ -27,6 +27,8 @@ def _f(default, label, doc, group, lo=None, hi=None, unit="", choices=None):
     return field(default=default, metadata=meta)
 
 
+#: The planner's groups of settings (each a sub-panel of Planner Settings); the reach
+#: envelope's fields (group "envelope") are drawn by the Envelope panel.
 GROUPS = ("strength", "limits", "body", "ik", "collision", "search", "workspace", "motion",
           "orientation")
 
@@ -281,6 +283,15 @@ class Settings:
         "motion", 0.05, 10.0, "arm lengths/s")
     min_duration: float = _f(0.5, "Shortest reach", "Automatic duration is at least this",
                              "motion", 0.0, 60.0, "s")
+
+    # --- the reach envelope (core.envelope; drawn by its own panel, not a planner group) ------
+    envelope_resolution: int = _f(
+        13, "Points a side", "Grid points along each side of the reach envelope's cube (13: "
+        "2,197 points, about 0.2 arm lengths apart)", "envelope", 2, 41)
+    envelope_extent: float = _f(
+        1.15, "Extent", "Half the side of the envelope's cube, centred on the shoulder: the "
+        "arm, the hand and the chest's turn fit within 1.15", "envelope", 0.1, 3.0,
+        "arm lengths")
 
     # --- the hand oriented to the target (core.orient) -------------------------------------
     match_orientation: bool = _f(

@@ -24,6 +24,7 @@ import bpy
 
 from ..blender import live, pipeline, rig, viz
 from ..core import ReachError
+from ..core.steps import drain
 from .properties import BONE_PREFIX, last_result, request_from, set_live
 
 SLICE_S = 0.03
@@ -53,15 +54,19 @@ class _Run:
 
     bake = False
     bl_options = {"REGISTER", "UNDO"}
+    cancelled = "Reach cancelled: nothing was baked"
 
     @classmethod
     def poll(cls, context):
         return _poll(cls, context)
 
+    def steps(self, context):
+        """The work as a step generator (:func:`~reach_addon.blender.pipeline.steps`)."""
+        return pipeline.steps(context, request_from(context.scene.reach), bake=self.bake)
+
     def execute(self, context):
-        props = context.scene.reach
         try:
-            outcome = pipeline.run(context, request_from(props), bake=self.bake)
+            outcome = drain(self.steps(context))
         except ReachError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -72,7 +77,7 @@ class _Run:
             return self.execute(context)
         props = context.scene.reach
         try:
-            self._steps = pipeline.steps(context, request_from(props), bake=self.bake)
+            self._steps = self.steps(context)
             self._advance(context)          # validation errors surface here, synchronously
         except ReachError as exc:
             self._steps = None
@@ -99,7 +104,7 @@ class _Run:
             self._stop(context)
             self._steps.close()
             props.status = "cancelled"
-            self.report({"WARNING"}, "Reach cancelled: nothing was baked")
+            self.report({"WARNING"}, self.cancelled)
             return {"CANCELLED"}
         if event.type != "TIMER":
             return {"PASS_THROUGH"}

@@ -1,0 +1,147 @@
+"""The reach envelope in Blender: its cache, a mesh of it (so it renders and exports) and a
+CSV of it. Computing it is the pipeline's (:func:`~.pipeline.envelope_steps`); the classes
+are the core's (:mod:`reach_addon.core.envelope`); the viewport overlay is the UI's
+(:mod:`reach_addon.ui.envelope`).
+
+**Cache.** An envelope is kept per scene with a key of everything it depends on: the
+armature's world matrix and every pose bone's matrix, the obstacles' signature
+(:class:`~.scene.ObstacleCache`: each obstacle's matrix, data and geometry edits), the
+settings, the arm, the bone map and the obstacle collection. :func:`cached` returns it only
+while that key is unchanged: once the rig's pose, the scene or the settings change, the
+envelope is computed again.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+from pathlib import Path
+
+import bmesh
+import bpy
+import numpy as np
+from mathutils import Matrix
+
+from .. import atomic
+from ..core.envelope import CLASSES, COLOURS, OUT
+from . import viz
+from .scene import VIZ_TAG, ObstacleCache, character_objects
+
+MESH_NAME = "Reach Envelope"
+#: Each point's octahedron reaches this share of the grid's spacing from its centre.
+MARKER_SHARE = 0.22
+
+_cache: dict = {}          # scene name -> (key, EnvelopeOutcome)
+
+
+def state_key(context, request) -> str:
+    """A digest of everything the envelope of ``request`` depends on (module docstring)."""
+    armature = bpy.data.objects.get(request.armature)
+    if armature is None or armature.type != "ARMATURE":
+        return ""
+    pose = np.array([np.array(pb.matrix) for pb in armature.pose.bones], float)
+    targets = [n for n in request.targets if n in bpy.data.objects]
+    exclude = character_objects(armature, context.scene) | set(targets)
+    signature = ObstacleCache(exclude, request.obstacles).compute_signature(context)
+    h = hashlib.sha1()
+    # (to 1e-6: a bone turned and turned back by hand comes back within float32 rounding)
+    h.update(np.round(np.array(armature.matrix_world), 6).tobytes())
+    h.update(np.round(pose, 6).tobytes())
+    h.update(repr(signature).encode())
+    h.update(json.dumps([request.settings.to_dict(), request.side, request.overrides,
+                         request.obstacles, targets], sort_keys=True, default=str).encode())
+    return h.hexdigest()
+
+
+def store(context, outcome, key: str) -> None:
+    _cache[context.scene.name] = (key, outcome)
+
+
+def cached(context, request):
+    """The scene's envelope if it is still the envelope of ``request`` as the scene is now,
+    else None."""
+    entry = _cache.get(context.scene.name)
+    if entry is None:
+        return None
+    key, outcome = entry
+    return outcome if key and key == state_key(context, request) else None
+
+
+def last(scene):
+    """The scene's last envelope, whether or not it is still current (for drawing)."""
+    entry = _cache.get(scene.name)
+    return entry[1] if entry else None
+
+
+def forget(scene) -> None:
+    _cache.pop(scene.name, None)
+
+
+def drawn(outcome):
+    """(world points (k, 3), class codes (k,)) of the points that are drawn: all but
+    ``out``."""
+    classes = outcome.envelope.classes
+    keep = classes != OUT
+    return outcome.world[keep], classes[keep]
+
+
+def spacing(outcome) -> float:
+    """The grid's spacing in world units."""
+    s = outcome.request.settings
+    n = max(2, s.envelope_resolution)
+    return 2.0 * s.envelope_extent * outcome.rig.arm.arm_length / (n - 1) * \
+        float(np.linalg.norm(outcome.rig.arm.to_world[:3, 0]))
+
+
+def write_mesh(context, outcome, colours=COLOURS, name: str = MESH_NAME):
+    """The envelope as a mesh in the "Reach" collection: a small octahedron per drawn point,
+    one material per class (Workbench, EEVEE, Cycles and exporters show the class colours)
+    and a point colour attribute ``reach_class_colour`` with the same colours (``colours``:
+    RGBA per class code, default :data:`~reach_addon.core.envelope.COLOURS`). Replaces the
+    previous one."""
+    viz.remove(name)
+    points, classes = drawn(outcome)
+    r = MARKER_SHARE * spacing(outcome)
+    bm = bmesh.new()
+    try:
+        for p in points:
+            bmesh.ops.create_icosphere(bm, subdivisions=0, radius=r,
+                                       matrix=Matrix.Translation(p.tolist()))
+        per_point = len(bm.verts) // max(1, len(points))
+        per_face = len(bm.faces) // max(1, len(points))
+        for k, face in enumerate(bm.faces):
+            face.material_index = int(classes[k // per_face])
+        mesh = bpy.data.meshes.new(name)
+        bm.to_mesh(mesh)
+    finally:
+        bm.free()
+    mesh[VIZ_TAG] = True
+    for k, label in enumerate(CLASSES):
+        mesh.materials.append(viz.material(f"Reach Envelope {label}", tuple(colours[k])))
+    rgba = np.repeat(np.array([colours[c] for c in classes], np.float32), per_point, axis=0)
+    attr = mesh.color_attributes.new("reach_class_colour", "FLOAT_COLOR", "POINT")
+    attr.data.foreach_set("color", rgba.ravel())
+    return viz.link(context.scene, bpy.data.objects.new(name, mesh), tuple(colours[0]))
+
+
+def csv_text(outcome) -> str:
+    """One row per grid point: its index, world position, shoulder-frame coordinates
+    (forward, outward, up; arm lengths, as a batch study's shoulder grid), class and f_R
+    (-1 where no pose is chosen)."""
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(["index", "x", "y", "z", "forward", "outward", "up", "class", "f_r"])
+    env = outcome.envelope
+    for i, (p, c) in enumerate(zip(outcome.world, outcome.shoulder)):
+        w.writerow([i, *(f"{v:.6f}" for v in p), *(f"{v:.6f}" for v in c),
+                    CLASSES[int(env.classes[i])], int(env.f_r[i])])
+    return out.getvalue()
+
+
+def write_csv(outcome, path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic.write_text(path, csv_text(outcome))
+    return path

@@ -1,0 +1,162 @@
+"""The reach envelope: which points around the character the arm can reach, and how.
+
+Ergonomics tools draw a character's reach envelope: the region its hand can get to, shaded
+by effort. Reach computes it with the planner's own pieces, point by point on a grid in the
+reaching shoulder's frame, and sorts every point into one of :data:`CLASSES`:
+
+* ``f_R 0`` / ``f_R 1`` / ``f_R 2``: some legal pose puts the wrist there clear of the
+  obstacles and the body, hand included, and the strongest such pose
+  (:meth:`~reach_addon.core.generator.ConfigurationGenerator.solve` trying every ranked
+  pose, :func:`exhaustive`: the paper's strength ranking with the elbow rule) has that
+  strength category f_R (paper, "3-level criteria"). A planned reach ends there in this
+  pose or, where the strongest is beyond the smoothness bound of its approach, in a weaker
+  one: never in a stronger (tested against a batch study);
+* ``chest``: reachable as above only because the chest turns (Table 1): with the chest held
+  still (``body_rotation = 0``) no pose is clear there. Only with ``Settings.chest_rotation``;
+* ``blocked``: within the arm's reach, but the scene (or the character's own body) leaves
+  the arm or the hand no room: the target is inside an obstacle, or the arm does not fit
+  (:meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target`);
+* ``out``: no legal arm pose puts the wrist there (beyond the arm, or outside the joint
+  limits; the diagnoses ``out_of_reach``, ``needs_lean`` and ``needs_step``).
+
+**What the envelope is not.** It classifies the *end* pose, as Jack-style reach envelopes
+do: a point counts as reachable when the hand fits there. Plan also needs a way in from the
+current pose; a point in a closed box with room inside is ``f_R`` here and ``no_path`` for
+Plan. In open scenes the two agree point for point (a batch study over the same grid plans
+every point: reached exactly where the envelope says reachable, tests/blender).
+
+**The grid** (:func:`grid_coordinates`): ``Settings.envelope_resolution`` points a side of
+a cube centred on the reaching shoulder, ``Settings.envelope_extent`` arm lengths from the
+centre to each face, in the shoulder's (forward, outward, up) frame: the points of a batch
+study's ``[scenes.grid]`` with ``frame = "shoulder"``, ``min = -extent``, ``max = extent``
+and ``count = resolution`` on each axis, in the same order. The default 13 points a side
+(2,197 points, about 0.2 arm lengths apart) over ±1.15 arm lengths holds the whole reach,
+the hand's length and the chest's turn beyond it included, and a layer of ``out`` round it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import ik
+
+#: The classes, in the order of their codes (0 … 5).
+CLASSES = ("f_R 0", "f_R 1", "f_R 2", "chest", "blocked", "out")
+CHEST, BLOCKED, OUT = 3, 4, 5
+#: Display colours (linear RGBA) per class: green, yellow, red for the three strength
+#: categories, blue for chest rotation, grey for blocked; out-of-reach points are not drawn.
+COLOURS = ((0.10, 0.75, 0.15, 1.0), (0.95, 0.80, 0.05, 1.0), (0.90, 0.12, 0.08, 1.0),
+           (0.15, 0.45, 0.95, 1.0), (0.45, 0.45, 0.45, 1.0), (0.0, 0.0, 0.0, 0.0))
+LABELS = ("Strong (f_R 0)", "Fair (f_R 1)", "Weak (f_R 2)", "Chest turn only", "Blocked",
+          "Out of reach")
+
+
+def grid_coordinates(resolution: int, extent: float) -> np.ndarray:
+    """(n³, 3) points in the shoulder's frame, arm lengths: (forward, outward, up), each
+    axis ``linspace(-extent, extent, n)``, ordered like :func:`itertools.product` (forward
+    slowest, up fastest).
+
+    .. math:: p_{ijk} = -e + \\frac{2e}{n-1}(i, j, k),\\quad 0 \\le i, j, k < n
+    """
+    n = int(resolution)
+    axis = [-extent + 2.0 * extent * (k / (n - 1) if n > 1 else 0.5) for k in range(n)]
+    return np.array(list(itertools.product(axis, axis, axis)), dtype=float)
+
+
+def shoulder_frame_to_canonical(arm, coordinates) -> np.ndarray:
+    """Canonical points of shoulder-frame ``coordinates`` (..., 3) (forward, outward, up,
+    arm lengths): the canonical frame's axes are (outward, forward, up), so
+
+    .. math:: c = s + L\\,(o, f, u)
+
+    with ``s`` the shoulder at rest and ``L`` the arm's length."""
+    c = np.asarray(coordinates, dtype=float)
+    return np.asarray(arm.shoulder, float) + arm.arm_length * c[..., [1, 0, 2]]
+
+
+def canonical_to_shoulder_frame(arm, points) -> np.ndarray:
+    """The inverse of :func:`shoulder_frame_to_canonical`:
+    :math:`(f, o, u) = ((c - s)_y, (c - s)_x, (c - s)_z) / L`."""
+    d = (np.asarray(points, dtype=float) - np.asarray(arm.shoulder, float)) / arm.arm_length
+    return d[..., [1, 0, 2]]
+
+
+def exhaustive(settings):
+    """``settings`` with every ranked pose tried at a position (``max_pose_tries`` at its
+    maximum). A point is reachable if *any* legal pose there is clear; the search tries
+    only the strongest few per position, for speed (and within the smoothness bound of the
+    pose before, a different few), so with the search's budget a point the search reaches
+    could be classed blocked."""
+    top = next(f.metadata["max"] for f in dataclasses.fields(settings)
+               if f.name == "max_pose_tries")
+    return settings.replace(max_pose_tries=top)
+
+
+@dataclass
+class Envelope:
+    """The classes (n,) of canonical ``points`` (n, 3), the strength category f_R of the
+    chosen pose where there is one (-1 elsewhere) and the time the classification took."""
+
+    points: np.ndarray
+    classes: np.ndarray
+    f_r: np.ndarray
+    time_s: float = 0.0
+
+    def counts(self) -> dict:
+        """Points per class name (every class listed, zeros included)."""
+        return {name: int(np.count_nonzero(self.classes == k)) for k, name in enumerate(CLASSES)}
+
+
+def classify_point(generator, point, legal: bool | None = None) -> tuple:
+    """(class, f_R or -1) of one canonical wrist point, with the planner's generator (made
+    with :func:`exhaustive` settings; see the module docstring). ``legal``: whether some legal arm pose (joint
+    limits, the chest as Table 1 turns it) puts the wrist there, if the caller knows.
+
+    Without a clear pose the point is ``blocked`` or ``out`` as
+    :meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target` sorts it
+    (inside an obstacle: target_in_obstacle; no legal pose: beyond reach; else the arm or
+    the hand does not fit), without working out how much room is missing."""
+    pose = generator.solve(point)
+    if pose is not None:
+        turned = abs(pose.config.body_rotation) > 1e-9
+        if generator.settings.chest_rotation and turned and \
+                generator.solve(point, body_rotation=0.0) is None:
+            return CHEST, int(pose.f_r)
+        return int(pose.f_r), int(pose.f_r)
+    if legal is None:
+        legal = bool(ik.solve(generator.arm, np.asarray(point, float)[None],
+                              generator.settings).legal[0].any())
+    if legal or generator.obstacles.point_inside(generator.arm.to_world_points(point)):
+        return BLOCKED, -1
+    return OUT, -1
+
+
+def envelope_steps(generator, points, chunk: int = 64):
+    """Classify canonical ``points`` (n, 3) as a generator: yields the fraction done every
+    ``chunk`` points and returns the :class:`Envelope` (the same however it is consumed)."""
+    points = np.asarray(points, dtype=float)
+    n = len(points)
+    classes = np.full(n, OUT, dtype=np.int8)
+    f_r = np.full(n, -1, dtype=np.int8)
+    t0 = time.perf_counter()
+    arm = generator.arm
+    # Most of a cube round the shoulder is beyond the arm: one IK call for every point finds
+    # those with no legal pose, which are "out" (or "blocked" when inside an obstacle), as
+    # classify_point would find one by one (the same ik.solve, then diagnose_target).
+    legal = ik.solve(arm, points, generator.settings).legal.any(axis=1) if n else np.zeros(0, bool)
+    inside = [generator.obstacles.point_inside(w) for w in arm.to_world_points(points[~legal])]
+    classes[np.flatnonzero(~legal)[np.array(inside, bool)]] = BLOCKED
+    todo = np.flatnonzero(legal)
+    spent = time.perf_counter() - t0
+    for k, i in enumerate(todo):
+        t0 = time.perf_counter()
+        classes[i], f_r[i] = classify_point(generator, points[i], True)
+        spent += time.perf_counter() - t0
+        if chunk and (k + 1) % chunk == 0 and k + 1 < len(todo):
+            yield (k + 1) / len(todo)
+    return Envelope(points, classes, f_r, spent)
