@@ -14,7 +14,8 @@ to ``bench/results.json`` and a readable ``bench/results.md``:
 2. **OMPL race** (:mod:`bench.ompl_race`): RRTConnect + simplification in the same joint
    space with the same collision test, start and goal region, at least 20 seeds a task,
    Reach's grid inside its time, both paths held to one independent check.
-3. **Chase / live re-plan**: time per target update (:mod:`bench.live_bench`).
+3. **Chase / live re-plan**: time per target update (:mod:`bench.live_bench`); **reach
+   envelope**: the standard figure's 2,197-point envelope in the demo workplace.
 4. **Bake**: 1000 frames written in bulk on the metarig's keyed bones; **obstacle
    scaling**: the collision-free task with the table top tessellated to 5k, 100k and 1M
    triangles (search time and BVH build time); **gather**: obstacles read from a
@@ -391,6 +392,30 @@ def tight_scenes(folder: Path):
 
 # --- report ------------------------------------------------------------------------------------------
 
+def envelope(runs: int):
+    """The reach envelope (:mod:`reach_addon.core.envelope`) of the standard figure's right
+    arm in the demo workplace on the default grid (13 points a side, 2,197 points), from a
+    fresh planner each run: the time the panel's Compute spends classifying."""
+    from reach_addon.core import envelope as env_mod
+    from reach_addon.core.steps import drain
+
+    arm, settings = standard_arm(), Settings()
+    points = env_mod.shoulder_frame_to_canonical(
+        arm, env_mod.grid_coordinates(settings.envelope_resolution, settings.envelope_extent))
+    times, env = [], None
+    for _ in range(runs):
+        planner = Planner(arm, obstacles(WORKPLACE), env_mod.exhaustive(settings))
+        t0 = time.perf_counter()
+        env = drain(env_mod.envelope_steps(planner.generator, points))
+        times.append(time.perf_counter() - t0)
+    ms = 1000 * statistics.median(times)
+    log(f"  {len(points)} points: {ms:.0f} ms; " +
+        ", ".join(f"{n} {c}" for c, n in env.counts().items()))
+    return {"envelope": {"points": len(points), "time_ms": ms,
+                         "spread_ms": spread([1000 * t for t in times]),
+                         "counts": env.counts()}}
+
+
 def markdown(results) -> str:
     m = results["machine"]
     lines = ["# Reach benchmark", "",
@@ -401,7 +426,7 @@ def markdown(results) -> str:
              "| task | search ms (spread) | paper ms | speed-up | prep ms | nodes | paper | "
              "in solution | paper | length (arm lengths) | paper | µs/node |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in results["table2"]:
+    for r in results.get("table2", []):
         sp = r["search_time_spread_s"]
         lines.append(
             f"| {r['task']} | {1000 * r['search_time_s']:.1f} ({1000 * sp['min']:.1f}–"
@@ -425,7 +450,7 @@ def markdown(results) -> str:
               "| task | plan ms (spread) | frames | wrist turn °/frame (max) | hand turn °/frame "
               "in space (max) | wrist bend ° mean / max | frames added | over the bound | "
               "touching between keys |", "|---|---|---|---|---|---|---|---|---|"]
-    for r in results["table2"]:
+    for r in results.get("table2", []):
         if "max_wrist_turn_deg_per_frame" not in r:
             continue
         sp = r["planning_time_spread_s"]
@@ -486,6 +511,11 @@ def markdown(results) -> str:
         if k in results:
             v = results[k]
             lines.append(f"- `{k}`: {v:.2f}" if isinstance(v, float) else f"- `{k}`: {v}")
+    if results.get("envelope"):
+        e = results["envelope"]
+        lines.append(f"- reach envelope, {e['points']:,} points: {e['time_ms']:.0f} ms "
+                     f"({e['spread_ms']['min']:.0f}–{e['spread_ms']['max']:.0f}); " +
+                     ", ".join(f"{n} {c}" for c, n in e["counts"].items()))
     if results.get("scaling"):
         lines += ["", "| triangles | search ms | BVH build ms |", "|---|---|---|"]
         for r in results["scaling"]:
@@ -499,7 +529,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--skip", action="append", default=[],
                         choices=("table2", "table1", "ompl", "chase", "bake", "scaling",
-                                 "gather", "batch", "tight"))
+                                 "gather", "batch", "tight", "envelope"))
     parser.add_argument("--output", default=str(ROOT / "bench"))
     args = parser.parse_args(argv)
     results = {"reach_version": __version__, "blender_version": bpy.app.version_string,
@@ -511,6 +541,7 @@ def main(argv=None) -> int:
              ("table1", "Table 1 on baked reaches (bench/table1.png)", table1),
              ("ompl", "OMPL race", lambda: {"ompl": ompl(args.runs)}),
              ("chase", "chase / live re-plan", chase_updates),
+             ("envelope", "reach envelope", lambda: envelope(args.runs)),
              ("bake", "bake", lambda: bake_1000(args.runs)),
              ("scaling", "obstacle scaling", lambda: {"scaling": scaling(args.runs)}),
              ("gather", "obstacles from a 10,000-instance scatter",
