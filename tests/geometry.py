@@ -173,3 +173,13 @@ def angle_deg(a, b):
     """Angle between two vectors, in degrees."""
     a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
     return math.degrees(math.acos(float(np.clip(a @ b, -1.0, 1.0))))
+
+
+def run_steps(steps):
+    """(everything a step generator yielded, the value it returned)."""
+    yielded = []
+    while True:
+        try:
+            yielded.append(next(steps))
+        except StopIteration as done:
+            return yielded, done.value

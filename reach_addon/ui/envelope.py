@@ -25,7 +25,7 @@ from ..blender import envelope as envelope_mod
 from ..blender import pipeline
 from ..core.envelope import CLASSES, COLOURS, LABELS, OUT
 from ..core.settings import fields
-from .operators import _Run
+from .operators import _poll, _Run
 from .properties import request_from
 
 _handle = None
@@ -90,16 +90,7 @@ class REACH_OT_envelope(_Run, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        props = getattr(context.scene, "reach", None)
-        if props is None:
-            return False
-        if props.running:
-            cls.poll_message_set("Reach is already running; press Esc to stop it")
-            return False
-        if props.armature is None:
-            cls.poll_message_set("Choose the character's armature in the Reach panel")
-            return False
-        return True
+        return _poll(cls, context, need_target=False)
 
     def steps(self, context):
         return _steps(context, _request(context))

@@ -30,7 +30,9 @@ from .properties import BONE_PREFIX, last_result, request_from, set_live
 SLICE_S = 0.03
 
 
-def _poll(cls, context):
+def _poll(cls, context, need_target: bool = True):
+    """Whether Reach can run now (the panel's inputs are set, nothing else running); else
+    says why (``poll_message_set``). ``need_target``: the reach envelope needs none."""
     props = getattr(context.scene, "reach", None)
     if props is None:
         return False
@@ -40,7 +42,7 @@ def _poll(cls, context):
     if props.armature is None:
         cls.poll_message_set("Choose the character's armature in the Reach panel")
         return False
-    if props.target is None and props.targets is None:
+    if need_target and props.target is None and props.targets is None:
         cls.poll_message_set("Choose a target object (or a collection of targets)")
         return False
     if context.mode == "EDIT_ARMATURE":

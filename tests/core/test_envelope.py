@@ -9,7 +9,7 @@ and the diagnosis of a position with no clear pose (diagnose_target).
 import numpy as np
 import pytest
 
-from geometry import obstacles, shelf, standard_arm, table
+from geometry import obstacles, run_steps, shelf, standard_arm, table
 from reach_addon.batch import _grid_points
 from reach_addon.core import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, Planner,
                               Settings, TARGET_IN_OBSTACLE)
@@ -100,14 +100,7 @@ def test_chest_points_are_lost_without_chest_rotation(arm):
 
 def test_the_same_however_it_is_consumed_and_run_again(arm):
     planner, env = envelope_of(arm, SCENES["table"], resolution=7)
-    steps = envelope.envelope_steps(planner.generator, env.points, chunk=5)
-    fractions = []
-    while True:
-        try:
-            fractions.append(next(steps))
-        except StopIteration as done:
-            again = done.value
-            break
+    fractions, again = run_steps(envelope.envelope_steps(planner.generator, env.points, chunk=5))
     assert len(fractions) >= 3 and fractions == sorted(fractions) and 0 < fractions[-1] < 1
     np.testing.assert_array_equal(again.classes, env.classes)
     np.testing.assert_array_equal(again.f_r, env.f_r)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from geometry import HANGING, arm_penetration, obstacles, standard_arm, triangles_of
+from geometry import HANGING, arm_penetration, obstacles, run_steps, standard_arm, triangles_of
 from reach_addon.core import (NEEDS_STEP, NO_PATH, START_IN_COLLISION, TARGET_IN_OBSTACLE,
                               Planner, ReachError, Settings, Task)
 from reach_addon.core.live import CLOSEST, REACHED, LiveSession
@@ -236,16 +236,8 @@ def test_bad_input_names_the_target(arm):
 def test_the_sliced_workspace_is_the_workspace(arm, scene):
     planner = Planner(arm, obstacles(scene) if scene else None, Settings())
     whole = build_workspace(planner.generator)
-    steps = workspace_steps(planner.generator)
-    slices = 0
-    while True:
-        try:
-            next(steps)
-            slices += 1
-        except StopIteration as done:
-            sliced = done.value
-            break
-    assert slices > 20
+    yielded, sliced = run_steps(workspace_steps(planner.generator))
+    assert len(yielded) > 20
     np.testing.assert_array_equal(sliced.occupied, whole.occupied)
     np.testing.assert_array_equal(sliced.valid, whole.valid)
     np.testing.assert_array_equal(sliced.lower, whole.lower)

@@ -7,8 +7,8 @@ The figure stands at the origin facing -Y, chest at 1.4 m; its right shoulder is
 import numpy as np
 import pytest
 
-from geometry import (HANGING, arm_penetration, obstacles, shelf, standard_arm, table,
-                      triangles_of)
+from geometry import (HANGING, arm_penetration, obstacles, run_steps, shelf, standard_arm,
+                      table, triangles_of)
 from reach_addon.core import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH,
                               START_IN_COLLISION, TARGET_IN_OBSTACLE,
                               ArmConfig, Obstacles, Planner, ReachError, Settings, Task, plan)
@@ -265,14 +265,8 @@ def test_a_plan_consumed_in_slices_is_the_same_plan(arm):
     """The generator form (modal operator, live mode) yields progress and returns exactly
     the plan of one uninterrupted run."""
     planner = Planner(arm, obstacles(WALL))
-    steps = planner.plan_steps(Task("reach", BEHIND_WALL[None], HANGING), chunk=5)
-    progress = []
-    while True:
-        try:
-            progress.append(next(steps))
-        except StopIteration as done:
-            sliced = done.value
-            break
+    progress, sliced = run_steps(planner.plan_steps(Task("reach", BEHIND_WALL[None], HANGING),
+                                                    chunk=5))
     assert len(progress) >= 3
     assert all(0 <= f <= 1 for f, _msg in progress)
     whole = Planner(arm, obstacles(WALL)).plan(Task("reach", BEHIND_WALL[None], HANGING))
@@ -420,14 +414,8 @@ def test_progress_never_falls_back_when_the_search_falls_back(arm):
     stopped, so a progress bar never runs backwards."""
     obs, _tris, target = _plate_across_the_line(arm, HANGING)
     planner = Planner(arm, obs, Settings(guide_when_blocked=False))
-    steps = planner.plan_steps(Task("reach", target[None], HANGING), chunk=25)
-    progress = []
-    while True:
-        try:
-            progress.append(next(steps)[0])
-        except StopIteration as done:
-            result = done.value
-            break
+    yielded, result = run_steps(planner.plan_steps(Task("reach", target[None], HANGING), chunk=25))
+    progress = [fraction for fraction, _what in yielded]
     assert result.success, result.message
     assert len(result.segments[0].guiding_nodes) > 0, "the guided fallback did not run"
     assert progress == sorted(progress), progress

@@ -13,7 +13,6 @@
 What it saw goes to ``OUT_DIR/session.json``; then Blender quits.
 """
 
-import json
 import sys
 import time
 from pathlib import Path
