@@ -58,21 +58,26 @@ def _framed_points(outcome):
     return points
 
 
-def _camera(scene, info, points):
-    """A camera that frames the shoulder, the body's origin and ``points`` (world)."""
+def _camera(scene, info, points, fit: bool = False):
+    """A camera that frames the shoulder, the body's origin and ``points`` (world): close
+    (3.2 radii of their bounding sphere), or, with ``fit``, the whole sphere within the
+    picture's height (a 16:9 frame at 35 mm)."""
     f, length = info.frame, info.arm.arm_length
     side = f.right if info.side == "right" else -f.right
     pts = np.array([info.joints_world["shoulder"], info.frame.origin] + list(points))
     centre = pts.mean(0)
     radius = max(float(np.linalg.norm(pts - centre, axis=1).max()), 0.5 * length)
-    view = (2.0 * f.forward + 1.3 * side + 0.6 * f.up)
+    # from the front and the reaching side; with ``fit`` from that side, a little from the
+    # front and above (furniture in front of the character would hide a whole envelope)
+    view = (0.5 * f.forward + 2.0 * side + 0.9 * f.up) if fit else \
+        (2.0 * f.forward + 1.3 * side + 0.6 * f.up)
     view /= np.linalg.norm(view)
     cam_data = bpy.data.cameras.new("Reach Camera")
     cam_data.lens = 35
     cam = bpy.data.objects.new("Reach Camera", cam_data)
     cam[VIZ_TAG] = True
     scene.collection.objects.link(cam)
-    distance = 3.2 * radius
+    distance = 4.4 * radius if fit else 3.2 * radius
     cam.location = Vector(centre + view * distance)
     cam.rotation_euler = (Vector(centre) - cam.location).to_track_quat("-Z", "Y").to_euler()
     cam_data.clip_end = 20 * distance
@@ -111,11 +116,12 @@ def render_outcome(context, outcome, folder: Path, still: str | None = "last_fra
 
 
 def render_still(context, info, points, path, size=(640, 360)) -> str:
-    """A still of the current frame into ``path`` (PNG), the camera (if the scene has none)
-    framing the character of ``info`` and ``points`` (world), e.g. the reach envelope."""
+    """A still of the current frame into ``path`` (PNG) from a camera of its own that
+    frames the character of ``info`` and ``points`` (world), e.g. the reach envelope, whole
+    (the scene's camera is left as it is)."""
     path = Path(path).resolve()
     path.parent.mkdir(parents=True, exist_ok=True)
-    with _rendering(context, info, points, size) as r:
+    with _rendering(context, info, points, size, fit=True) as r:
         _write_still(r, str(path))
     return str(path)
 
@@ -128,7 +134,7 @@ def _write_still(r, path):
 
 
 @contextmanager
-def _rendering(context, info, points, size):
+def _rendering(context, info, points, size, fit=False):
     """Workbench set up for Reach's renders (stand-ins, a camera framing ``points`` where the
     scene has none, material colours, ``size``); yields the render settings and restores
     everything afterwards."""
@@ -145,8 +151,8 @@ def _rendering(context, info, points, size):
     try:
         if not _skinned(armature, scene):
             temporaries += _stand_ins(armature, scene, 0.08 * info.arm.arm_length)
-        if scene.camera is None:
-            scene.camera = _camera(scene, info, points)
+        if scene.camera is None or fit:
+            scene.camera = _camera(scene, info, points, fit)
             temporaries.append(scene.camera)
         r.engine = "BLENDER_WORKBENCH"
         scene.display.shading.color_type = "MATERIAL"
