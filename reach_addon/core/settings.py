@@ -39,11 +39,11 @@ class Settings:
 
     # --- strength model (paper, "Human strength model") ------------------------------------
     preferred_level_h: float = _f(
-        PREFERRED_LEVEL_H, "Preferred level SL_H",
+        PREFERRED_LEVEL_H, "Level SL_H",
         "Horizontal strength a comfortable posture keeps; default S_H(60°), the ISO 11226 "
         "limit of acceptable upper-arm elevation", "strength", round(S_H_MIN + 0.1, 3), 65.0)
     preferred_level_v: float = _f(
-        PREFERRED_LEVEL_V, "Preferred level SL_V",
+        PREFERRED_LEVEL_V, "Level SL_V",
         "Vertical strength a comfortable posture keeps; default S_V(60°) by the same "
         "argument", "strength", round(S_V_MIN + 0.1, 3), 65.75)
     weight_alpha: float = _f(
@@ -68,31 +68,31 @@ class Settings:
         choices=("require", "prefer", "off"))
 
     # --- joint limits (AAOS normal ranges of motion; see core.arm) -------------------------
-    alpha_min: float = _f(-60.0, "Adduction limit", "Least α (the S_H curve's domain)",
+    alpha_min: float = _f(-60.0, "Adduction", "Least α (the S_H curve's domain)",
                           "limits", -90.0, 0.0, "deg")
-    alpha_max: float = _f(180.0, "Abduction limit", "Greatest α (AAOS: 180°)",
+    alpha_max: float = _f(180.0, "Abduction", "Greatest α (AAOS: 180°)",
                           "limits", 90.0, 180.0, "deg")
-    beta_min: float = _f(-60.0, "Extension limit", "Least β (AAOS: 60° extension)",
+    beta_min: float = _f(-60.0, "Extension", "Least β (AAOS: 60° extension)",
                          "limits", -90.0, 0.0, "deg")
-    beta_max: float = _f(180.0, "Flexion limit", "Greatest β (AAOS: 180°)",
+    beta_max: float = _f(180.0, "Flexion", "Greatest β (AAOS: 180°)",
                          "limits", 90.0, 180.0, "deg")
-    gamma_min: float = _f(-90.0, "External rotation limit", "Least γ (AAOS: 90° external)",
+    gamma_min: float = _f(-90.0, "External rotation", "Least γ (AAOS: 90° external)",
                           "limits", -180.0, 0.0, "deg")
-    gamma_max: float = _f(90.0, "Internal rotation limit", "Greatest γ (AAOS gives 70° at "
+    gamma_max: float = _f(90.0, "Internal rotation", "Greatest γ (AAOS gives 70° at "
                           "90° abduction; at the side the trunk, not the joint, stops it)",
                           "limits", 0.0, 180.0, "deg")
-    elbow_min: float = _f(0.0, "Elbow extension limit", "Least elbow flexion", "limits",
+    elbow_min: float = _f(0.0, "Elbow extension", "Least elbow flexion", "limits",
                           0.0, 90.0, "deg")
-    elbow_max: float = _f(150.0, "Elbow flexion limit", "Greatest elbow flexion (AAOS: 150°)",
+    elbow_max: float = _f(150.0, "Elbow flexion", "Greatest elbow flexion (AAOS: 150°)",
                           "limits", 90.0, 170.0, "deg")
     wrist_bend_max: float = _f(
-        70.0, "Wrist bend limit", "Greatest bend of the hand in the elbow's plane (AAOS "
+        70.0, "Wrist bend", "Greatest bend of the hand in the elbow's plane (AAOS "
         "wrist extension 70°, flexion 80°)", "limits", 0.0, 90.0, "deg")
     wrist_side_max: float = _f(
-        25.0, "Wrist side limit", "Greatest bend of the hand across the elbow's plane "
+        25.0, "Wrist side", "Greatest bend of the hand across the elbow's plane "
         "(AAOS radial 20°, ulnar 30°)", "limits", 0.0, 45.0, "deg")
     elevation_max: float = _f(
-        170.0, "Elevation limit", "Greatest angle between the upper arm and the hanging "
+        170.0, "Elevation", "Greatest angle between the upper arm and the hanging "
         "direction; the shoulder-angle decomposition is singular straight overhead",
         "limits", 90.0, 179.0, "deg")
 
@@ -100,17 +100,17 @@ class Settings:
     chest_rotation: bool = _f(True, "Body rotation", "Read chest rotation from the reach "
                               "direction by Table 1", "body")
     chest_rotation_max: float = _f(
-        CHEST_ROTATION_MAX_DEG, "Chest rotation limit", "Greatest chest rotation against the "
+        CHEST_ROTATION_MAX_DEG, "Max chest turn", "Greatest chest rotation against the "
         "feet (Table 1 measures it so; the figure's pelvis stays). Standing people reach "
         "about 96° (Montgomery et al. 2011: trunk 32.6° + pelvis 63.8°); 60° is above every "
         "Table 1 value up to 170° of direction", "body", 0.0, 90.0, "deg")
     table1_arm_length_m: float = _f(
-        TABLE1_REFERENCE_ARM_LENGTH_M, "Table 1 subject arm",
+        TABLE1_REFERENCE_ARM_LENGTH_M, "Table 1 arm",
         "Shoulder-to-wrist length of the adult Table 1 is read for (a 1.75 m adult by "
         "Drillis & Contini); a figure's reach distance is scaled by this over its own arm "
         "length", "body", 0.3, 1.0, "m")
     table1_hand_point: float = _f(
-        TABLE1_HAND_POINT, "Table 1 hand point",
+        TABLE1_HAND_POINT, "Hand point",
         "Where Table 1's reach distance is measured, as a share of the hand's length beyond "
         "the wrist: 1 the fingertips (default), 0.4 the centre of a grip, 0 the wrist",
         "body", 0.0, 1.0)
@@ -119,25 +119,25 @@ class Settings:
         "arm's reach is reported as 'reachable by leaning' for; farther, by stepping. Reach "
         "plans no lean: it says what would reach the target", "body", 0.0, 90.0, "deg")
     chest_phase_delay: float = _f(
-        0.25, "Chest phase delay", "Fraction of a reach's progress toward its target before "
+        0.25, "Chest delay", "Fraction of a reach's progress toward its target before "
         "the chest starts to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)
 
     # --- analytic IK -------------------------------------------------------------------------
     swivel_step: float = _f(5.0, "Swivel step", "Sampling step of the elbow swivel circle",
                             "ik", 0.5, 45.0, "deg")
     max_joint_step: float = _f(
-        15.0, "Smoothness bound", "Greatest change of any joint angle between consecutive "
+        15.0, "Smoothness", "Greatest change of any joint angle between consecutive "
         "wrist positions one search step apart (scaled up for longer moves)", "ik",
         1.0, 90.0, "deg")
 
     # --- the hand over the finished motion (core.hand) --------------------------------------
     hand_turn_speed: float = _f(
-        360.0, "Hand turn speed limit", "Fastest turn of the hand relative to the forearm: "
+        360.0, "Hand turn speed", "Fastest turn of the hand relative to the forearm: "
         "360°/s is 15° a frame at 24 fps. Peak wrist angular speeds in brisk everyday "
         "reaching and placing stay below about 300-400°/s, and animators read a turn of "
         "20-30° in one frame as a pop", "motion", 30.0, 2000.0, "deg/s")
     hand_space_turn_speed: float = _f(
-        360.0, "Hand turn speed in space", "Fastest turn of the hand's orientation in space, "
+        360.0, "Hand space turn", "Fastest turn of the hand's orientation in space, "
         "the forearm's own turn and roll included (the hand turns against the forearm to keep "
         "to it, else the motion slows): the same 360°/s, 15° a frame at 24 fps, so no bone of "
         "the hand, finger or thumb, pops either", "motion", 30.0, 2000.0, "deg/s")
@@ -147,7 +147,7 @@ class Settings:
         "a limb faster (15° a frame at 24 fps, as for the hand)", "motion", 30.0, 2000.0,
         "deg/s")
     wrist_relax_weight: float = _f(
-        2.0, "Wrist relax weight", "How strongly the hand is drawn back toward neutral (in "
+        2.0, "Wrist relax", "How strongly the hand is drawn back toward neutral (in "
         "line with the forearm) against how smoothly it turns: a frame bent 45° costs this "
         "much, a turn at the speed limit costs 1. At 2 a hand bent 10° left alone for ten "
         "frames costs more than turning back at a third of the limit, so it relaxes", "motion",
@@ -161,18 +161,18 @@ class Settings:
         "checked against obstacles as the keys interpolate (frame, then evenly between)",
         "motion", 1, 16)
     slowdown_budget: float = _f(
-        1.0, "Slow-down budget", "Most frames the hand pass may add to a reach to slow "
+        1.0, "Max slow-down", "Most frames the hand pass may add to a reach to slow "
         "it through a tight spot, as a fraction of its frames", "motion", 0.0, 4.0)
 
     hand_step_turn: float = _f(
-        40.0, "Hand turn per step", "Greatest turn of the hand relative to the forearm "
+        40.0, "Turn per step", "Greatest turn of the hand relative to the forearm "
         "between neighbouring positions of the smoothed path and between frames, where the "
         "hand is kept continuous. Just over one step of the search's hand samples (35° of "
         "bend): the hand may move to the next sample but never flips across the wrist's "
         "range, which no timing could make smooth", "motion", 5.0, 180.0, "deg")
 
     start_contact_depth: float = _f(
-        0.1, "Start contact tolerance", "A start pose closer to an obstacle than the "
+        0.1, "Start contact", "A start pose closer to an obstacle than the "
         "clearance (a hand resting on a table) first moves out of contact, every step "
         "farther from it; it is refused only when the arm's or hand's capsule starts deeper "
         "inside an obstacle than this. About 6 cm on an adult, a hand's thickness: the "
@@ -193,7 +193,7 @@ class Settings:
         "is lost; Table 2 implies it: path length / nodes in solution = 0.020 arm lengths "
         "in all four tasks", "search", 0.002, 0.2, "arm lengths")
     directions: int = _f(
-        26, "Candidate directions", "Directions tried around each node besides the "
+        26, "Directions", "Directions tried around each node besides the "
         "straight line to the guiding node (evenly spread on a sphere)", "search", 6, 200)
     goal_tolerance: float = _f(0.005, "Goal tolerance", "Wrist within this of the target "
                                "counts as reached", "search", 1e-6, 0.2, "arm lengths")
@@ -204,7 +204,7 @@ class Settings:
         "position, so the search does not run into the same obstacle face at every node",
         "search", 0.0, 4.0, "steps")
     visited_resolution: float = _f(
-        0.5, "Visited resolution", "Positions closer than this many steps count as "
+        0.5, "Visited grid", "Positions closer than this many steps count as "
         "already visited", "search", 0.05, 2.0)
     node_budget: int = _f(4000, "Node budget", "Most wrist positions one search may test",
                           "search", 10, 1000000)
@@ -212,7 +212,7 @@ class Settings:
         800, "Stall budget", "Give up after this many positions without getting closer to "
         "the target", "search", 10, 1000000)
     max_pose_tries: int = _f(
-        24, "Poses per position", "Most ranked poses tested for collision at one wrist "
+        24, "Poses tried", "Most ranked poses tested for collision at one wrist "
         "position before it is declared blocked", "search", 1, 720)
     guide_when_blocked: bool = _f(
         True, "Guide when blocked", "When an obstacle lies across the straight line from the "
@@ -240,11 +240,11 @@ class Settings:
         "in arm lengths of wrist travel (RRT-Connect's range; a few times the step)",
         "search", 0.01, 2.0, "arm lengths")
     sampling_near_share: float = _f(
-        0.5, "Samples near the target", "Share of the sampling planner's random states drawn "
+        0.5, "Share near goal", "Share of the sampling planner's random states drawn "
         "with the wrist near the target (through the IK) rather than uniformly over the "
         "joints: the narrow passage of a reach is where the hand goes in", "search", 0.0, 1.0)
     sampling_path_share: float = _f(
-        0.5, "Samples along the search's path", "Share of the sampling planner's random "
+        0.5, "Share on path", "Share of the sampling planner's random "
         "states drawn about the best-first search's path (its poses within a sampling reach, "
         "half of them with the hand turned anywhere), when the search's path is there to "
         "repair: where it fails is usually one hand turn the search left out", "search",
@@ -259,13 +259,13 @@ class Settings:
         60.0, "Chest slack", "How far beyond its values at the start and at the target the "
         "sampling planner may turn the chest", "search", 0.0, 180.0, "deg")
     sampling_shortcuts: int = _f(
-        100, "Sampling shortcuts", "Random shortcut attempts on a sampled path before the "
+        100, "Sample shortcuts", "Random shortcut attempts on a sampled path before the "
         "greedy pass", "search", 0, 100000)
     chase_nodes_per_frame: int = _f(
-        60, "Chase nodes per frame", "Search budget for each frame of a chase", "search",
+        60, "Chase nodes", "Search budget for each frame of a chase", "search",
         1, 100000)
     chase_max_speed: float = _f(
-        2.0, "Chase speed limit", "Fastest wrist speed while chasing", "search",
+        2.0, "Chase speed", "Fastest wrist speed while chasing", "search",
         0.05, 20.0, "arm lengths/s")
 
     # --- workspace (paper, "preprocessing") -------------------------------------------------
@@ -286,7 +286,7 @@ class Settings:
 
     # --- the reach envelope (core.envelope; drawn by its own panel, not a planner group) ------
     envelope_resolution: int = _f(
-        13, "Points a side", "Grid points along each side of the reach envelope's cube (13: "
+        13, "Resolution", "Grid points along each side of the reach envelope's cube (13: "
         "2,197 points, about 0.2 arm lengths apart)", "envelope", 2, 41)
     envelope_extent: float = _f(
         1.15, "Extent", "Half the side of the envelope's cube, centred on the shoulder: the "
@@ -313,10 +313,10 @@ class Settings:
         80.0, "Supination limit", "Greatest forearm supination from neutral (AAOS: 80°)",
         "orientation", 0.0, 90.0, "deg")
     orientation_tolerance: float = _f(
-        10.0, "Orientation tolerance", "The orientation counts as met when the palm's frame "
+        10.0, "Tolerance", "The orientation counts as met when the palm's frame "
         "is within this angle of the wanted one", "orientation", 0.1, 90.0, "deg")
     orientation_weight: float = _f(
-        100.0, "Orientation weight", "How strongly the hand pass seeks the wanted direction "
+        100.0, "Weight", "How strongly the hand pass seeks the wanted direction "
         "on the last frames against turning and relaxing the wrist: arriving 45° off costs "
         "this much, a turn at the speed limit 1 a frame", "orientation", 0.0, 1000.0)
 

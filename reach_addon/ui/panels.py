@@ -1,5 +1,8 @@
-"""The View3D sidebar tab "Reach": inputs, buttons, last result; bones and planner
-settings in sub-panels, collapsed by default."""
+"""The View3D sidebar tab "Reach". The main panel holds what every reach needs (armature,
+arm, task, target, obstacles, Plan and Bake); the last result, timing, bake options, live
+mode, bones and planner settings are sub-panels, all but the result collapsed by default.
+Every label fits the sidebar at its default width: short labels, the rest in tooltips
+(``tests/binary/test_gui_panel.py`` reads each label as Blender drew it)."""
 
 from __future__ import annotations
 
@@ -10,13 +13,53 @@ import bpy
 from ..blender import live
 from ..core.settings import GROUPS, fields
 from .operators import result_lines
-from .properties import OVERRIDES
+from .properties import BONE_PREFIX, OVERRIDES, ROLE_LABELS, SIDES
+
+#: Share of a sub-panel's row given to a property's label, the value taking the rest.
+LABEL_SHARE = 0.6
 
 
 class _Reach:
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Reach"
+
+
+def _row(layout, data, name, text=None):
+    """One property as a row: a checkbox with its label across the row, or a label (right
+    aligned, as Blender's own) beside its value."""
+    prop = data.bl_rna.properties[name]
+    text = prop.name if text is None else text
+    if prop.type == "BOOLEAN":
+        layout.prop(data, name, text=text)
+        return
+    split = layout.split(factor=LABEL_SHARE)
+    label = split.row()
+    label.alignment = "RIGHT"
+    label.label(text=text)
+    split.prop(data, name, text="")
+
+
+def _chars(context):
+    """About how many characters of label text fit across the sidebar."""
+    scale = context.preferences.system.ui_scale
+    pixels = context.region.width if context.region else 300
+    return max(16, int((pixels - 40 * scale) / (5.9 * scale)))
+
+
+def _wrapped(layout, lines, width, icon=None):
+    """Lines as labels, each wrapped to ``width`` characters (its continuation indented
+    under it), so that none is clipped; ``icon`` beside the first."""
+    col = layout.column(align=True)
+    for k, line in enumerate(lines):
+        indent = " " * (len(line) - len(line.lstrip()))
+        parts = textwrap.wrap(line.strip(), max(8, width - len(indent) - 2)) or [""]
+        for j, part in enumerate(parts):
+            text = indent + ("  " if j else "") + part
+            if icon:
+                col.label(text=text, icon=icon if k == 0 and j == 0 else "BLANK1")
+            else:
+                col.label(text=text)
 
 
 class REACH_PT_main(_Reach, bpy.types.Panel):
@@ -37,21 +80,10 @@ class REACH_PT_main(_Reach, bpy.types.Panel):
                 col.prop(props, "target")
         else:
             col.prop(props, "target")
-        col.prop(props.settings, "match_orientation")
+        col.column(heading="Match").prop(props.settings, "match_orientation", text="Orientation")
         col.prop(props, "obstacles")
         if props.obstacles == "COLLECTION":
             col.prop(props, "obstacle_collection", text="Collection")
-        col.separator()
-        col.prop(props, "use_current_frame")
-        if not props.use_current_frame:
-            col.prop(props, "frame_start")
-        if props.task != "CHASE":
-            col.prop(props, "auto_duration")
-            if not props.auto_duration:
-                col.prop(props, "duration")
-        col.prop(props, "new_action")
-        col.prop(props, "bake_closest")
-        col.prop(props, "show_guides")
 
         row = layout.row(align=True)
         row.scale_y = 1.4
@@ -66,24 +98,6 @@ class REACH_PT_main(_Reach, bpy.types.Panel):
                 box.label(text=f"{props.progress * 100:.0f}% {props.status}")
             box.label(text="Esc to cancel", icon="CANCEL")
 
-        box = layout.box()
-        on = live.is_active(context.scene)
-        row = box.row(align=True)
-        row.scale_y = 1.2
-        row.operator("reach.live", text="Live", icon="REC" if on else "PLAY", depress=on)
-        sub = row.row(align=True)
-        sub.enabled = on
-        sub.operator("reach.key_pose", text="Key (K)", icon="KEY_HLT")
-        box.prop(props, "live_budget_ms")
-        lines = live.status_lines() if on or not live.is_active() else []
-        scale = context.preferences.system.ui_scale
-        pixels = context.region.width if context.region else 300
-        width = max(16, int((pixels - 50 * scale) / (7.4 * scale)))     # characters per line
-        col = box.column(align=True)
-        for k, line in enumerate(lines):
-            for j, part in enumerate(textwrap.wrap(line, width) or [""]):
-                col.label(text=part, icon="INFO" if k == 0 and j == 0 else "BLANK1")
-
 
 class REACH_PT_result(_Reach, bpy.types.Panel):
     bl_label = "Result"
@@ -94,9 +108,56 @@ class REACH_PT_result(_Reach, bpy.types.Panel):
         return bool(getattr(context.scene, "reach", None) and context.scene.reach.last_result)
 
     def draw(self, context):
-        col = self.layout.column(align=True)
-        for line in result_lines(context.scene.reach):
-            col.label(text=line)
+        _wrapped(self.layout, result_lines(context.scene.reach), _chars(context))
+
+
+class REACH_PT_timing(_Reach, bpy.types.Panel):
+    bl_label = "Timing"
+    bl_parent_id = "REACH_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        props = context.scene.reach
+        col = self.layout.column()
+        _row(col, props, "use_current_frame")
+        if not props.use_current_frame:
+            _row(col, props, "frame_start")
+        if props.task != "CHASE":
+            _row(col, props, "auto_duration")
+            if not props.auto_duration:
+                _row(col, props, "duration")
+
+
+class REACH_PT_options(_Reach, bpy.types.Panel):
+    bl_label = "Options"
+    bl_parent_id = "REACH_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        props = context.scene.reach
+        col = self.layout.column()
+        for name in ("new_action", "bake_closest", "show_guides"):
+            _row(col, props, name)
+
+
+class REACH_PT_live(_Reach, bpy.types.Panel):
+    bl_label = "Live"
+    bl_parent_id = "REACH_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        props = context.scene.reach
+        layout = self.layout
+        on = live.is_active(context.scene)
+        row = layout.row(align=True)
+        row.scale_y = 1.2
+        row.operator("reach.live", text="Live", icon="REC" if on else "PLAY", depress=on)
+        sub = row.row(align=True)
+        sub.enabled = on
+        sub.operator("reach.key_pose", text="Key (K)", icon="KEY_HLT")
+        _row(layout, props, "live_budget_ms")
+        lines = live.status_lines() if on or not live.is_active() else []
+        _wrapped(layout, lines, _chars(context), icon="INFO")
 
 
 class REACH_PT_bones(_Reach, bpy.types.Panel):
@@ -116,11 +177,21 @@ class REACH_PT_bones(_Reach, bpy.types.Panel):
         col = layout.column()
         col.enabled = props.use_overrides
         arm = props.armature
+        bones = arm.data if arm is not None and arm.type == "ARMATURE" else None
         for name in OVERRIDES:
-            if arm is not None and arm.type == "ARMATURE":
-                col.prop_search(props, name, arm.data, "bones")
+            role = name.removeprefix(BONE_PREFIX)
+            side = next((s for s in SIDES if role.endswith("_" + s)), None)
+            if side and role.startswith("clavicle"):
+                col.label(text=f"{side.capitalize()} arm")
+            text = ROLE_LABELS[role.removesuffix("_" + side) if side else role]
+            split = col.split(factor=LABEL_SHARE - 0.15)
+            label = split.row()
+            label.alignment = "RIGHT"
+            label.label(text=text)
+            if bones is not None:
+                split.prop_search(props, name, bones, "bones", text="")
             else:
-                col.prop(props, name)
+                split.prop(props, name, text="")
 
 
 def _settings_panel(group, label, preset_kind=None):
@@ -128,8 +199,6 @@ def _settings_panel(group, label, preset_kind=None):
 
     def draw(self, context):
         layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
         if preset_kind:
             row = layout.row(align=True)
             row.menu(f"REACH_MT_{preset_kind}_presets", text=f"{preset_kind.capitalize()} presets")
@@ -137,8 +206,9 @@ def _settings_panel(group, label, preset_kind=None):
             row.operator(f"reach.{preset_kind}_preset_add", text="",
                          icon="REMOVE").remove_active = True
         settings = context.scene.reach.settings
+        col = layout.column()
         for n in names:
-            layout.prop(settings, n)
+            _row(col, settings, n)
 
     return type(f"REACH_PT_settings_{group}", (_Reach, bpy.types.Panel), {
         "bl_label": label,
@@ -163,5 +233,6 @@ _LABELS = {"strength": ("Strength", "strength"), "limits": ("Joint Limits", "bod
            "workspace": ("Workspace", None), "motion": ("Motion", None),
            "orientation": ("Orientation", "orientation")}
 
-classes = (REACH_PT_main, REACH_PT_result, REACH_PT_bones, REACH_PT_settings) + tuple(
+classes = (REACH_PT_main, REACH_PT_result, REACH_PT_timing, REACH_PT_options, REACH_PT_live,
+           REACH_PT_bones, REACH_PT_settings) + tuple(
     _settings_panel(g, *_LABELS[g]) for g in GROUPS)

@@ -37,8 +37,10 @@ def _settings_annotations():
     out = {}
     for f in fields():
         meta = f.metadata
-        label = meta["label"] + (f" ({meta['unit']})" if meta["unit"] and meta["unit"] != "deg" else "")
-        kw = {"name": label, "description": meta["doc"], "default": f.default}
+        # The unit goes into the tooltip: the label must fit the sidebar.
+        unit = {"deg": "degrees", "s": "seconds", "m": "metres"}.get(meta["unit"], meta["unit"])
+        doc = meta["doc"] + (f" (in {unit})" if unit else "")
+        kw = {"name": meta["label"], "description": doc, "default": f.default}
         if "choices" in meta:
             out[f.name] = EnumProperty(
                 items=[(c, c.capitalize(), meta["doc"]) for c in meta["choices"]], **kw)
@@ -48,7 +50,7 @@ def _settings_annotations():
             out[f.name] = IntProperty(min=meta["min"], max=meta["max"], **kw)
         else:
             out[f.name] = FloatProperty(min=meta["min"], max=meta["max"],
-                                        precision=4 if f.default < 0.1 else 2, **kw)
+                                        precision=4 if 0 < abs(f.default) < 0.1 else 2, **kw)
     return out
 
 
@@ -129,12 +131,15 @@ def _scene_annotations():
             ("VISIBLE", "All visible", "Every visible object with geometry except the character"),
             ("COLLECTION", "Collection", "Only the objects of one collection")]),
         "obstacle_collection": PointerProperty(name="Obstacle collection", type=bpy.types.Collection),
-        "use_current_frame": BoolProperty(name="From current frame", default=True),
-        "frame_start": IntProperty(name="Start frame", default=1),
+        "use_current_frame": BoolProperty(name="From current frame", default=True,
+                                          description="Start at the frame on screen (off: at "
+                                                      "Start frame)"),
+        "frame_start": IntProperty(name="Start frame", default=1,
+                                   description="The frame the (first) reach starts at"),
         "auto_duration": BoolProperty(name="Automatic duration", default=True,
                                       description="Duration from the path length"),
-        "duration": FloatProperty(name="Duration (s)", default=1.0, min=0.05, max=60.0,
-                                  description="Seconds per reach"),
+        "duration": FloatProperty(name="Seconds", default=1.0, min=0.05, max=60.0,
+                                  description="Duration of each reach, in seconds"),
         "new_action": BoolProperty(name="Bake into a new action", default=False,
                                    description="Copy the armature's action and bake into the copy"),
         "bake_closest": BoolProperty(name="Bake closest approach", default=False,

@@ -31,8 +31,8 @@ def test_statistics_are_shown_after_plan_and_bake(gui):
     and the sidebar shows several more lines than before planning. The panel's text is
     read from the sidebar region as Blender drew it (its labels' buttons,
     ``scripts/drawn_text.py``): every line the operator's ``result_lines`` makes of the
-    result, in order, and nothing else; a line the region could not fit is drawn clipped
-    ("…"), never another text."""
+    result, in order, and nothing else, wrapped to the sidebar's width so that none is
+    clipped ("…")."""
     shot = gui["steps_by_name"]["shot:before"]["result_text"]
     assert shot["drawn"] is None and shot["computed"] is None, "no result before planning"
     for step in ("planned", "baked"):
@@ -43,12 +43,12 @@ def test_statistics_are_shown_after_plan_and_bake(gui):
         assert panel and panel["where"] == ["VIEW_3D", "UI"], f"no Result panel drawn when {step}"
         text = gui["steps_by_name"][f"shot:{step}"]["result_text"]
         assert text["drawn"], f"{step}: the sidebar drew no Result panel"
-        lines = [given for given, _shown in text["drawn"]]
-        assert lines == text["computed"], \
-            f"{step}: the panel drew {lines}, the operator made {text['computed']}"
+        drawn = " ".join(given for given, _shown in text["drawn"]).split()
+        assert drawn == " ".join(text["computed"]).split(), \
+            f"{step}: the panel drew {text['drawn']}, the operator made {text['computed']}"
         for given, shown in text["drawn"]:
-            assert shown == given or ("…" in shown and all(
-                part in given for part in shown.split("…"))), (given, shown)
+            assert shown == given, f"{step}: {given!r} drawn clipped as {shown!r}"
+        lines = text["computed"]
         st = task["stats"]
         assert lines[0] == f"{task['target']}: reached"
         assert f"frames {task['frame_start']}–{task['frame_end']}" in lines[1]
@@ -101,3 +101,42 @@ def test_trajectory_is_drawn_red_in_the_viewport(gui):
                   & (path[:, 1] >= 0) & (path[:, 1] < view[3])]
     covered = polyline_distance(inside, pixels[near]) <= 6.0
     assert covered.mean() >= 0.5, f"red drawn along {covered.mean():.0%} of the path"
+
+
+#: ``uiBut.type`` of buttons showing the user's own data, not a label: a text field
+#: (``UI_BTYPE_TEXT``) and a search field (``UI_BTYPE_SEARCH_MENU``: an object's, a
+#: collection's or a bone's name). Their text is clipped as any name too long for a field is.
+USER_DATA = {3 << 9: "text field", 41 << 9: "search field"}
+#: The sidebar's width at UI scale 1 (``UI_SIDEBAR_PANEL_WIDTH`` in Blender 3.4).
+SIDEBAR_WIDTH = 220
+
+
+def test_every_label_fits_the_default_sidebar(gui):
+    """No label drawn in any Reach panel is clipped at the sidebar's default width. The
+    session (``every_label``) opened each Reach panel in turn — main panel, sub-panels and
+    their sub-panels, with the inputs set so that optional rows show — scrolled it into
+    view, and read its buttons as Blender drew them: where a text does not fit, Blender
+    draws it shortened with "…". Every button counts (labels, checkboxes, buttons, menus,
+    number fields) except fields holding the user's own names."""
+    from reach_addon.core.settings import fields
+
+    labels = gui["steps_by_name"]["labels"]
+    assert abs(labels["width"] - SIDEBAR_WIDTH * labels["ui_scale"]) <= 1, \
+        f"sidebar {labels['width']} px wide, not the default at UI scale {labels['ui_scale']}"
+    panels = labels["panels"]
+    assert {"REACH_PT_main", "REACH_PT_result", "REACH_PT_settings"} <= panels.keys()
+    clipped = []
+    for name, seen in panels.items():
+        assert seen["in_view"] and seen["buttons"], f"{name} was not drawn in view: {seen}"
+        clipped += [f"{name}: {b['given']!r} drawn as {b['drawn']!r}" for b in seen["buttons"]
+                    if b["type"] not in USER_DATA and "…" in b["drawn"] and "…" not in b["given"]]
+    assert not clipped, "clipped in the sidebar:\n" + "\n".join(clipped)
+    # The reading covered the panels' rows: every planner setting's label was among them.
+    for f in fields():
+        panel = panels.get(f"REACH_PT_settings_{f.metadata['group']}")
+        if panel is not None:
+            assert f.metadata["label"] in [b["given"] for b in panel["buttons"]], f.name
+    given = [b["given"] for b in panels["REACH_PT_main"]["buttons"]]
+    for label in ("Armature", "Arm", "Task", "Targets", "Target", "Obstacles", "Collection",
+                  "Plan", "Bake"):
+        assert label in given, (label, given)

@@ -30,19 +30,32 @@ import tempfile
 
 import bpy
 
-STR, STRDATA, DRAWSTR = 64, 72, 200
+TYPE, STR, STRDATA, DRAWSTR, RECT = 32, 64, 72, 200, 600
 STRDATA_SIZE, DRAWSTR_SIZE = 128, 400
 BLOCK_NAME_SEARCH = 512          # bytes of a uiBlock searched for its name (it is far larger)
 
-_offset = {}
+_structs = {}
 
 
 def sdna_offset(struct_name, field):
     """Byte offset of ``field`` in the DNA struct ``struct_name`` of this Blender, from the
     SDNA of a copy of the open file it saves uncompressed."""
-    key = (struct_name, field)
-    if key in _offset:
-        return _offset[key]
+    fields = sdna_struct(struct_name)
+    if field not in fields:
+        raise RuntimeError(f"SDNA: {struct_name} has no field {field}")
+    return fields[field][0]
+
+
+def sdna_struct(struct_name):
+    """{field: (byte offset, size, type name)} of the DNA struct ``struct_name``."""
+    if not _structs:
+        _structs.update(_read_sdna())
+    if struct_name not in _structs:
+        raise RuntimeError(f"SDNA: no struct {struct_name}")
+    return _structs[struct_name]
+
+
+def _read_sdna():
     path = os.path.join(tempfile.mkdtemp(prefix="reach-sdna-"), "sdna.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path, copy=True, compress=False)
     with open(path, "rb") as fh:
@@ -79,24 +92,21 @@ def sdna_offset(struct_name, field):
     lengths = struct.unpack_from(f"<{len(types)}H", data, pos)
     pos += 2 * len(types)
     section(b"STRC")
+    structs = {}
     for _ in range(u32()):
         kind, count = struct.unpack_from("<HH", data, pos)
         fields = [struct.unpack_from("<HH", data, pos + 4 + 4 * k) for k in range(count)]
         pos += 4 + 4 * count
-        if types[kind] != struct_name:
-            continue
-        offset = 0
+        offset, out = 0, {}
         for ftype, fname in fields:
             name = names[fname]
             size = 8 if name.startswith(("*", "(*")) else lengths[ftype]
             for dim in name.split("[")[1:]:
                 size *= int(dim.rstrip("]"))
-            if name.lstrip("*").split("[")[0] == field:
-                _offset[key] = offset
-                return offset
+            out[name.lstrip("*(").split("[")[0].split(")")[0]] = (offset, size, types[ftype])
             offset += size
-        raise RuntimeError(f"SDNA: {struct_name} has no field {field}")
-    raise RuntimeError(f"SDNA: no struct {struct_name}")
+        structs[types[kind]] = out
+    return structs
 
 
 def _pointer(address):
@@ -113,6 +123,14 @@ def panel_text(region, idname):
     """[(text given, text drawn)] of the buttons of panel ``idname`` as ``region`` last drew
     it, in drawing order (top to bottom for a column of labels); None if the region drew no
     such panel."""
+    buttons = panel_buttons(region, idname)
+    return None if buttons is None else [(b["given"], b["drawn"]) for b in buttons]
+
+
+def panel_buttons(region, idname):
+    """The buttons of panel ``idname`` as ``region`` last drew it, in drawing order, each
+    {"given": text given, "drawn": text drawn, "type": its ``eButType``, "rect": [xmin,
+    xmax, ymin, ymax] in the block}; None if the region drew no such panel."""
     block = _pointer(region.as_pointer() + sdna_offset("ARegion", "uiblocks"))
     name = idname.encode() + b"\0"
     while block:
@@ -128,8 +146,44 @@ def panel_text(region, idname):
                 if inline != (len(text.encode()) < STRDATA_SIZE):
                     raise RuntimeError(f"{idname}: uiBut layout not as expected "
                                        f"(str {given:#x}, button {but:#x}, {text[:40]!r})")
-                out.append((text, _text(but + DRAWSTR, DRAWSTR_SIZE)))
+                out.append({"given": text, "drawn": _text(but + DRAWSTR, DRAWSTR_SIZE),
+                            "type": ctypes.c_int.from_address(but + TYPE).value,
+                            "rect": list(struct.unpack("<4f", ctypes.string_at(but + RECT, 16)))})
                 but = _pointer(but)
             return out
         block = _pointer(block)
     return None
+
+
+def panels(region):
+    """The region's panels (DNA ``Panel``, each followed by its sub-panels), each {"name":
+    the panel type's idname, "flag", "ofsy" and "sizey" (its box below the header, in the
+    region's view coordinates), "depth", "address"}."""
+    fields = sdna_struct("Panel")
+    first = sdna_offset("ARegion", "panels")
+    out = []
+
+    def field(panel, name, fmt):
+        return struct.unpack_from(fmt, ctypes.string_at(panel + fields[name][0], 4))[0]
+
+    def walk(panel, depth):
+        while panel:
+            out.append({"name": _text(panel + fields["panelname"][0], 64),
+                        "flag": field(panel, "flag", "<h"), "ofsy": field(panel, "ofsy", "<i"),
+                        "sizey": field(panel, "sizey", "<i"), "depth": depth, "address": panel})
+            walk(_pointer(panel + fields["children"][0]), depth + 1)
+            panel = _pointer(panel)
+
+    walk(_pointer(region.as_pointer() + first), 0)
+    return out
+
+
+def set_panel_flag(address, flag):
+    """Write a panel's DNA ``flag`` (e.g. to open a closed one)."""
+    ctypes.c_short.from_address(address + sdna_offset("Panel", "flag")).value = flag
+
+
+def view2d_cur(region):
+    """The region's View2D ``cur`` rectangle [xmin, xmax, ymin, ymax] (view coordinates)."""
+    at = region.as_pointer() + sdna_offset("ARegion", "v2d") + sdna_struct("View2D")["cur"][0]
+    return list(struct.unpack("<4f", ctypes.string_at(at, 16)))

@@ -16,10 +16,13 @@ in the live event loop with its redraws:
 3. Plan, then Bake (searched straight at the plate, so that they run long enough to watch
    their progress), each invoked as the panel's buttons do and waited for; the trajectory's
    points projected into the view are recorded, to find it in the screenshot;
-4. screenshots (``screen.screenshot``) at each stage, the last at the reach's end frame;
-   with each, the Result panel's labels as the sidebar drew them, read from the region's
-   own buttons (``drawn_text``), beside the lines the operator's ``result_lines`` gives for
-   the same result: the test compares the two.
+4. screenshots (``screen.screenshot``) at each stage, one at the reach's end frame and
+   one mid-reach seen from further away (``readme.png``, the README's picture); with each,
+   the Result panel's labels as the sidebar drew them, read from the region's own buttons
+   (``drawn_text``), beside the lines the operator's ``result_lines`` gives for the same
+   result: the test compares the two;
+5. every Reach panel in turn opened (alone with its ancestors), scrolled into view and its
+   buttons read as drawn, to find any label the default sidebar width clips.
 
 Everything seen goes to ``OUT_DIR/session.json`` (the test reads it and the screenshots);
 then Blender quits. Any error is recorded there too, and ends the session.
@@ -124,6 +127,96 @@ def to_screen(region, fx=0.5, fy=0.5):
     return (int(region.x + fx * region.width), int(win.height - (region.y + fy * region.height)))
 
 
+# --- every label of every Reach panel -------------------------------------------------------
+
+#: ``Panel.flag`` bit of a collapsed panel (``DNA_screen_types.h``; checked: the Reach tab's
+#: DEFAULT_CLOSED sub-panels have it, the main panel not).
+PNL_CLOSED = 1 << 2
+
+
+def reach_panels():
+    """{idname: parent idname or ""} of the panels registered for the sidebar's Reach tab."""
+    return {getattr(c, "bl_idname", c.__name__): getattr(c, "bl_parent_id", "")
+            for c in bpy.types.Panel.__subclasses__()
+            if getattr(c, "bl_category", "") == "Reach" and c.is_registered}
+
+
+def redraw():
+    win, area, regions = ui()
+    with bpy.context.temp_override(window=win, area=area, region=regions["UI"]):
+        bpy.ops.wm.redraw_timer(type="DRAW_WIN_SWAP", iterations=1)
+
+
+def show_only(name, parents):
+    """Open panel ``name`` and its ancestors, collapse every other Reach panel (its
+    sub-panels too): Blender creates a sub-panel once its parent is drawn open, so this is
+    repeated until nothing changes. DNA ``Panel.flag`` is written (``drawn_text``): Blender
+    3.4 has no Python API to open a panel."""
+    keep, p = set(), name
+    while p:
+        keep.add(p)
+        p = parents[p]
+    for _ in range(len(parents) + 2):
+        changed = False
+        for panel in drawn_text.panels(ui()[2]["UI"]):
+            if panel["name"] in parents:
+                flag = panel["flag"] & ~PNL_CLOSED if panel["name"] in keep else \
+                    panel["flag"] | PNL_CLOSED
+                if flag != panel["flag"]:
+                    drawn_text.set_panel_flag(panel["address"], flag)
+                    changed = True
+        redraw()
+        if not changed:
+            return
+    raise RuntimeError(f"{name}: the sidebar's panels did not settle")
+
+
+def in_view(name):
+    """The panel's box (below its header) and whether the sidebar shows all of it."""
+    sidebar = ui()[2]["UI"]
+    panel = next((p for p in drawn_text.panels(sidebar) if p["name"] == name), None)
+    if panel is None:
+        return None, False
+    box = [panel["ofsy"], panel["ofsy"] + panel["sizey"]]
+    cur = drawn_text.view2d_cur(sidebar)
+    return box, not panel["flag"] & PNL_CLOSED and cur[2] <= box[0] and box[1] <= cur[3]
+
+
+def every_label():
+    """Each Reach panel in turn, alone with its ancestors open, scrolled into view with the
+    mouse wheel, drawn, and its buttons read as drawn (``drawn_text.panel_buttons``): the
+    text each was given, the text drawn ("…" where Blender clipped it), its type. The
+    inputs are set so that the panels show their optional rows too (start frame, duration,
+    obstacle collection, several targets)."""
+    props = bpy.context.scene.reach
+    props.use_current_frame = False
+    props.auto_duration = False
+    props.obstacles = "COLLECTION"
+    props.task = "SEQUENCE"
+    parents = reach_panels()
+    sidebar = ui()[2]["UI"]
+    seen_panels = {}
+    for name in sorted(parents, key=lambda n: (n.count("_"), n)):
+        show_only(name, parents)
+        box, shown = in_view(name)
+        for _ in range(80):
+            if box is None or shown:
+                break
+            cur = drawn_text.view2d_cur(sidebar)
+            xdotool("mousemove", *to_screen(sidebar, 0.5, 0.5), "click", 4 if box[1] > cur[3] else 5)
+            yield 0.1
+            redraw()
+            box, shown = in_view(name)
+        redraw()
+        box, shown = in_view(name)
+        seen_panels[name] = {"parent": parents[name], "box": box, "in_view": shown,
+                             "cur": drawn_text.view2d_cur(sidebar),
+                             "buttons": drawn_text.panel_buttons(sidebar, name)}
+        screenshot(f"labels_{name}")
+    note("labels", panels=seen_panels, width=sidebar.width,
+         ui_scale=bpy.context.preferences.system.ui_scale)
+
+
 # --- the scene --------------------------------------------------------------------------------
 
 def keys_of(ob):
@@ -176,8 +269,9 @@ def trajectory_on_screen():
     return out
 
 
-def frame_the_arm():
-    """Look at the reach from the front, close enough that the arm fills the viewport."""
+def frame_the_arm(distance=2.2, height=0.5):
+    """Look at the reach from the front, close enough that the arm fills the viewport (or
+    from ``distance`` arm lengths, ``height`` the share of the eye's direction upward)."""
     from mathutils import Vector
 
     _win, area, regions = ui()
@@ -188,13 +282,14 @@ def frame_the_arm():
     shoulder = Vector(info.joints_world["shoulder"].tolist())
     r3d = area.spaces.active.region_3d
     r3d.view_perspective = "PERSP"
-    r3d.view_location = (shoulder + target) / 2
     forward = Vector(info.frame.forward.tolist())
     up = Vector(info.frame.up.tolist())
+    # the middle of the reach; further away, lowered to take in more of the figure
+    r3d.view_location = (shoulder + target) / 2 - (distance - 2.2) * 0.25 * info.arm.arm_length * up
     # From the front and the reaching side, a little above: the path round the plate shows.
-    eye_dir = (0.8 * forward + 0.5 * up + 1.0 * Vector(info.frame.right.tolist())).normalized()
+    eye_dir = (0.8 * forward + height * up + 1.0 * Vector(info.frame.right.tolist())).normalized()
     r3d.view_rotation = (-eye_dir).to_track_quat("-Z", "Y")
-    r3d.view_distance = 2.2 * info.arm.arm_length
+    r3d.view_distance = distance * info.arm.arm_length
     regions["WINDOW"].tag_redraw()
     note("framed", arm_length=info.arm.arm_length)
 
@@ -342,6 +437,18 @@ def session():
     bpy.context.scene.frame_set(json.loads(props.last_result)["tasks"][0]["frame_end"])
     yield 1.5
     screenshot("reached")
+
+    # 5. The README's picture (``tools/docs.py`` crops it to the viewport): the character
+    # mid-reach, the whole reach in view, the Result panel open.
+    task = json.loads(props.last_result)["tasks"][0]
+    bpy.context.scene.frame_set(round(task["frame_start"] + 0.6 * (task["frame_end"] - task["frame_start"])))
+    frame_the_arm(distance=3.4, height=0.4)
+    area.spaces.active.overlay.show_bones = False      # the figure, not its armature's bones
+    yield 1.5
+    screenshot("readme", redraws=2)
+
+    # 6. Every label of every Reach panel, as drawn at the sidebar's default width.
+    yield from every_label()
 
 
 timer_session.drive(session(), seen, OUT, DEADLINE_S)
