@@ -4,7 +4,8 @@
 #   make test   set up, then run every test: the whole suite on bpy 5.0.1, the add-on and
 #               bake tests again on bpy 4.2 LTS and 4.5, and a real Blender binary (Debian's
 #               3.4.1) headless and in a GUI under Xvfb
-# Also: make bench (bench/results.md), make dist (the extension zip), make lint.
+# Also: make bench (bench/results.md), make dist (the extension zip), make lint,
+# make docs (the README's pictures in docs/, from the GUI test and the demo).
 # make fuzz: FUZZ_N generated scenes (default 10000) baked and checked, counts in bench/fuzz.json.
 # Set-up creates .venv (Python 3.11 + the bpy wheel) once; it needs network access to PyPI,
 # and apt-get (root or sudo) for the system packages of the binary tests.
@@ -28,7 +29,7 @@ MATRIX_TESTS := tests/blender/test_extension.py tests/blender/test_bake.py \
 	tests/blender/test_bad_input.py tests/blender/test_presets.py \
 	tests/blender/test_obstacle_types.py tests/blender/test_quaternions.py
 
-.PHONY: setup test demo bench lint dist clean system-deps matrix fuzz
+.PHONY: setup test demo bench lint dist clean system-deps matrix fuzz docs
 
 setup: $(STAMP)
 
@@ -62,6 +63,13 @@ matrix: setup $(MATRIX:%=.venv-%/.installed)
 
 demo: setup
 	$(PY) -m reach_addon demo --output out
+
+# The README's pictures: the GUI test's screenshot (Blender 3.4.1 under Xvfb) and the
+# demo's stills, copied into docs/ by tools/docs.py.
+docs: setup system-deps
+	$(PY) -m pytest -p no:cacheprovider tests/binary/test_gui_panel.py
+	$(PY) -m reach_addon demo --output out
+	$(PY) tools/docs.py
 
 bench: setup
 	$(PY) -m pip install --quiet -r requirements-bench.txt

@@ -325,6 +325,8 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     blend = out_dir / "demo.blend"
     atomic.save_blend(blend)
     if render:
+        renders["strip"] = _strip(out_dir, [r["task"] for r in reports], "demo-strip.png")
+        print(f"{'':15s} joined the stills into demo-strip.png", file=out, flush=True)
         print(f"{'':15s} rendering demo.mp4 ({frame - 1} frames)", file=out, flush=True)
         renders["video"] = render_outcome(bpy.context, outcome, out_dir, still=None,
                                           video="demo.mp4", frames=(1, frame - 1),
@@ -376,6 +378,36 @@ def _envelope_still(armature, out_dir, out) -> str:
           f"{outcome.envelope.time_s:.2f} s: " + ", ".join(f"{n} {c}" for c, n in counts.items())
           + "; rendered envelope.png", file=out, flush=True)
     return path
+
+
+def _strip(out_dir, names, filename, width=480, gap=6) -> str:
+    """The tasks' stills (``<name>.png``) side by side, each scaled to ``width`` pixels,
+    as one PNG (``filename``, for the README)."""
+    import bpy
+
+    from . import atomic
+
+    tiles = []
+    for name in names:
+        img = bpy.data.images.load(str(out_dir / f"{name}.png"))
+        img.scale(width, round(img.size[1] * width / img.size[0]))
+        px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+        img.pixels.foreach_get(px)
+        tiles.append(px.reshape(img.size[1], img.size[0], 4))
+        bpy.data.images.remove(img)
+    height = max(t.shape[0] for t in tiles)
+    strip = np.ones((height, len(tiles) * (width + gap) - gap, 4), np.float32)
+    for k, tile in enumerate(tiles):
+        strip[height - tile.shape[0]:, k * (width + gap):k * (width + gap) + width] = tile
+    img = bpy.data.images.new("Reach demo strip", strip.shape[1], height, alpha=False)
+    img.pixels.foreach_set(strip.ravel())
+    path = out_dir / filename
+    with atomic.replacing(path) as tmp:
+        img.filepath_raw = str(tmp)
+        img.file_format = "PNG"
+        img.save()
+    bpy.data.images.remove(img)
+    return str(path)
 
 
 def _chest_against_table1(armature, outcome, frame_start):
