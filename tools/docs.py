@@ -5,7 +5,9 @@
   the sidebar's Reach panel and Result: its ``out/gui/readme.png`` cropped to the viewport
   (the area's rectangle as the session recorded it in ``out/gui/session.json``);
 * ``docs/demo-strip.png``: the stills of the demo's four tasks side by side
-  (``out/demo-strip.png``, written by ``make demo``).
+  (``out/demo-strip.png``, written by ``make demo``);
+* ``docs/envelope.png``: the demo character's reach envelope in the workplace
+  (``out/envelope.png``, written by ``make demo``).
 
 ``make docs`` runs the GUI test and the demo first, then this. Needs ImageMagick
 (``convert``), which ``make test``'s system packages include.
@@ -34,7 +36,8 @@ def viewport_crop(session: Path, shot: str) -> str:
 
 def main() -> int:
     gui = OUT / "gui"
-    wanted = [gui / "readme.png", gui / "session.json", OUT / "demo-strip.png"]
+    wanted = [gui / "readme.png", gui / "session.json", OUT / "demo-strip.png",
+              OUT / "envelope.png"]
     missing = [str(p.relative_to(ROOT)) for p in wanted if not p.is_file()]
     if missing:
         print(f"missing {', '.join(missing)}: run the GUI test (tests/binary/test_gui_panel.py) "
@@ -44,8 +47,9 @@ def main() -> int:
     crop = viewport_crop(gui / "session.json", "readme")
     subprocess.run(["convert", str(gui / "readme.png"), "-crop", crop, "+repage",
                     str(DOCS / "gui-panel.png")], check=True, timeout=60)
-    shutil.copyfile(OUT / "demo-strip.png", DOCS / "demo-strip.png")
-    print(f"wrote docs/gui-panel.png (viewport {crop}) and docs/demo-strip.png")
+    for name in ("demo-strip.png", "envelope.png"):
+        shutil.copyfile(OUT / name, DOCS / name)
+    print(f"wrote docs/gui-panel.png (viewport {crop}), docs/demo-strip.png and docs/envelope.png")
     return 0
 
 
