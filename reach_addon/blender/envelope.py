@@ -88,11 +88,9 @@ def drawn(outcome):
 
 
 def spacing(outcome) -> float:
-    """The grid's spacing in world units."""
+    """The grid's spacing in world units (the arm's frame is a rigid turn of the world's)."""
     s = outcome.request.settings
-    n = max(2, s.envelope_resolution)
-    return 2.0 * s.envelope_extent * outcome.rig.arm.arm_length / (n - 1) * \
-        float(np.linalg.norm(outcome.rig.arm.to_world[:3, 0]))
+    return 2.0 * s.envelope_extent * outcome.rig.arm.arm_length / (max(2, s.envelope_resolution) - 1)
 
 
 def write_mesh(context, outcome, colours=COLOURS, name: str = MESH_NAME):

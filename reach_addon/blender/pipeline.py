@@ -325,8 +325,6 @@ class EnvelopeOutcome:
     envelope: envelope_mod.Envelope
     world: np.ndarray
     shoulder: np.ndarray
-    frame: int
-    obstacles: list = field(default_factory=list)   # (name, triangles) of each obstacle used
 
 
 def envelope_steps(context, request: Request, chunk: int = 64, world=None):
@@ -356,8 +354,7 @@ def envelope_steps(context, request: Request, chunk: int = 64, world=None):
     env = yield from relay(envelope_mod.envelope_steps(planner.generator, points, chunk),
                            lambda done: (0.05 + 0.95 * done, f"{round(done * len(points))} of "
                                          f"{len(points)} points"))
-    return EnvelopeOutcome(request, info, env, info.arm.to_world_points(points), coords,
-                           context.scene.frame_current, obstacles.triangle_counts())
+    return EnvelopeOutcome(request, info, env, info.arm.to_world_points(points), coords)
 
 
 def envelope(context, request: Request, world=None) -> EnvelopeOutcome:

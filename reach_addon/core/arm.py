@@ -378,14 +378,20 @@ def roll_frames(frames, psi):
     return np.stack([f[..., :, 0], g * cos + c * sin, c * cos - g * sin], -1)
 
 
+def frame_angle(a, b):
+    """The angle (degrees) of the rotation between two frames (..., 3, 3):
+    θ = acos((tr(A Bᵀ) − 1) / 2)."""
+    tr = np.einsum("...ij,...ij->...", a, b)
+    return np.degrees(np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0)))
+
+
 def frame_turn(a: Pose, b: Pose) -> float:
     """The angle (degrees) of the rotation that takes the hand of ``a`` to that of ``b``
     (:func:`hand_frame`, turned by each pose's :attr:`~Pose.roll`)."""
     fa, fb = hand_frame(a), hand_frame(b)
     if a.roll or b.roll:
         fa, fb = roll_frames(fa, a.roll), roll_frames(fb, b.roll)
-    m = fb @ fa.T
-    return float(np.degrees(np.arccos(np.clip((np.trace(m) - 1.0) / 2.0, -1.0, 1.0))))
+    return float(frame_angle(fb, fa))
 
 
 def forward_kinematics(arm: ArmModel, configs):

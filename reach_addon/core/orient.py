@@ -57,8 +57,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arm import frame_turn, hand_frame, roll_frames
+from .arm import frame_angle, frame_turn, hand_frame, roll_frames
 from .numeric import cross
+from .torso import minimum_jerk
 
 #: The axis names a setting may take: the target's local axes, either way.
 AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
@@ -94,13 +95,6 @@ def palm_frame(d, n) -> np.ndarray:
     (both unit, perpendicular)."""
     d, n = np.asarray(d, dtype=float), np.asarray(n, dtype=float)
     return np.stack([d, n, cross(d, n)], -1)
-
-
-def frame_angle(a, b):
-    """The angle (degrees) of the rotation between two frames (..., 3, 3):
-    θ = acos((tr(A Bᵀ) − 1) / 2)."""
-    tr = np.einsum("...ij,...ij->...", a, b)
-    return np.degrees(np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0)))
 
 
 def best_roll(d, n, finger, palm):
@@ -234,11 +228,10 @@ def frame_weights(n: int) -> np.ndarray:
 
 
 def minimum_jerk_steps(n: int) -> np.ndarray:
-    """Increments (n − 1,) of the minimum-jerk profile s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ over n
-    evenly spaced frames; they sum to 1."""
-    tau = np.linspace(0.0, 1.0, n)
-    s = 10 * tau ** 3 - 15 * tau ** 4 + 6 * tau ** 5
-    return np.diff(s)
+    """Increments (n − 1,) of the minimum-jerk profile
+    (:func:`~reach_addon.core.torso.minimum_jerk`) over n evenly spaced frames; they sum
+    to 1."""
+    return np.diff(minimum_jerk(np.linspace(0.0, 1.0, n)))
 
 
 def roll_increments(delta: float, slack) -> np.ndarray:

@@ -16,6 +16,8 @@ the panel's armature and arm, draw it over the viewport, and optionally write it
 
 from __future__ import annotations
 
+import time
+
 import bpy
 import gpu
 import numpy as np
@@ -30,6 +32,10 @@ from .properties import request_from
 
 _handle = None
 _batches: dict = {}          # scene name -> (outcome, batch): the overlay's GPU batch
+_checked: dict = {}          # scene name -> (outcome, when, still current?): see _current
+_point_shader = None
+#: Seconds the panel keeps its answer to "is the envelope still current?".
+RECHECK_S = 0.5
 
 
 def _redraw(_self=None, context=None):
@@ -70,14 +76,6 @@ class REACH_PG_envelope(bpy.types.PropertyGroup):
     colour_2: _colour(2)
     colour_3: _colour(3)
     colour_4: _colour(4)
-    counts: bpy.props.StringProperty(name="Counts", default="",
-                                     description="Points per class of the last envelope")
-
-
-def _request(context):
-    request = request_from(context.scene.reach)
-    request.draw = False
-    return request
 
 
 class REACH_OT_envelope(_Run, bpy.types.Operator):
@@ -93,13 +91,12 @@ class REACH_OT_envelope(_Run, bpy.types.Operator):
         return _poll(cls, context, need_target=False)
 
     def steps(self, context):
-        return _steps(context, _request(context))
+        return _steps(context, request_from(context.scene.reach))
 
     def _finish(self, context, outcome):
         ui = context.scene.reach_envelope
         env = outcome.envelope
         counts = env.counts()
-        ui.counts = " ".join(str(counts[c]) for c in CLASSES)
         ui.show = True
         context.scene.reach.status = ""
         if ui.as_mesh:
@@ -133,7 +130,6 @@ class REACH_OT_envelope_clear(bpy.types.Operator):
     def execute(self, context):
         envelope_mod.forget(context.scene)
         envelope_mod.viz.remove(envelope_mod.MESH_NAME)
-        context.scene.reach_envelope.counts = ""
         _redraw(context=context)
         return {"FINISHED"}
 
@@ -164,11 +160,11 @@ class REACH_PT_envelope(bpy.types.Panel):
         row = layout.row(align=True)
         row.prop(ui, "show", text="", icon="HIDE_OFF" if ui.show else "HIDE_ON")
         row.prop(ui, "point_size", text="Size")
-        if not ui.counts:
-            return
-        counts = ui.counts.split()
         outcome = envelope_mod.last(context.scene)
-        if outcome is not None and envelope_mod.cached(context, _request(context)) is None:
+        if outcome is None:
+            return
+        counts = outcome.envelope.counts()
+        if not _current(context, outcome):
             layout.label(text="Out of date: compute again", icon="ERROR")
         legend = layout.column(align=True)
         for k, label in enumerate(LABELS):
@@ -178,16 +174,35 @@ class REACH_PT_envelope(bpy.types.Panel):
                 split.prop(ui, f"colour_{k}", text="")
             else:
                 split.label(text="", icon="BLANK1")
-            split.label(text=f"{label}: {counts[k] if k < len(counts) else '?'}")
+            split.label(text=f"{label}: {counts[CLASSES[k]]}")
+
+
+def _current(context, outcome) -> bool:
+    """Whether ``outcome`` is still the envelope of the scene as it is. The check reads
+    every obstacle's matrix (:func:`~reach_addon.blender.envelope.state_key`), too much for
+    every redraw of the sidebar in a big scene, so its answer is kept for
+    :data:`RECHECK_S` seconds."""
+    now = time.monotonic()
+    seen = _checked.get(context.scene.name)
+    if seen is None or seen[0] is not outcome or now - seen[1] > RECHECK_S:
+        fresh = envelope_mod.cached(context, request_from(context.scene.reach)) is outcome
+        seen = _checked[context.scene.name] = (outcome, now, fresh)
+    return seen[2]
 
 
 def _shader():
-    for name in ("POINT_FLAT_COLOR", "FLAT_COLOR", "3D_FLAT_COLOR"):
-        try:
-            return gpu.shader.from_builtin(name)
-        except (ValueError, TypeError):
-            continue
-    raise RuntimeError("no flat-colour shader in this Blender")
+    """The overlay's shader: flat colours per point, by the name this Blender has."""
+    global _point_shader
+    if _point_shader is None:
+        for name in ("POINT_FLAT_COLOR", "FLAT_COLOR", "3D_FLAT_COLOR"):
+            try:
+                _point_shader = gpu.shader.from_builtin(name)
+                break
+            except (ValueError, TypeError):
+                continue
+        else:
+            raise RuntimeError("no flat-colour shader in this Blender")
+    return _point_shader
 
 
 def _draw():
@@ -230,6 +245,7 @@ def unregister_properties():
         bpy.types.SpaceView3D.draw_handler_remove(_handle, "WINDOW")
         _handle = None
     _batches.clear()
+    _checked.clear()
     del bpy.types.Scene.reach_envelope
 
 

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from geometry import HANGING, standard_arm
 from reach_addon.core import Planner, Settings, Task
 from reach_addon.core.arm import frame_turn, hand_frame, roll_frames
-from reach_addon.core.orient import (best_roll, clamp_roll, frame_angle, minimum_jerk_steps,
+from reach_addon.core.arm import frame_angle
+from reach_addon.core.orient import (best_roll, clamp_roll, minimum_jerk_steps,
                                      palm_frame, roll_increments, wanted_axes)
 
 FPS = 24.0

@@ -78,8 +78,7 @@ def session():
         yield 0.2
     outcome = mod.blender.envelope.last(scene)
     note("computed", result=sorted(result), seconds=round(time.monotonic() - t0, 2),
-         progress=progress, counts=outcome.envelope.counts(),
-         legend=scene.reach_envelope.counts)
+         progress=progress, counts=outcome.envelope.counts())
     yield 0.5
     screenshot("envelope_on")
     points, classes = mod.blender.envelope.drawn(outcome)
