@@ -360,15 +360,16 @@ class HandPass:
         return max(self.EASE_FLOOR, min(1.0, 16.0 * tau * tau * (1.0 - tau) ** 2))
 
     def _orientations(self, pose: Pose, grid: HandGrid) -> np.ndarray:
-        """Every state's hand orientation at ``pose``, (3, S, 3): the columns of
-        :func:`~reach_addon.core.arm.hand_frame` (its direction d, the elbow's hinge made
-        perpendicular to it g, and d × g) per state, canonical frame (rigid to world, so
-        its rotations are the rotations in space); kept per pose."""
+        """Every state's hand orientation at ``pose``, flattened (S, 9): the frame of
+        :func:`~reach_addon.core.arm.hand_orientation` (columns: its direction d, the
+        elbow's hinge made perpendicular to it g, and d × g) per state, canonical frame
+        (rigid to world, so its rotations are the rotations in space); kept per pose.
+        Flat and contiguous, tr(A Bᵀ) for every pair of states is one matrix product."""
         o = self._dirs.get(id(pose))
         if o is None:
             axes = self._gen(0).hand_axes(pose.joints, pose.bend)     # rows f, p, h
             d = self._coefficients(pose, grid) @ axes
-            o = np.moveaxis(hand_orientation(d, axes[2][None, :]), -1, 0)
+            o = np.ascontiguousarray(hand_orientation(d, axes[2][None, :]).reshape(len(d), 9))
             self._dirs[id(pose)] = o
         return o
 
@@ -379,8 +380,8 @@ class HandPass:
         kept per pose."""
         c = self._orient.get(id(pose))
         if c is None:
-            o = self._orientations(pose, grid)                  # (3, S, 3): d, g, d × g
-            _psi, error = best_roll_error(np.stack([o[0], o[1], o[2]], -1), self.goal)
+            frames = self._orientations(pose, grid).reshape(-1, 3, 3)
+            _psi, error = best_roll_error(frames, self.goal)
             c = self.goal.weight * (error / 45.0) ** 2
             self._orient[id(pose)] = c
         return c
@@ -428,7 +429,7 @@ class HandPass:
                 # bone of the hand, finger or thumb, turns faster): the forearm's own turn
                 # and roll count there, and the hand turns against them where it can
                 a, b = self._orientations(poses[k - 1], grid), self._orientations(poses[k], grid)
-                trace = a[0] @ b[0].T + a[1] @ b[1].T + a[2] @ b[2].T
+                trace = a @ b.T                     # tr(A_i B_jᵀ) for every pair i, j
                 ok = trace >= 1.0 + 2.0 * space_cos
                 # and it eases in with the motion: at the start of a move a turn costs as
                 # much more as the minimum-jerk speed there is below its peak, so the hand
