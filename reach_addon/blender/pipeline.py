@@ -219,7 +219,7 @@ def steps(context, request: Request, bake: bool = True):
         context.view_layer.update()
         first = np.array(targets[0].matrix_world.translation)
         info = rig_mod.build(armature, request.side, request.overrides, target=first)
-        info, settings = _carried_targets(armature, targets, info, request, first)
+        info, settings, still = _carried_targets(armature, targets, info, request, first)
         yield 0.02, "reading the rig"
 
         fps = scene.render.fps / scene.render.fps_base
@@ -306,6 +306,8 @@ def steps(context, request: Request, bake: bool = True):
                                    "closest approach' to bake the motion that gets closest)")
                 draw = False
         outcome.results = _results(info, plans, keyed, request, residual)
+        for r in outcome.results if still else ():
+            r.message += f"; {still}"
         if draw:
             _draw(scene, info, plans, planner, request)
         return outcome
@@ -423,11 +425,12 @@ def _under(armature, bone_name, names) -> bool:
 def _carried_targets(armature, targets, info, request, first):
     """Targets carried by the character's bones (see the module doc). Returns the rig
     (the other arm's, with ``auto``, when the chosen one carries a target) and the
-    settings (chest rotation off when the chest carries a target)."""
+    settings (chest rotation off when the chest carries a target) and a note saying so for
+    the results (else None)."""
     settings = request.settings
     carried = [(t, b) for t in targets if (b := _carrying_bone(t, armature)) is not None]
     if not carried:
-        return info, settings
+        return info, settings, None
 
     def on_arm(rig):
         a = rig.bones.arms[rig.side]
@@ -448,9 +451,14 @@ def _carried_targets(armature, targets, info, request, first):
                          "it to something that stays still, or reach with the other arm")
     a = info.bones.arms[info.side]
     chest = {info.bones.chest, info.bones.keyed_chest, a.clavicle, a.keyed("clavicle")} - {None}
-    if settings.chest_rotation and any(_under(armature, b, chest) for _t, b in carried):
-        settings = settings.replace(chest_rotation=False)
-    return info, settings
+    on_chest = [(t, b) for t, b in carried if _under(armature, b, chest)]
+    if settings.chest_rotation and on_chest:
+        t, b = on_chest[0]
+        return info, settings.replace(chest_rotation=False), (
+            f"the chest was kept still: target '{t.name}' is carried by bone '{b}', which "
+            "turns with the chest, so turning the chest would move it; parent the target to "
+            "something that stays still to let the chest turn")
+    return info, settings, None
 
 
 def _moving_owners(context, exclude, collection, frame) -> set:

@@ -319,7 +319,7 @@ def detect_bones(armature, overrides=None) -> BoneMap:
                              f"armature '{armature.name}'; pick one of its bones or clear the field")
     bmap = _rigify_map(armature)
     if bmap is None:
-        bmap = _detect_generic(armature)
+        bmap = _detect_generic(armature, overrides)
     for side in SIDES:
         arm = bmap.arms.get(side)
         for role in ROLES:
@@ -333,7 +333,10 @@ def detect_bones(armature, overrides=None) -> BoneMap:
     return bmap
 
 
-def _detect_generic(armature) -> BoneMap:
+def _detect_generic(armature, overrides=None) -> BoneMap:
+    """Bone map of a rig by its names (else its topology); an arm that neither finds is
+    taken from ``overrides`` when they name its upper arm, forearm and hand."""
+    overrides = overrides or {}
     data = armature.data
     bones = list(data.bones)
     skin = skin_bones(armature)
@@ -348,14 +351,24 @@ def _detect_generic(armature) -> BoneMap:
             break
     if not arms:
         arms = _arms_by_topology(armature, skin)
+    chain = ("upper_arm", "forearm", "hand")
+    for side in SIDES:
+        names = [overrides.get(f"{role}_{side}") for role in chain]
+        if side not in arms and all(names):
+            arms[side] = ArmBones(*names)
     missing = [s for s in SIDES if s not in arms]
     if missing:
+        unset = [f"{role}_{s}" for s in missing for role in chain if not overrides.get(f"{role}_{s}")]
         raise ReachError(
             f"armature '{armature.name}' has no recognisable {' or '.join(missing)} arm "
-            "(looked for upper arm / forearm / hand bones with a left/right marker); set the "
-            "arm bones by hand in the Reach panel (Bones) or load a rig map preset")
+            "(looked for upper arm / forearm / hand bones with a left/right marker); set "
+            f"{', '.join(unset)} by hand in the Reach panel (Bones; --bone ROLE=BONE on the "
+            "command line; both arms are needed, their shoulders give the body's frame) or "
+            "load a rig map preset")
     upper_r, upper_l = data.bones[arms["right"].upper_arm], data.bones[arms["left"].upper_arm]
     chest = _lca(upper_r, upper_l)
+    if chest is None and overrides.get("chest"):
+        chest = data.bones[overrides["chest"]]
     if chest is None:
         raise ReachError(f"the arms of armature '{armature.name}' are not joined by a chest "
                          "bone; set the chest bone by hand in the Reach panel")

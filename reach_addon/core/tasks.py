@@ -38,6 +38,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import ik
 from .arm import ArmConfig, ArmModel, Pose
 from .collision import Obstacles
 from .contact import depth_message, escape, start_clearance
@@ -441,6 +442,15 @@ class Planner:
 
     def _start_failure(self, task: Task, start: Pose, problem, msg: str | None = None) -> Plan:
         part, obstacle = problem
+        if msg is None and part == "sternum":
+            # the body's root is enclosed: a room or box round the character, or a solid
+            # through its chest; parity counts all of a closed mesh's inside as solid
+            msg = (f"the character's chest (sternum) is inside the closed mesh '{obstacle}', "
+                   "and Reach counts everything a closed mesh encloses as solid; if it is a "
+                   f"room or box round the character, leave '{obstacle}' out of the obstacles "
+                   "(plan against an obstacle collection without it) or delete the faces the "
+                   "arm cannot touch (a mesh open on three sides encloses nothing); if it "
+                   "passes through the chest, move the character out of it")
         msg = msg or (f"the start pose already touches '{obstacle}' (at the {part}); move the "
                       "arm or the obstacle apart, or lower the clearance, before planning")
         segs = [Segment(i, task.name(i), task.targets[i], False, START_IN_COLLISION, msg, 0, 0,
@@ -641,6 +651,17 @@ class Planner:
             return f"{100.0 * x * arm.metres_per_unit:.1f} cm, {x / length:.3f} arm lengths"
 
         d = diagnosis
+        inside = body_contact(arm, start) if d is None else None
+        if inside is not None:
+            # a start inside the character's own body capsules: the search cannot leave it
+            # (every step it tries is inside too), which is the start's fault, not the path's
+            part, capsule = inside
+            return START_IN_COLLISION, (
+                f"the start pose has the {part} inside the character's own body (its "
+                f"'{capsule}' capsule, sized from the shoulder width), so no clear path to "
+                f"target '{name}' leaves it ({result.nodes_searched} tested positions, "
+                f"{closest}); pose the arm clear of the body on the start frame, or start "
+                "from a frame where it is")
         if d is None:
             return NO_PATH, (
                 f"no collision-free path to target '{name}' within {result.nodes_searched} "
@@ -774,6 +795,24 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     total.frames = len(poses)
     total.planning_time_s = time.perf_counter() - t0
     return Plan(task, arm, s, poses, [seg], total, first.built_workspace)
+
+
+def body_contact(arm: ArmModel, pose: Pose):
+    """(part, capsule name) of the first part of ``pose`` (the elbow half of the upper arm,
+    the forearm, the hand) inside one of the character's own body capsules
+    (:func:`~reach_addon.core.ik.self_collision`'s test), or None."""
+    if not arm.body_capsules:
+        return None
+    caps = ik.body_capsules_at(arm, pose.config.body_rotation)
+    _st, sh, el, wr, ha = np.asarray(pose.joints, dtype=float)[:5].tolist()
+    mid = [0.5 * (a + b) for a, b in zip(sh, el)]
+    for part, p, q, r in (("upper arm", mid, el, arm.upper_arm_radius),
+                          ("forearm", el, wr, arm.forearm_radius),
+                          ("hand", wr, ha, arm.hand_radius)):
+        for capsule, c in zip(arm.body_capsules, caps):
+            if ik.segment_hits_body(p, q, r, [c]):
+                return part, capsule.name
+    return None
 
 
 def first_contact(generator, poses, hand: HandReport, clearances, escaping: bool = False):

@@ -34,14 +34,14 @@ def bake(addon, arm, targets, **kw):
     return pipeline.run(bpy.context, request)
 
 
-def check_clear(arm, side, result, solids):
+def check_clear(arm, side, result, solids, overrides=None):
     """Assert the reaching arm's capsules (upper arm, forearm, hand) keep clear of
     ``solids`` (object names, where Blender has them at each instant) by their radii at
     every frame of ``result`` and three instants between; returns the wrist at the last
     frame and the arm length."""
     scene = bpy.context.scene
     scene.frame_set(result.frame_start)
-    info = rig_mod.build(arm, side)
+    info = rig_mod.build(arm, side, overrides)
     capsules = clearance.Arm(arm, info)
 
     def tris():
@@ -131,6 +131,7 @@ def test_a_target_carried_by_the_other_hand_stays_put(fresh, addon):
 
     result = bake(addon, arm, [cup], side="right").results[0]
     assert result.success, result.message
+    assert "the chest was kept still: target 'Cup' is carried by bone" in result.message
     wrist_end, length = check_clear(arm, "right", result, [])
     gap = np.linalg.norm(wrist_end - np.array(cup.matrix_world.translation))
     assert gap <= 0.006 * length, f"the wrist is {gap / length:.3f} arm lengths from the cup"
@@ -150,3 +151,37 @@ def test_an_infinite_location_is_refused_naming_the_object(fresh, addon, what):
     assert np.isfinite(np.array(ob.matrix_world)).all()      # Blender made it 3.4e38
     with pytest.raises(addon.core.ReachError, match=f"'{ob.name}' has (a )?NaN or infinite"):
         bake(addon, arm, [target])
+
+
+def test_a_closed_room_round_the_character_is_named_and_explained(fresh, addon):
+    """A closed box round the whole character (fuzz seed 98): its inside counts as solid,
+    so the start is refused, and the message says why and what to do, not that the arm
+    touches a wall it is metres from."""
+    arm, info = humanoid()
+    target = rigs.add_target("Cup", point(info, 0.6, 0.2, 0.0))
+    rigs.add_box("Room", info.joints_world["shoulder"], (6.0, 6.0, 4.0))
+    result = bake(addon, arm, [target]).results[0]
+    assert not result.success and result.reason == addon.core.START_IN_COLLISION
+    assert "chest (sternum) is inside the closed mesh 'Room'" in result.message
+    assert "leave 'Room' out of the obstacles" in result.message
+    assert "already touches" not in result.message
+
+
+def test_bone_overrides_rescue_a_rig_detection_fails(fresh, addon):
+    """Numbered bones with twin chains on each arm (fuzz seeds 386, 780): nothing tells
+    the arms apart, so detection fails naming each override to set; set, they are used."""
+    names = synthetic.NUMBERED
+    arm = synthetic.humanoid(names, decoy="twin", clavicle=False, name="Rig")
+    with pytest.raises(addon.core.ReachError,
+                       match="set upper_arm_right, forearm_right, hand_right, upper_arm_left"):
+        addon.blender.rig.build(arm, "right")
+    overrides = {f"{role}_{side}": names[f"{role}_{tag}"]
+                 for side, tag in (("right", "R"), ("left", "L"))
+                 for role in ("upper_arm", "forearm", "hand")}
+    info = addon.blender.rig.build(arm, "right", overrides)
+    assert info.bones.arms["right"].upper_arm == names["upper_arm_R"]
+    assert info.bones.chest == names["chest"]
+    target = rigs.add_target("Cup", point(info, 0.6, 0.2, 0.0))
+    outcome = bake(addon, arm, [target], side="right", overrides=overrides)
+    assert outcome.results[0].success, outcome.results[0].message
+    check_clear(arm, "right", outcome.results[0], [], overrides)

@@ -170,6 +170,20 @@ def test_start_pose_in_collision_is_reported(arm, start_wrist):
     assert len(p.poses) == 1
 
 
+def test_a_start_inside_the_body_is_a_start_in_collision(arm):
+    """The forearm across the chest on the start frame: the search cannot leave the body's
+    capsule, and the reason says so (it said no_path); a start in the body the search does
+    leave is planned as usual."""
+    stuck = ArmConfig(0.0, -30.0, -60.0, 0.0, 120.0)
+    p = plan(Task("reach", np.array([[-0.35, -0.35, 1.2]]), stuck), arm, None,
+             Settings(node_budget=600))
+    assert not p.success and p.reason == START_IN_COLLISION
+    assert "forearm inside the character's own body (its 'chest' capsule" in p.message
+    left = ArmConfig(0.0, -15.0, -60.0, 0.0, 90.0)         # the forearm in the pelvis's
+    assert plan(Task("reach", np.array([[-0.35, -0.35, 1.2]]), left), arm, None,
+                Settings(node_budget=600)).success
+
+
 def test_plans_are_deterministic(arm):
     scene = {**WALL, "Table": table((-0.3, -0.7), (1.0, 0.4), 0.9)}
     a = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(scene))
