@@ -41,8 +41,8 @@ from ..core.tasks import chase_steps
 from . import bake as bake_mod
 from . import rig as rig_mod
 from . import viz
-from .scene import (ObstacleCache, character_objects, finite, gather_pieces, obstacles_from_pieces,
-                    visit_obstacles)
+from .scene import (KEPT, ObstacleCache, character_objects, finite, gather_pieces,
+                    obstacles_from_pieces, visit_obstacles)
 
 TASKS = ("reach", "sequence", "guided", "chase")
 #: Instants per frame at which moving obstacles are sampled for a reach (frame, half way).
@@ -225,8 +225,8 @@ def steps(context, request: Request, bake: bool = True):
         fps = scene.render.fps / scene.render.fps_base
         names = tuple(t.name for t in targets)
         exclude = character_objects(armature, scene) | set(names)
-        pieces = gather_pieces(context, exclude, collection)
-        obstacles = obstacles_from_pieces(pieces, collection)
+        # Kept from the last run while nothing in them changed (scene.KeptObstacles).
+        pieces, obstacles, _built = KEPT.get(context, exclude, collection)
         moving = set() if request.task == "chase" else \
             _moving_owners(context, exclude, collection, frame_start)
         yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
@@ -342,8 +342,7 @@ def envelope_steps(context, request: Request, chunk: int = 64, world=None):
     info = rig_mod.build(armature, request.side, request.overrides, target=first)
     yield 0.02, "reading the rig"
     exclude = character_objects(armature, context.scene) | {t.name for t in targets}
-    pieces = gather_pieces(context, exclude, collection)
-    obstacles = obstacles_from_pieces(pieces, collection)
+    _pieces, obstacles, _built = KEPT.get(context, exclude, collection)
     yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
     s = request.settings
     if world is None:
