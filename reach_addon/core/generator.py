@@ -80,6 +80,10 @@ class ConfigurationGenerator:
         self._seg_clavicle, self._seg_upper = c.by_name["clavicle"], c.by_name["upper arm"]
         self._seg_fore, self._seg_hand = c.by_name["forearm"], c.by_name["hand"]
         self._r_fore = self._seg_fore.radius
+        # (radius, length) of the clavicle, upper arm and forearm as plain floats: solve
+        # reads them for every position tested
+        self._sizes = tuple((g.radius, g.length) for g in
+                            (self._seg_clavicle, self._seg_upper, self._seg_fore))
         self.chest = None
         self.hand_blocked = False
 
@@ -212,16 +216,14 @@ class ConfigurationGenerator:
         s_c, t_c = sol.shoulder[0].tolist(), sol.sternum[0].tolist()
         s_w = self._world(s_c)
         d_s = checker.distance(s_w, checker.bound_shoulder)
-        upper_seg, fore_seg, clavicle = self._seg_upper, self._seg_fore, self._seg_clavicle
-        r_u, r_f = upper_seg.radius, fore_seg.radius
-        l_u, l_f = upper_seg.length, fore_seg.length
+        (r_c, l_c), (r_u, l_u), (r_f, l_f) = self._sizes     # clavicle, upper arm, forearm
         if d_s < r_u:
             return None                          # the shoulder itself is against an obstacle
-        d_t = d_s - clavicle.length              # Lipschitz bound at the sternum
-        if not (d_t >= clavicle.radius and d_s + d_t - clavicle.length >= 2.0 * clavicle.radius):
+        d_t = d_s - l_c                          # Lipschitz bound at the sternum
+        if not (d_t >= r_c and d_s + d_t - l_c >= 2.0 * r_c):
             t_w = self._world(t_c)
             d_t = checker.distance(t_w, checker.bound_sternum)
-            if not checker.segment_clear(t_w, s_w, d_t, d_s, clavicle.radius, clavicle.length):
+            if not checker.segment_clear(t_w, s_w, d_t, d_s, r_c, l_c):
                 return None
         caps = self._capsules(float(sol.body[0]))
         caps_upper = caps_fore = caps_hand = caps
@@ -229,7 +231,7 @@ class ConfigurationGenerator:
             # Body capsules a segment cannot reach from this wrist (every forearm point is
             # within L2 of it, every hand point within the hand's length, every point of
             # the upper arm's elbow half within L2 + L1/2) are left out of its tests.
-            far = [point_segment_distance(w_c, c.a, c.b) - c.radius for c in caps]
+            far = [point_segment_distance(w_c, a, b) - r for a, b, _c, _h, r in caps]
             reach_u = l2 + 0.5 * l1 + arm.upper_arm_radius
             reach_f, reach_h = l2 + arm.forearm_radius, arm.hand_length + arm.hand_radius
             caps_upper = [c for c, d in zip(caps, far) if d < reach_u]
@@ -380,8 +382,8 @@ class ConfigurationGenerator:
         tips = w_c + arm.hand_length * coefficients @ self.hand_axes(joints, bend)
         reach = arm.hand_length + arm.hand_radius
         wl = w_c.tolist()
-        caps = [c for c in self._capsules(float(body_rotation))
-                if point_segment_distance(wl, c.a, c.b) - c.radius < reach]
+        caps = [(a, b, centre, half, r) for a, b, centre, half, r in self._capsules(float(body_rotation))
+                if point_segment_distance(wl, a, b) - r < reach]
         tips_l = tips.tolist()
         if caps:
             for i, tip in enumerate(tips_l):

@@ -325,13 +325,17 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         packed = np.stack(values, -1)                                    # (W, TERMS.size)
         wrist_ok = reachable & (flex >= st.elbow_min) & (flex <= st.elbow_max)
     straight = values[_SIN_EPS] < _STRAIGHT
-    sternum, shoulder = packed[:, TERMS.sternum], packed[:, TERMS.shoulder]
-    elbow_coef = packed[:, TERMS.elbow_coef].reshape(n_w, 3, 3)
-    fore_coef = packed[:, TERMS.fore_coef].reshape(n_w, 3, 3)
-    eps, turn = packed[:, TERMS.eps], packed[:, TERMS.turn]
+    # the layout's fields by name, in one unpacking (a NamedTuple's attributes cost a
+    # descriptor lookup each, and this runs for every position the search tests)
+    at_sternum, at_shoulder, at_elbow, at_fore, at_rows, at_eps, at_turn, at_body, at_flex, \
+        _size = TERMS
+    sternum, shoulder = packed[:, at_sternum], packed[:, at_shoulder]
+    elbow_coef = packed[:, at_elbow].reshape(n_w, 3, 3)
+    fore_coef = packed[:, at_fore].reshape(n_w, 3, 3)
+    eps, turn = packed[:, at_eps], packed[:, at_turn]
 
     # --- per sample: (W, 9, S) = chest-frame u, f, the side value, (u × f)_x, (u × f)_z --
-    p = packed[:, TERMS.rows].reshape(n_w, 9, 3) @ basis
+    p = packed[:, at_rows].reshape(n_w, 9, 3) @ basis
     ux, uy, uz, fx, fy, fz, side, cross_x, cross_z = p.transpose(1, 0, 2)
     angles = np.empty((n_w, 4, n_s))
     theta, gamma = angles[:, 3], angles[:, 2]                            # views, (W, S)
@@ -368,7 +372,7 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         previous.alpha, previous.beta, previous.gamma)
     smooth_bound = previous is not None and max_change is not None
     if m is SCALAR:
-        body_, flex_, ok_ = packed[:, TERMS.body], packed[:, TERMS.flex], wrist_ok
+        body_, flex_, ok_ = packed[:, at_body], packed[:, at_flex], wrist_ok
         bounds = _valid_bounds(st, previous, body, flex, max_change) if smooth_bound else limits
         if bounds is None:                       # the body or the elbow moves too far
             valid = np.zeros((1, n_s), dtype=bool)
@@ -404,14 +408,18 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
             ranked = (st.elbow_side, _rank(ks, f_r, second, wrong))
         else:
             f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
-        return Solutions(wrists=w, body=body_, sternum=sternum, shoulder=shoulder,
-                         elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
-                         sin_phi=sin_phi[0], angles=angles, flex=flex_, reachable=ok_,
-                         valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
-                         hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6],
-                         turn=turn, eps=eps, gamma_prev=float(gamma_prev), limits=limits,
-                         require_side=require, legal=None if smooth_bound else valid,
-                         ranked=ranked)
+        # Solutions(...) would pass its 25 keywords through a dict (a class call hands
+        # __init__ its keywords as one); the bound __init__ takes them as a function does
+        out = Solutions.__new__(Solutions)
+        out.__init__(wrists=w, body=body_, sternum=sternum, shoulder=shoulder,
+                     elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
+                     sin_phi=sin_phi[0], angles=angles, flex=flex_, reachable=ok_,
+                     valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
+                     hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6],
+                     turn=turn, eps=eps, gamma_prev=float(gamma_prev), limits=limits,
+                     require_side=require, legal=None if smooth_bound else valid,
+                     ranked=ranked)
+        return out
 
     legal = np.logical_and.reduce((angles >= limits[0]) & (angles <= limits[1]), 1)
     if require:
@@ -423,13 +431,15 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
     else:
         f_r, second = np.zeros((n_w, n_s), dtype=np.int8), np.zeros((n_w, n_s))
-    return Solutions(wrists=w, body=body, sternum=sternum, shoulder=shoulder,
-                     elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
-                     sin_phi=sin_phi[0], angles=angles, flex=flex, reachable=wrist_ok,
-                     valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
-                     hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6], turn=turn,
-                     eps=eps, gamma_prev=float(gamma_prev), limits=limits, require_side=require,
-                     legal=legal)
+    out = Solutions.__new__(Solutions)          # (as above)
+    out.__init__(wrists=w, body=body, sternum=sternum, shoulder=shoulder,
+                 elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
+                 sin_phi=sin_phi[0], angles=angles, flex=flex, reachable=wrist_ok,
+                 valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
+                 hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6], turn=turn,
+                 eps=eps, gamma_prev=float(gamma_prev), limits=limits, require_side=require,
+                 legal=legal)
+    return out
 
 
 _LAST_LIMITS: list = [None, None]
@@ -648,21 +658,14 @@ def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
             & (twist_change(gamma, previous.gamma) <= max_change))
 
 
-class BodyCapsule(NamedTuple):
-    """A body capsule on floats, for the scalar body test of every pose tried: its ends,
-    centre, half length and radius (:func:`body_capsules_at`)."""
-
-    a: list
-    b: list
-    centre: list
-    half: float
-    radius: float
-
-
 def body_capsules_at(arm: ArmModel, body: float) -> list:
     """The body's capsules with the chest turned by ``body`` degrees (those that turn with
-    the chest, :func:`~reach_addon.core.torso.rotate_about_spine`), as float tuples
-    (:class:`BodyCapsule`)."""
+    the chest, :func:`~reach_addon.core.torso.rotate_about_spine`), for the scalar body test
+    of every pose tried: one plain tuple per capsule, ``(a, b, centre, half, radius)`` —
+    its ends and centre (float lists), half its length and its radius. Callers unpack them
+    by those names; they stay plain tuples because a tuple subclass (a NamedTuple) unpacks
+    through an iterator, which the innermost loop of the search (:func:`segment_hits_body`)
+    would pay thousands of times a plan."""
     body = float(body)
     c, s = math.cos(math.radians(body)), math.sin(math.radians(body))
     out = []
@@ -670,7 +673,7 @@ def body_capsules_at(arm: ArmModel, body: float) -> list:
         if turn and body != 0.0:
             p, q = turn_about_spine(p, c, s), turn_about_spine(q, c, s)
             mid, half = [0.5 * (p[i] + q[i]) for i in range(3)], 0.5 * math.dist(p, q)
-        out.append(BodyCapsule(p, q, mid, half, r))
+        out.append((p, q, mid, half, r))
     return out
 
 
@@ -679,9 +682,9 @@ def segment_hits_body(p, q, radius, capsules) -> bool:
     ``capsules`` (from :func:`body_capsules_at`)? Bounding spheres first."""
     mid = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])]
     half = 0.5 * math.dist(p, q)
-    for ca, cb, cmid, chalf, cr in capsules:
-        if math.dist(mid, cmid) < half + chalf + radius + cr and \
-                segment_distance_float(p, q, ca, cb) < radius + cr:
+    for a, b, centre, half_c, radius_c in capsules:
+        if math.dist(mid, centre) < half + half_c + radius + radius_c and \
+                segment_distance_float(p, q, a, b) < radius + radius_c:
             return True
     return False
 
