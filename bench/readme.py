@@ -92,10 +92,13 @@ def table(r: dict) -> str:
     if "gather_10k_instances_ms" in r:
         lines.append(f"| obstacles from a 10,000-instance scatter | "
                      f"{r['gather_10k_instances_ms']:.0f} ms | |")
-    if "batch_1proc_s" in r:
-        lines.append(f"| {r.get('batch_tasks', '')}-task batch study, 1 → 2 worker processes | "
-                     f"{r['batch_1proc_s']:.1f} → {r['batch_2proc_s']:.1f} s "
-                     f"({r['batch_speedup_2proc']:.2f}×) | |")
+    if r.get("everyday"):
+        ev = r["everyday"]
+        lines.append("| everyday reaches (" + ", ".join(e["scene"] for e in ev) + "): nodes "
+                     "searched / nodes in path | " + " / ".join(
+                         f"{e['nodes_searched']}/{e['nodes_in_solution']} ({e['ratio']:.1f}×"
+                         + ("" if e["method"] == "best-first" else f", {e['method'] or e['reason']}")
+                         + ")" for e in ev) + " | goal ≤ 3× |")
     if race:
         lines.append("| vs OMPL RRTConnect (+ simplification): OMPL time / Reach's whole plan, "
                      f"grid included (a–d) | {_per_task(race, 'time_ratio_ompl_over_reach', '{:.2f}')}"

@@ -108,3 +108,74 @@ def standard_arm(side="right", scale=1.0, position=(0.0, 0.0, CHEST_Z)) -> ArmMo
         forearm_radius=0.04 * k, hand_radius=0.035 * k,
         to_world=figure_transform(side, position), body_capsules=caps, side=side,
         name=f"{side} arm")
+
+
+def _in_front(arm, parts):
+    """World (vertices, triangles, owners, names) of {name: [boxes]} given in the arm's
+    canonical frame relative to its shoulder, in arm lengths (x toward the arm's side, y
+    forward, z up)."""
+    length, shoulder = arm.arm_length, np.asarray(arm.shoulder, float)
+    scaled = {name: [(shoulder + length * np.asarray(lo, float),
+                      shoulder + length * np.asarray(hi, float)) for lo, hi in boxes]
+              for name, boxes in parts.items()}
+    verts, tris, owners, names = triangle_soup(scaled)
+    return arm.to_world_points(verts), tris, owners, names
+
+
+def plate_across_the_line(arm, start_config=HANGING):
+    """A plate square across the straight line from the start wrist to a target in front
+    of the shoulder, half way, sized by the arm: the straight path is blocked and the hand
+    can go round the plate on any side. Returns (world vertices, triangles, world target)."""
+    from .core.arm import pose_from_config
+
+    length = arm.arm_length
+    wrist = pose_from_config(arm, start_config).wrist
+    target = arm.shoulder + length * np.array([0.15, 0.7, 0.05])     # canonical
+    path = target - wrist
+    span = np.linalg.norm(path)
+    normal = path / span
+    across = np.cross(normal, [0.0, 0.0, 1.0])
+    across /= np.linalg.norm(across)
+    rot = np.column_stack([across, np.cross(normal, across), normal])
+    size = np.array([0.36 * span, 0.36 * span, 0.05 * length])
+    verts, tris = box(-0.5 * size, 0.5 * size)
+    world = arm.to_world_points(verts @ rot.T + wrist + 0.5 * path)
+    return world, tris, arm.to_world_points(target)
+
+
+#: Everyday reaches, in the arm's canonical frame relative to its shoulder, in arm lengths
+#: (x toward the arm's side, y forward, z up): {name: ({obstacle: [boxes]}, target)}.
+EVERYDAY = {
+    # a port at the back of a monitor standing on a desk, reached round the monitor's side
+    "behind a monitor": ({"Desk": [((-1.2, 0.25, -0.81), (1.2, 1.4, -0.75))],
+                          "Monitor": [((-0.45, 0.45, -0.75), (0.25, 0.50, -0.30))]},
+                         (0.35, 0.64, -0.55)),
+    # into a drawer pulled out of a low cabinet: over its front wall and down inside
+    "into a drawer": ({"Cabinet": [((-0.5, 0.75, -1.4), (0.7, 1.4, -0.55))],
+                       "Drawer": [((-0.25, 0.30, -0.89), (0.45, 0.75, -0.86)),    # bottom
+                                  ((-0.25, 0.30, -0.86), (0.45, 0.33, -0.62)),    # front
+                                  ((-0.25, 0.33, -0.86), (-0.22, 0.75, -0.62)),   # sides
+                                  ((0.42, 0.33, -0.86), (0.45, 0.75, -0.62)),
+                                  ((-0.25, 0.72, -0.86), (0.45, 0.75, -0.62))]},  # back
+                      (0.10, 0.50, -0.58)),
+    # a cup on a shelf above a desk: up past the desk's front edge, under the shelf board
+    "onto a shelf": ({"Desk": [((-1.2, 0.35, -0.81), (1.2, 1.4, -0.75))],
+                      "Shelf": [((-0.8, 0.55, -0.02), (0.9, 1.4, 0.02)),
+                                ((-0.8, 0.55, 0.30), (0.9, 1.4, 0.34))]},
+                     (0.20, 0.72, 0.12)),
+}
+
+
+def everyday_scenes(arm, start_config=HANGING) -> dict:
+    """The bench's everyday reaches around ``arm``, sized by its own arm and placed in its
+    own body frame: {name: (world vertices, triangles, owners, owner names, world target)},
+    the plate across the straight line (:func:`plate_across_the_line`) first, then
+    :data:`EVERYDAY`."""
+    verts, tris, target = plate_across_the_line(arm, start_config)
+    out = {"past a plate": (verts, tris, np.zeros(len(tris), int), ["Plate"], target)}
+    shoulder, length = np.asarray(arm.shoulder, float), arm.arm_length
+    for name, (parts, target_c) in EVERYDAY.items():
+        v, t, o, n = _in_front(arm, parts)
+        out[name] = (v, t, o, n,
+                     arm.to_world_points(shoulder + length * np.asarray(target_c, float)))
+    return out

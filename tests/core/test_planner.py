@@ -378,25 +378,12 @@ def between_frames(p, n):
 
 
 def _plate_across_the_line(arm, start_config):
-    """A plate square across the straight line from the start wrist to a target in front
-    of the shoulder, half way, sized by the arm: the straight path is blocked and the
-    hand can go round the plate on any side. Returns (obstacles, triangles, world target)."""
-    from reach_addon.core.arm import pose_from_config
-    from reach_addon.samples import box
+    """The bench's plate across the straight line (:func:`reach_addon.samples.plate_across_the_line`):
+    (obstacles, triangles, world target)."""
+    from reach_addon.samples import plate_across_the_line
 
-    length = arm.arm_length
-    wrist = pose_from_config(arm, start_config).wrist
-    target = arm.shoulder + length * np.array([0.15, 0.7, 0.05])     # canonical
-    path = target - wrist
-    span = np.linalg.norm(path)
-    normal = path / span
-    across = np.cross(normal, [0.0, 0.0, 1.0])
-    across /= np.linalg.norm(across)
-    rot = np.column_stack([across, np.cross(normal, across), normal])
-    size = np.array([0.36 * span, 0.36 * span, 0.05 * length])
-    verts, tris = box(-0.5 * size, 0.5 * size)
-    world = arm.to_world_points(verts @ rot.T + wrist + 0.5 * path)
-    return Obstacles.from_triangles(world, tris), world[tris], arm.to_world_points(target)
+    verts, tris, target = plate_across_the_line(arm, start_config)
+    return Obstacles.from_triangles(verts, tris), verts[tris], target
 
 
 def test_a_blocked_straight_line_is_searched_through_the_guiding_nodes(arm):
