@@ -33,21 +33,24 @@ them only when the content of some piece changed (:class:`KeptObstacles`).
 Cost, and the choice made
 -------------------------
 Measured with the bpy 5.0.1 wheel on one mesh object of 1,000,000 triangles (500k
-vertices; 2 shared cores, so medians of a few runs and ±30 %): reading it took ~360 ms
-(``vertices.foreach_get("co")`` 23 ms, ``loop_triangles.foreach_get("vertices")``
-150–180 ms), then ``Obstacles.from_triangles`` 1.6–2.0 s, of which ``ndarray.tolist`` of
-the vertices and triangles was ~1.3 s and ``BVHTree.FromPolygons`` itself 0.33–0.65 s;
-2.3 s in all. ``FromPolygons`` given arrays instead of lists is slower (1.9–2.9 s: it reads
-them element by element). ``BVHTree.FromObject`` builds the same object's tree in
-0.30–0.65 s, no faster than ``FromPolygons`` once it has its lists, and in the object's own
-space: one tree per object would make every collision query one transform and one query per
-object, which the planner's checker cannot afford, and world space needs one tree. So the
-first build here reads positions through the ``position`` attribute (0.7 ms instead of
-23 ms), hands ``FromPolygons`` tuples zipped from flat lists (2–2.5× cheaper to make than
-nested ``tolist``) and builds once; and a Plan on obstacles that did not change builds
-nothing: :data:`KEPT` compares a signature of every piece's content (world matrix,
-checksums of its positions, corners and triangulation, ~10 ms for 1M triangles) and hands
-back the tree it built last time.
+vertices, quads) on the bench's 2 shared cores, where every figure moves by a factor of
+two with the load: reading it took ~360 ms (``vertices.foreach_get("co")`` 23 ms,
+``loop_triangles.foreach_get("vertices")`` 150–180 ms), then
+``Obstacles.from_triangles`` 1.6–2.0 s, of which ``ndarray.tolist`` of the vertices and
+triangles was ~1.3 s and ``BVHTree.FromPolygons`` itself 0.33–1.0 s; 2.3 s in all.
+``FromPolygons`` given arrays instead of lists is slower (1.9–2.9 s: it reads them element
+by element). ``BVHTree.FromObject`` builds the same object's tree in 0.30–0.65 s, about
+what ``FromPolygons`` takes once it has its lists, but in the object's own space: one tree
+per object would make every collision query a transform and a query per object, which
+the planner's checker cannot afford, and it needs one world-space tree. So the first build
+here reads positions through the ``position`` attribute (0.7 ms instead of 23 ms) and a
+mesh of triangles through its corners (1 ms instead of 150 ms), and pauses Python's
+cyclic collector while the lists are made (:func:`build_obstacles`: ``tolist`` ~1.8 s →
+0.3–0.6 s); and a Plan on obstacles that did not change builds nothing: :data:`KEPT`
+compares a signature of every piece's content (world matrix, checksums of its positions,
+corners and triangulation: ~15–30 ms for 1M triangles) and hands back the tree it built
+last time. The BVH build itself stays the floor of a first build (~0.3–1 s for 1M
+triangles here).
 """
 
 from __future__ import annotations
@@ -311,8 +314,8 @@ class _Kept:
 
 class KeptObstacles:
     """The obstacles of Plan, Bake and the envelope, kept between runs: a second Plan on a
-    scene whose obstacles did not change builds no BVH (1M triangles: ~10 ms to find that
-    out, against 1–2 s to gather and build).
+    scene whose obstacles did not change builds no BVH (1M triangles: 15–30 ms to find that
+    out, against 2–4 s to gather and build on the bench machine).
 
     Kept per (scene, objects left out, obstacle collection), the last :attr:`size` of them.
     Each run walks the obstacles as :func:`gather_pieces` does and signs every piece by
