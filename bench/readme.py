@@ -92,6 +92,17 @@ def table(r: dict) -> str:
     if "gather_10k_instances_ms" in r:
         lines.append(f"| obstacles from a 10,000-instance scatter | "
                      f"{r['gather_10k_instances_ms']:.0f} ms | |")
+    for label, o in (r.get("obstacles_ready") or {}).items():
+        what = (f"one mesh object of {o['triangles'] / 1e6:.1f}M triangles"
+                if label == "one_object" else f"{o['objects']} objects, {o['triangles'] / 1e6:.2f}M "
+                "triangles")
+        lines.append(f"| obstacles ready for a Plan in Blender, {what}: first build / again, "
+                     f"nothing changed | {o['first_build_ms']:.0f} / {o['ready_again_ms']:.0f} ms "
+                     "| goal ≤ 250 ms |")
+    if "batch_1proc_s" in r:
+        lines.append(f"| {r.get('batch_tasks', '')}-task batch study, 1 → 2 worker processes | "
+                     f"{r['batch_1proc_s']:.1f} → {r['batch_2proc_s']:.1f} s "
+                     f"({r['batch_speedup_2proc']:.2f}×) | |")
     if r.get("everyday"):
         ev = r["everyday"]
         lines.append("| everyday reaches (" + ", ".join(e["scene"] for e in ev) + "): nodes "

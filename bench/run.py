@@ -325,6 +325,84 @@ def gather_scatter(runs: int):
             "gather_10k_instances_triangles": obs.triangle_count}
 
 
+def _grid_object(name, n, matrix=None, mesh=None):
+    """A mesh object of an n × n grid of quads (2 n² triangles) one unit wide, gently
+    waved, or an object sharing ``mesh``."""
+    from mathutils import Matrix
+
+    if mesh is None:
+        xs = np.linspace(-0.5, 0.5, n + 1)
+        x, y = np.meshgrid(xs, xs, indexing="ij")
+        co = np.column_stack([x.ravel(), y.ravel(),
+                              (0.02 * np.sin(20 * x) * np.cos(17 * y)).ravel()])
+        a = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+        quads = np.column_stack([a, a + n + 1, a + n + 2, a + 1]).astype(np.int32)
+        mesh = bpy.data.meshes.new(name)
+        mesh.vertices.add(len(co))
+        mesh.vertices.foreach_set("co", co.astype(np.float32).ravel())
+        mesh.loops.add(quads.size)
+        mesh.loops.foreach_set("vertex_index", quads.ravel())
+        mesh.polygons.add(len(quads))
+        mesh.polygons.foreach_set("loop_start", np.arange(0, quads.size, 4, dtype=np.int32))
+        mesh.update()
+    ob = bpy.data.objects.new(name, mesh)
+    if matrix is not None:
+        ob.matrix_world = Matrix(np.asarray(matrix).tolist())
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def obstacles_ready(runs: int):
+    """Obstacles ready for a Plan in Blender (``scene.KEPT``, as Plan, Bake and the
+    envelope get them): one mesh object of 1M triangles, then 300 set-dressing objects of
+    3,200 triangles each (960k); the first build (gathered and built, nothing kept) and
+    ready again (nothing changed: the signature read and compared, the BVH kept)."""
+    from mathutils import Matrix
+
+    from reach_addon.blender.scene import KEPT
+
+    def measure(label):
+        bpy.context.view_layer.update()
+        first, again, built = [], [], None
+        for _ in range(runs):
+            KEPT.clear()
+            t0 = time.perf_counter()
+            _p, obs, built = KEPT.get(bpy.context)
+            first.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            _p, obs, rebuilt = KEPT.get(bpy.context)
+            again.append(time.perf_counter() - t0)
+            if not built or rebuilt:
+                raise RuntimeError(f"obstacles ready: {label}: built {built}, again {rebuilt}")
+        row = {"triangles": obs.triangle_count, "objects": len(obs.owner_names),
+               "first_build_ms": 1000 * statistics.median(first),
+               "first_build_spread_ms": spread([1000 * t for t in first]),
+               "ready_again_ms": 1000 * statistics.median(again),
+               "ready_again_spread_ms": spread([1000 * t for t in again])}
+        log(f"  {label}, {row['triangles']:,d} triangles: first build "
+            f"{row['first_build_ms']:.0f} ms, ready again {row['ready_again_ms']:.1f} ms")
+        return row
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    turn = np.eye(4)
+    turn[:3, :3] = np.array(Matrix.Rotation(0.3, 3, "Z") @ Matrix.Rotation(0.2, 3, "X"))
+    turn[:3, 3] = (0.3, 0.1, 0.8)
+    _grid_object("Scan", 707, turn)
+    one = measure("one mesh object")
+    bpy.ops.wm.read_homefile(use_empty=True)
+    rng = np.random.default_rng(0)
+    base = None
+    for k in range(300):
+        m = np.eye(4)
+        m[:3, 3] = rng.uniform(-3.0, 3.0, 3)
+        ob = _grid_object(f"Prop {k}", 40, m, None if base is None else
+                          base if k % 2 else base.copy())
+        base = ob.data
+    many = measure("300 objects")
+    bpy.ops.wm.read_homefile(use_empty=True)
+    return {"obstacles_ready": {"one_object": one, "many_objects": many}}
+
+
 # --- 5. batch throughput ---------------------------------------------------------------------------
 
 STUDY = """
@@ -580,6 +658,13 @@ def markdown(results) -> str:
         lines.append(f"- reach envelope, {e['points']:,} points: {e['time_ms']:.0f} ms "
                      f"({e['spread_ms']['min']:.0f}–{e['spread_ms']['max']:.0f}); " +
                      ", ".join(f"{n} {c}" for c, n in e["counts"].items()))
+    for label, r in (results.get("obstacles_ready") or {}).items():
+        lines.append(f"- obstacles ready ({label.replace('_', ' ')}, {r['triangles']:,} "
+                     f"triangles): first build {r['first_build_ms']:.0f} ms "
+                     f"({r['first_build_spread_ms']['min']:.0f}–"
+                     f"{r['first_build_spread_ms']['max']:.0f}), ready again "
+                     f"{r['ready_again_ms']:.1f} ms ({r['ready_again_spread_ms']['min']:.1f}–"
+                     f"{r['ready_again_spread_ms']['max']:.1f})")
     if results.get("scaling"):
         lines += ["", "| triangles | search ms | BVH build ms |", "|---|---|---|"]
         for r in results["scaling"]:
@@ -593,7 +678,7 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--skip", action="append", default=[],
                         choices=("table2", "table1", "ompl", "chase", "bake", "scaling",
-                                 "gather", "batch", "tight", "envelope", "everyday"))
+                                 "gather", "ready", "batch", "tight", "envelope", "everyday"))
     parser.add_argument("--output", default=str(ROOT / "bench"))
     args = parser.parse_args(argv)
     results = {"reach_version": __version__, "blender_version": bpy.app.version_string,
@@ -611,6 +696,8 @@ def main(argv=None) -> int:
              ("scaling", "obstacle scaling", lambda: {"scaling": scaling(args.runs)}),
              ("gather", "obstacles from a 10,000-instance scatter",
               lambda: gather_scatter(args.runs)),
+             ("ready", "obstacles ready in Blender: first build and kept",
+              lambda: obstacles_ready(args.runs)),
              ("batch", "batch throughput", batch_throughput),
              ("tight", "tight scenes against OMPL (bench/tight.json)",
               lambda: tight_scenes(Path(args.output)))]
