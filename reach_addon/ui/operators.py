@@ -1,8 +1,13 @@
 """Operators: Plan (preview), Bake, Clear, Detect bones, Live, Key Pose.
 
 Plan and Bake run the pipeline. In the UI they are modal: the plan advances on a timer in
-slices of about 30 ms, the panel shows progress, and Esc cancels with nothing baked or
-drawn and no undo step: Esc lands between slices, at a yield of
+slices of about 30 ms (100 ms while the user leaves the interface alone), the panel shows
+progress, and Esc cancels with nothing baked or drawn and no undo step. Only the sidebar
+is redrawn while they run, at most about 10 times a second (:data:`REDRAW_S`), and less
+often where a redraw is slow (software OpenGL can take a fifth of a second for the
+sidebar, a second for the viewport), so that the interface's share of the wait stays
+small (:class:`_Clock`). The Result shows the pipeline's own time beside the wall time.
+Esc lands between slices, at a yield of
 :func:`~reach_addon.blender.pipeline.steps`, and the keys and drawing are made in its last
 step, which does not yield (a cancelled operator pushes no undo step; the user's own
 steps stay as they were). In background mode (``INVOKE_DEFAULT`` runs ``execute`` there)
@@ -27,7 +32,71 @@ from ..core import ReachError
 from ..core.steps import drain
 from .properties import BONE_PREFIX, last_result, request_from, set_live
 
+#: How long the plan advances between two looks at the interface's events while the user
+#: is using it (moving the pointer, pressing keys) ...
 SLICE_S = 0.03
+#: ... and when no event but the operator's timer came for :data:`IDLE_S`: Esc then waits
+#: at most this long.
+IDLE_SLICE_S = 0.1
+IDLE_S = 0.5
+#: Least time between two redraws of the progress while Plan or Bake runs (10 a second) ...
+REDRAW_S = 0.1
+#: ... and least time between the end of one redraw and the next, in multiples of what a
+#: redraw takes: the redraws' share of the wait is then at most a fifth.
+REDRAW_SHARE = 4.0
+#: What the last redraw of the progress took (seconds; 0 until one was measured): the
+#: next run waits long enough before its first.
+_redraw = {"cost": 0.0}
+
+
+class _Clock:
+    """A modal run's time: ``work``, spent in the pipeline's steps; ``wall``, since the
+    operator was invoked (what the user waits); and when to redraw the progress. A redraw
+    is asked for at most every :data:`REDRAW_S`, and no sooner than :data:`REDRAW_SHARE`
+    times what a redraw takes after the last one (or after the start): its cost is
+    measured as the time from the end of the slice that asked for it to the next timer
+    event (the interface redrawing, and handling its events), and kept for the next run."""
+
+    def __init__(self):
+        self.start = self.input = time.perf_counter()
+        self.work = 0.0
+        self._asked = False
+        self._returned = None
+        self._next = self.start + self._wait()
+
+    @staticmethod
+    def _wait() -> float:
+        return max(REDRAW_S, REDRAW_SHARE * _redraw["cost"])
+
+    @property
+    def wall(self) -> float:
+        return time.perf_counter() - self.start
+
+    def slice(self) -> float:
+        """How long the next slice may run: longer when the user has left the interface
+        alone for a while (no event but the timer's)."""
+        return IDLE_SLICE_S if time.perf_counter() - self.input > IDLE_S else SLICE_S
+
+    def resumed(self):
+        """A timer event: the interface is done with what it did since the last slice."""
+        if self._asked:
+            now = time.perf_counter()
+            _redraw["cost"] = now - self._returned
+            self._next = now + self._wait()
+            self._asked = False
+
+    def redraw_due(self) -> bool:
+        """After a slice: whether to redraw the progress now."""
+        self._returned = now = time.perf_counter()
+        if now < self._next:
+            return False
+        self._asked = True
+        self._next = now + self._wait()
+        return True
+
+    def times(self) -> dict:
+        """What the Result shows: the pipeline's own time and the wall time, in seconds."""
+        return {"planner_s": self.work, "wall_s": self.wall}
 
 
 def _poll(cls, context, need_target: bool = True):
@@ -67,17 +136,21 @@ class _Run:
         return pipeline.steps(context, request_from(context.scene.reach), bake=self.bake)
 
     def execute(self, context):
+        self._clock = _Clock()
         try:
             outcome = drain(self.steps(context))
         except ReachError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+        self._clock.work = self._clock.wall
         return self._finish(context, outcome)
 
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
         props = context.scene.reach
+        self._clock = _Clock()
+        self._progress = (0.0, "")
         try:
             self._steps = self.steps(context)
             self._advance(context)          # validation errors surface here, synchronously
@@ -88,17 +161,35 @@ class _Run:
         except StopIteration as done:
             return self._finish(context, done.value)
         props.running = True
+        props.progress, props.status = self._progress     # shown when the sidebar next draws
+        self._show_progress(context)
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.01, window=context.window)
         wm.modal_handler_add(self)
         return {"RUNNING_MODAL"}
 
     def _advance(self, context):
+        clock = self._clock
+        t0 = time.perf_counter()
+        end = t0 + clock.slice()
+        try:
+            while time.perf_counter() < end:
+                self._progress = next(self._steps)
+        finally:
+            clock.work += time.perf_counter() - t0
+
+    def _show_progress(self, context):
+        """The progress into the panel, and the sidebars showing it redrawn, when the clock
+        says so (the 3D view itself is not: nothing in it changes until the plan is done)."""
+        if not self._clock.redraw_due():
+            return
         props = context.scene.reach
-        end = time.perf_counter() + SLICE_S
-        while time.perf_counter() < end:
-            fraction, message = next(self._steps)
-            props.progress, props.status = fraction, message
+        props.progress, props.status = self._progress
+        for area in context.screen.areas if context.screen else ():
+            if area.type == "VIEW_3D":
+                for region in area.regions:
+                    if region.type == "UI":
+                        region.tag_redraw()
 
     def modal(self, context, event):
         props = context.scene.reach
@@ -109,7 +200,9 @@ class _Run:
             self.report({"WARNING"}, self.cancelled)
             return {"CANCELLED"}
         if event.type != "TIMER":
+            self._clock.input = time.perf_counter()
             return {"PASS_THROUGH"}
+        self._clock.resumed()
         try:
             self._advance(context)
         except StopIteration as done:
@@ -119,9 +212,7 @@ class _Run:
             self._stop(context)
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
-        for area in context.screen.areas if context.screen else ():
-            if area.type == "VIEW_3D":
-                area.tag_redraw()
+        self._show_progress(context)
         return {"RUNNING_MODAL"}
 
     def _stop(self, context):
@@ -134,7 +225,7 @@ class _Run:
         if outcome.failure:
             self.report({"ERROR"}, outcome.failure)
             return {"CANCELLED"}
-        props.last_result = json.dumps(outcome.summary())
+        props.last_result = json.dumps({**outcome.summary(), "time": self._clock.times()})
         props.status = ""
         first = next((r for r in outcome.results if not r.success), None)
         if first is None:
@@ -238,6 +329,9 @@ def result_lines(props) -> list:
                          + ("" if st["orientation_met"] else " (over tolerance)"))
         if not t["success"]:
             lines.append("  " + t["message"])
+    if res.get("time"):
+        lines.append(f"Time: planner {res['time']['planner_s'] * 1000:.0f} ms, "
+                     f"wall {res['time']['wall_s'] * 1000:.0f} ms")
     return lines + obstacle_lines(res)
 
 

@@ -85,18 +85,24 @@ class REACH_PT_main(_Reach, bpy.types.Panel):
         if props.obstacles == "COLLECTION":
             col.prop(props, "obstacle_collection", text="Collection")
 
+        if props.running:
+            # The progress where the buttons were (they cannot run meanwhile), in a row as
+            # high: the panel keeps its size, so the sidebar does not slide the panels
+            # below it (several more redraws) when a run starts and ends.
+            row = layout.split(factor=0.75, align=True)
+            row.scale_y = 1.4
+            text = props.status or "planning"
+            if hasattr(row, "progress"):                      # Blender 4.0+
+                row.progress(factor=props.progress, text=text)
+            else:
+                row.label(text=f"{props.progress * 100:.0f}% {text}")
+            row.label(text="Esc", icon="CANCEL")
+            return
         row = layout.row(align=True)
         row.scale_y = 1.4
         row.operator("reach.plan", text="Plan", icon="CURVE_PATH")
         row.operator("reach.bake", text="Bake", icon="KEYINGSET")
         row.operator("reach.clear", text="", icon="X")
-        if props.running:
-            box = layout.box()
-            if hasattr(box, "progress"):                      # Blender 4.0+
-                box.progress(factor=props.progress, text=props.status or "planning")
-            else:
-                box.label(text=f"{props.progress * 100:.0f}% {props.status}")
-            box.label(text="Esc to cancel", icon="CANCEL")
 
 
 class REACH_PT_result(_Reach, bpy.types.Panel):

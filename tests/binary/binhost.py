@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 from dataclasses import dataclass
@@ -89,6 +90,35 @@ bpy.ops.wm.save_userpref()
 print("ENABLED " + json.dumps({"module": getattr(mod, "__file__", None), "numpy": numpy.__version__}))
 """
 
+
+
+def make_profile(root: Path, blender: str) -> tuple:
+    """A :class:`Profile` in the folder ``root`` (new, or empty): Reach (with its bundled presets, as
+    ``make dist`` stages them) copied into its user scripts folder, enabled and kept
+    enabled by saved preferences; with the Blender run that enabled it (``ENABLED`` line)."""
+    (root / "config").mkdir(parents=True)
+    (root / "tmp").mkdir()
+    addon = root / "scripts" / "addons" / "reach_addon"
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
+    shutil.copytree(ROOT / "reach_addon", addon, ignore=ignore)
+    shutil.copytree(ROOT / "presets", addon / "presets", ignore=ignore)
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("BLENDER_", "PYTHON", "VIRTUAL_ENV"))}
+    env.update(BLENDER_USER_CONFIG=str(root / "config"), BLENDER_USER_SCRIPTS=str(root / "scripts"),
+               TMPDIR=str(root / "tmp"))
+    prof = Profile(blender, root, env)
+    proc = prof.blender_run("--background", "--factory-startup", "--python-expr", ENABLE, timeout=60)
+    return prof, proc
+
+
+def build_scene(profile: Profile) -> tuple:
+    """The plate scene (``scripts/build_scene.py``) built from the rig :data:`RIG` and saved
+    in the profile's folder: the Blender run, and {"path", "armature", "target", "plate",
+    "arm_length"} (what it printed)."""
+    path = profile.root / "scene.blend"
+    proc = profile.blender_run("--background", "--python", SCRIPTS / "build_scene.py", "--",
+                               RIG, path, timeout=120)
+    return proc, {"path": path, **tagged(proc, "SCENE")}
 
 # --- screenshots -------------------------------------------------------------------------------
 

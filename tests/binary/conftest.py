@@ -10,7 +10,6 @@ Blender. Every Blender run is a subprocess with a timeout.
 """
 
 import json
-import os
 import shutil
 import sys
 from pathlib import Path
@@ -19,33 +18,20 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from binhost import (ENABLE, OUT, RIG, ROOT, SCRIPTS, Profile, missing, output,  # noqa: E402
-                     read_png, require, tagged)
+from binhost import (OUT, SCRIPTS, Profile, build_scene, make_profile, missing,  # noqa: E402
+                     output, read_png, require, tagged)
 
 
 @pytest.fixture(scope="session")
 def profile(tmp_path_factory) -> Profile:
     """Reach copied into a fresh user scripts folder and enabled in saved preferences."""
     require("blender")
-    blender = shutil.which("blender")
-    root = tmp_path_factory.mktemp("blender34")
-    (root / "config").mkdir()
-    (root / "tmp").mkdir()
-    addon = root / "scripts" / "addons" / "reach_addon"
-    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
-    shutil.copytree(ROOT / "reach_addon", addon, ignore=ignore)
-    shutil.copytree(ROOT / "presets", addon / "presets", ignore=ignore)
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("BLENDER_", "PYTHON", "VIRTUAL_ENV"))}
-    env.update(BLENDER_USER_CONFIG=str(root / "config"), BLENDER_USER_SCRIPTS=str(root / "scripts"),
-               TMPDIR=str(root / "tmp"))
-    prof = Profile(blender, root, env)
-    proc = prof.blender_run("--background", "--factory-startup", "--python-expr", ENABLE, timeout=60)
+    prof, proc = make_profile(tmp_path_factory.mktemp("blender34"), shutil.which("blender"))
     if "No module named 'numpy'" in proc.stdout + proc.stderr:
         missing(["numpy"])
     info = tagged(proc, "ENABLED")
-    assert info["module"] == str(addon / "__init__.py"), output(proc)
-    assert (root / "config" / "userpref.blend").is_file(), output(proc)
+    assert info["module"] == str(prof.addon_dir / "__init__.py"), output(proc)
+    assert (prof.root / "config" / "userpref.blend").is_file(), output(proc)
     return prof
 
 
@@ -53,11 +39,9 @@ def profile(tmp_path_factory) -> Profile:
 def scene(profile) -> dict:
     """The reach scene built by Blender 3.4 from a real rig (``scripts/build_scene.py``):
     {"path", "armature", "target", "plate", "arm_length"}."""
-    path = profile.root / "scene.blend"
-    proc = profile.blender_run("--background", "--python", SCRIPTS / "build_scene.py", "--",
-                               RIG, path, timeout=120)
-    assert proc.returncode == 0 and path.is_file(), output(proc)
-    return {"path": path, **tagged(proc, "SCENE")}
+    proc, info = build_scene(profile)
+    assert proc.returncode == 0 and info["path"].is_file(), output(proc)
+    return info
 
 
 # The planner step for the session's Plan and Bake: twice the default, so they take half the

@@ -29,7 +29,6 @@ then Blender quits. Any error is recorded there too, and ends the session.
 """
 
 import json
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -39,6 +38,7 @@ import bpy
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import drawn_text  # noqa: E402
 import timer_session  # noqa: E402
+from gui_window import override, reach_tab, to_screen, ui, xdotool  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 OUT, ARMATURE, TARGET = Path(ARGS[0]), ARGS[1], ARGS[2]
@@ -54,16 +54,30 @@ def note(step, **info):
 
 # --- what the sidebar draws -------------------------------------------------------------------
 
+#: (seconds into the session, progress, status) each time the main panel was drawn while
+#: Plan or Bake ran: the progress the user was shown.
+drawn_progress = []
+
+
 def _hook(panel_name):
     def hook(self, context):
         d = seen["draws"].setdefault(panel_name, {"count": 0})
         d["count"] += 1
         d["where"] = [context.area.type, context.region.type]
+        props = context.scene.reach
+        if panel_name == "REACH_PT_main" and props.running:
+            drawn_progress.append((time.monotonic() - t_start, props.progress, props.status))
     return hook
+
+
+def _viewport_drawn():
+    d = seen["draws"].setdefault("viewport", {"count": 0})
+    d["count"] += 1
 
 
 for _name in ("REACH_PT_main", "REACH_PT_result"):
     getattr(bpy.types, _name).append(_hook(_name))
+bpy.types.SpaceView3D.draw_handler_add(_viewport_drawn, (), "WINDOW", "POST_PIXEL")
 
 
 def draws(name):
@@ -72,24 +86,12 @@ def draws(name):
 
 # --- the window -------------------------------------------------------------------------------
 
-def ui():
-    win = bpy.context.window_manager.windows[0]
-    area = max((a for a in win.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
-    regions = {r.type: r for r in area.regions}
-    return win, area, regions
-
-
 def geometry():
     """Window size and the viewport's regions in window pixels, origin bottom left."""
     win, area, regions = ui()
     return {"window": [win.width, win.height],
             "area": [area.x, area.y, area.width, area.height],
             "regions": {t: [r.x, r.y, r.width, r.height] for t, r in regions.items()}}
-
-
-def override():
-    win, area, regions = ui()
-    return bpy.context.temp_override(window=win, area=area, region=regions["WINDOW"])
 
 
 def result_text():
@@ -115,16 +117,6 @@ def screenshot(name, redraws=1):
     note("screenshot", name=name, geometry=geometry(),
          panels=json.loads(json.dumps(seen["draws"])),     # what had been drawn by then
          result_text=result_text())
-
-
-def xdotool(*args):
-    subprocess.run(["xdotool", *map(str, args)], check=True, timeout=20)
-
-
-def to_screen(region, fx=0.5, fy=0.5):
-    """X screen coordinates (origin top left) of a point of ``region``."""
-    win, _area, _regions = ui()
-    return (int(region.x + fx * region.width), int(win.height - (region.y + fy * region.height)))
 
 
 # --- every label of every Reach panel -------------------------------------------------------
@@ -296,23 +288,35 @@ def frame_the_arm(distance=2.2, height=0.5):
 
 # --- running an operator as the panel's button does -------------------------------------------
 
+def watch_running(t0, timeout_s, what):
+    """Wait (yielding to the event loop) while Reach runs, looking every 50 ms: the
+    progress property at each look, the main panel's and the viewport's draws and the
+    seconds up to the last look that saw it running, and the progress the panel drew."""
+    props = bpy.context.scene.reach
+    n0, v0, k0 = draws("REACH_PT_main"), draws("viewport"), len(drawn_progress)
+    progress, running = [], {"seconds": 0.0, "main_draws": 0, "viewport_draws": 0}
+    while props.running:
+        if time.monotonic() - t0 > timeout_s:
+            raise RuntimeError(f"{what} still running after {timeout_s} s")
+        progress.append(round(props.progress, 4))
+        running = {"seconds": round(time.monotonic() - t0, 3),
+                   "main_draws": draws("REACH_PT_main") - n0,
+                   "viewport_draws": draws("viewport") - v0}
+        yield 0.05
+    return {"progress": progress, "running": running,
+            "drawn_progress": [round(p, 4) for _t, p, _s in drawn_progress[k0:]]}
+
+
 def run_modal(op_name, timeout_s):
-    """Invoke reach.<op_name> like a button press, then wait (yielding to the event loop)
-    until it has finished."""
+    """Invoke reach.<op_name> like a button press, then wait until it has finished."""
     props = bpy.context.scene.reach
     t0 = time.monotonic()
     with override():
         result = getattr(bpy.ops.reach, op_name)("INVOKE_DEFAULT")
     note(f"{op_name} invoked", result=sorted(result), running=props.running)
-    progress, n0 = [], draws("REACH_PT_main")
-    while props.running:
-        if time.monotonic() - t0 > timeout_s:
-            raise RuntimeError(f"reach.{op_name} still running after {timeout_s} s")
-        progress.append(round(props.progress, 4))
-        yield 0.25
+    watched = yield from watch_running(t0, timeout_s, f"reach.{op_name}")
     note(f"{op_name} done", seconds=round(time.monotonic() - t0, 2),
-         status=props.status, has_result=bool(props.last_result), progress=progress,
-         main_draws_while_running=draws("REACH_PT_main") - n0)
+         status=props.status, has_result=bool(props.last_result), **watched)
 
 
 def settle(panel, redraws=4, timeout_s=8.0):
@@ -342,14 +346,7 @@ def session():
 
     # 1. The Reach tab: wheel over the tab strip at the sidebar's outer edge.
     _win, _area, regions = ui()
-    sidebar = regions["UI"]
-    x, y = to_screen(sidebar, 1.0, 0.5)
-    x -= 12
-    turns = 0
-    while not draws("REACH_PT_main") and turns < 8:
-        xdotool("mousemove", x, y, "click", 5)
-        turns += 1
-        yield 0.6
+    turns = yield from reach_tab(lambda: draws("REACH_PT_main"))
     note("reach tab", wheel_turns=turns, main_draws=draws("REACH_PT_main"),
          where=seen["draws"].get("REACH_PT_main", {}).get("where"))
     xdotool("mousemove", *to_screen(regions["WINDOW"], 0.3, 0.3))   # pointer into the view
@@ -378,15 +375,20 @@ def session():
     # in about as many positions as its path holds): the plan then runs for many seconds,
     # and here and in step 3 there is time to see it running
     settings.guide_when_blocked = False
-    with override():
+    yield 1.0          # the interface draws what the keys and settings changed, as it would
+    with override():   # before the user's next click
         result = bpy.ops.reach.bake("INVOKE_DEFAULT")
     note("long bake invoked", result=sorted(result), running=props.running)
+    n0, v0, k0, t0 = draws("REACH_PT_main"), draws("viewport"), len(drawn_progress), time.monotonic()
     yield 1.5
-    running = {"running": props.running, "progress": props.progress, "status": props.status}
+    running = {"running": props.running, "progress": props.progress, "status": props.status,
+               "seconds": round(time.monotonic() - t0, 3),
+               "main_draws": draws("REACH_PT_main") - n0, "viewport_draws": draws("viewport") - v0,
+               "drawn_progress": [round(p, 4) for _t, p, _s in drawn_progress[k0:]]}
     xdotool("mousemove", *to_screen(regions["WINDOW"], 0.3, 0.3), "key", "Escape")
     t0 = time.monotonic()
     while props.running and time.monotonic() - t0 < 20:
-        yield 0.2
+        yield 0.02
     yield 1.0                                    # and nothing lands later
     after = state()
     diff = sorted(k for k in before if before[k] != after[k])
@@ -420,6 +422,7 @@ def session():
     # still searched straight at the plate (step 2): Plan and Bake run for seconds, long
     # enough to watch their progress rise in the panel
     settings.guide_when_blocked = False
+    yield 1.0
     yield from run_modal("plan", 120)
     yield from settle("REACH_PT_result")
     planned = state()
@@ -428,6 +431,7 @@ def session():
          result=json.loads(props.last_result or "{}"))
     screenshot("planned")
 
+    yield 1.0
     yield from run_modal("bake", 120)
     yield from settle("REACH_PT_result")
     baked = state()
