@@ -45,7 +45,7 @@ def scene(profile) -> dict:
 
 
 # The planner step for the session's Plan and Bake: twice the default, so they take half the
-# time (in the interface under software OpenGL, planning time is mostly viewport redraws).
+# time (each a second or two of planning, searched straight at the plate).
 GUI_STEP = 0.04
 
 

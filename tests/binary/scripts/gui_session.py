@@ -414,9 +414,8 @@ def session():
     settings = props.settings
     settings.step, settings.node_budget, settings.stall_budget = saved
 
-    # 3. Plan, then Bake; with STEP set in the panel's settings if given (in the interface
-    # each slice of planning is followed by a viewport redraw, which software OpenGL makes
-    # slow: planning time here is mostly redraws, and a coarser step shortens it).
+    # 3. Plan, then Bake; with STEP set in the panel's settings if given (a coarser step
+    # shortens the search).
     if STEP is not None:
         settings.step = STEP
     # still searched straight at the plate (step 2): Plan and Bake run for seconds, long
