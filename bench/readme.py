@@ -99,6 +99,15 @@ def table(r: dict) -> str:
         lines.append(f"| obstacles ready for a Plan in Blender, {what}: first build / again, "
                      f"nothing changed | {o['first_build_ms']:.0f} / {o['ready_again_ms']:.0f} ms "
                      "| goal ≤ 250 ms |")
+    gui = r.get("gui_latency") or {}
+    for name, g in ((k, v) for k, v in gui.items() if isinstance(v, dict)):
+        lines.append(
+            f"| Plan in Blender {gui['blender']}'s interface (Xvfb, software OpenGL) / headless, "
+            f"plate scene, {name} settings: wall, interface / headless | "
+            f"{1000 * g['gui_wall_s']['median']:.0f} / {1000 * g['headless_wall_s']['median']:.0f}"
+            f" ms, {g['ratio']['median']:.2f}× ({g['ratio']['min']:.2f}–{g['ratio']['max']:.2f})"
+            f"; planner {1000 * g['gui_planner_s']['median']:.0f} ms in the interface | "
+            "goal ≤ 1.5× |")
     if "batch_1proc_s" in r:
         lines.append(f"| {r.get('batch_tasks', '')}-task batch study, 1 → 2 worker processes | "
                      f"{r['batch_1proc_s']:.1f} → {r['batch_2proc_s']:.1f} s "

@@ -19,7 +19,9 @@ to ``bench/results.json`` and a readable ``bench/results.md``:
 4. **Bake**: 1000 frames written in bulk on the metarig's keyed bones; **obstacle
    scaling**: the collision-free task with the table top tessellated to 5k, 100k and 1M
    triangles (search time and BVH build time); **gather**: obstacles read from a
-   geometry-nodes scatter of 10,000 instances in front of a real character.
+   geometry-nodes scatter of 10,000 instances in front of a real character. **GUI
+   latency** (:mod:`bench.gui_latency`): Plan's wall time in Blender 3.4.1's interface
+   under Xvfb against the same plan headless, on the GUI test's plate scene.
 5. **Batch throughput**: a 200-task study on 1 and 2 local worker processes (one run each:
    it takes minutes).
 6. **Tight scenes** (:mod:`bench.tight`, issue 14): 240 generated cubbies, slots, holes and
@@ -403,6 +405,14 @@ def obstacles_ready(runs: int):
     return {"obstacles_ready": {"one_object": one, "many_objects": many}}
 
 
+def gui_latency(runs: int):
+    """Plan's wall time in Blender 3.4.1's interface (Xvfb) against headless, on the GUI
+    test's plate scene (:mod:`bench.gui_latency`; at least 3 rounds)."""
+    from bench import gui_latency as latency
+
+    return latency.bench_step(max(runs, 3), log=log)
+
+
 # --- 5. batch throughput ---------------------------------------------------------------------------
 
 STUDY = """
@@ -665,6 +675,17 @@ def markdown(results) -> str:
                      f"{r['first_build_spread_ms']['max']:.0f}), ready again "
                      f"{r['ready_again_ms']:.1f} ms ({r['ready_again_spread_ms']['min']:.1f}–"
                      f"{r['ready_again_spread_ms']['max']:.1f})")
+    for name, r in ((k, v) for k, v in (results.get("gui_latency") or {}).items()
+                    if isinstance(v, dict)):
+        lines.append(f"- Plan in Blender {results['gui_latency']['blender']}'s interface "
+                     f"({name} settings, {r['nodes_searched']} nodes): wall "
+                     f"{1000 * r['gui_wall_s']['median']:.0f} ms (result drawn "
+                     f"{1000 * r['gui_shown_s']['median']:.0f} ms), headless "
+                     f"{1000 * r['headless_wall_s']['median']:.0f} ms, planner "
+                     f"{1000 * r['gui_planner_s']['median']:.0f} / "
+                     f"{1000 * r['headless_planner_s']['median']:.0f} ms; interface / headless "
+                     f"{r['ratio']['median']:.2f}× ({r['ratio']['min']:.2f}–{r['ratio']['max']:.2f})"
+                     f", {r['redraws_per_s']['median']:.1f} progress redraws a second")
     if results.get("scaling"):
         lines += ["", "| triangles | search ms | BVH build ms |", "|---|---|---|"]
         for r in results["scaling"]:
@@ -678,7 +699,8 @@ def main(argv=None) -> int:
     parser.add_argument("--runs", type=int, default=5)
     parser.add_argument("--skip", action="append", default=[],
                         choices=("table2", "table1", "ompl", "chase", "bake", "scaling",
-                                 "gather", "ready", "batch", "tight", "envelope", "everyday"))
+                                 "gather", "ready", "batch", "tight", "envelope", "everyday",
+                                 "gui_latency"))
     parser.add_argument("--output", default=str(ROOT / "bench"))
     args = parser.parse_args(argv)
     results = {"reach_version": __version__, "blender_version": bpy.app.version_string,
@@ -698,6 +720,8 @@ def main(argv=None) -> int:
               lambda: gather_scatter(args.runs)),
              ("ready", "obstacles ready in Blender: first build and kept",
               lambda: obstacles_ready(args.runs)),
+             ("gui_latency", "Plan in Blender 3.4.1's interface against headless "
+              "(bench/gui_latency.py)", lambda: gui_latency(args.runs)),
              ("batch", "batch throughput", batch_throughput),
              ("tight", "tight scenes against OMPL (bench/tight.json)",
               lambda: tight_scenes(Path(args.output)))]

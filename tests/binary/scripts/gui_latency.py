@@ -13,8 +13,9 @@ One Plan first (not counted: it imports and warms what a session's first Plan do
   pressed): ``reach.plan('INVOKE_DEFAULT')`` from a timer in the live event loop, then
   waited for by a timer that looks every 2 ms whether it is still running (``done_s``),
   and until the Result panel has been drawn with the new result (``shown_s``: what the
-  user waits for). The viewport's draws and the Reach panel's draws while it ran are
-  counted (draw handlers), and the progress values the panel could show;
+  user waits for). The viewport's and the Reach panel's draws are counted (draw
+  handlers; the panel's while Plan ran, its progress, apart), and the progress values
+  the panel could show;
 - headless (``--background``): ``reach.plan()``, which runs the pipeline in one go.
 
 With each, the plan's own figures from the Result (the search's time, the pipeline's time
@@ -37,7 +38,7 @@ OUT, ARMATURE, TARGET, PLANS = Path(ARGS[0]), ARGS[1], ARGS[2], int(ARGS[3])
 SETTINGS = json.loads(ARGS[4]) if len(ARGS) > 4 else {}
 seen = {"blender": bpy.app.version_string, "background": bpy.app.background,
         "settings": SETTINGS, "plans": [], "steps": []}
-counts = {"view": 0, "panel": 0, "result": 0}
+counts = {"view": 0, "panel": 0, "result": 0, "panel_running": 0}
 
 
 def set_up():
@@ -80,6 +81,8 @@ def interface():
     def count(key):
         def hook(*_args):
             counts[key] += 1
+            if key == "panel" and bpy.context.scene.reach.running:
+                counts["panel_running"] += 1      # drawn while Plan ran: its progress
         return hook
 
     bpy.types.SpaceView3D.draw_handler_add(count("view"), (), "WINDOW", "POST_PIXEL")
@@ -118,6 +121,7 @@ def interface():
                 "result": sorted(result), "done_s": done, "shown_s": shown,
                 "view_draws": counts["view"] - before["view"],
                 "panel_draws": counts["panel"] - before["panel"],
+                "panel_draws_running": counts["panel_running"] - before["panel_running"],
                 "progress": progress, **figures(props)})
 
 
