@@ -445,8 +445,8 @@ class Planner:
         if msg is None and part == "sternum":
             # the body's root is enclosed: a room or box round the character, or a solid
             # through its chest; parity counts all of a closed mesh's inside as solid
-            msg = (f"the character's chest (sternum) is inside the closed mesh '{obstacle}', "
-                   "and Reach counts everything a closed mesh encloses as solid; if it is a "
+            msg = (f"the character's chest (sternum) is enclosed by the mesh '{obstacle}', "
+                   "and Reach counts everything a mesh encloses as solid; if it is a "
                    f"room or box round the character, leave '{obstacle}' out of the obstacles "
                    "(plan against an obstacle collection without it) or delete the faces the "
                    "arm cannot touch (a mesh open on three sides encloses nothing); if it "

@@ -162,7 +162,7 @@ def test_a_closed_room_round_the_character_is_named_and_explained(fresh, addon):
     rigs.add_box("Room", info.joints_world["shoulder"], (6.0, 6.0, 4.0))
     result = bake(addon, arm, [target]).results[0]
     assert not result.success and result.reason == addon.core.START_IN_COLLISION
-    assert "chest (sternum) is inside the closed mesh 'Room'" in result.message
+    assert "chest (sternum) is enclosed by the mesh 'Room'" in result.message
     assert "leave 'Room' out of the obstacles" in result.message
     assert "already touches" not in result.message
 
