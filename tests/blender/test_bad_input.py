@@ -86,7 +86,8 @@ def test_armature_without_arms(fresh):
         parent = b
     bpy.ops.object.mode_set(mode="OBJECT")
     target = rigs.add_target("Cup", (0, -0.5, 1.2))
-    expect_error("armature 'Tail'", "no recognisable", "set the", armature=ob, target=target)
+    expect_error("armature 'Tail'", "no recognisable", "set upper_arm_right", "--bone ROLE=BONE",
+                 armature=ob, target=target)
 
 
 def test_target_is_the_armature(metarig):
