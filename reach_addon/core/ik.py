@@ -681,9 +681,9 @@ def segment_hits_body(p, q, radius, capsules) -> bool:
     """Does the capsule p-q (float 3-sequences) of ``radius`` pass through one of
     ``capsules`` (from :func:`body_capsules_at`)? Bounding spheres first."""
     mid = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])]
-    half = 0.5 * math.dist(p, q)
+    reach = 0.5 * math.dist(p, q) + radius          # the segment's bounding sphere
     for a, b, centre, half_c, radius_c in capsules:
-        if math.dist(mid, centre) < half + half_c + radius + radius_c and \
+        if math.dist(mid, centre) < reach + half_c + radius_c and \
                 segment_distance_float(p, q, a, b) < radius + radius_c:
             return True
     return False
