@@ -45,7 +45,7 @@ per object would make every collision query a transform and a query per object, 
 the planner's checker cannot afford, and it needs one world-space tree. So the first build
 here reads positions through the ``position`` attribute (0.7 ms instead of 23 ms) and a
 mesh of triangles through its corners (1 ms instead of 150 ms), and pauses Python's
-cyclic collector while the lists are made (:func:`build_obstacles`: ``tolist`` ~1.8 s →
+cyclic collector while the lists are made (:meth:`Obstacles.from_triangles`: ``tolist`` ~1.8 s →
 0.3–0.6 s); and a Plan on obstacles that did not change builds nothing: :data:`KEPT`
 compares a signature of every piece's content (world matrix, checksums of its positions,
 corners and triangulation: ~15–30 ms for 1M triangles) and hands back the tree it built
@@ -55,7 +55,6 @@ triangles here).
 
 from __future__ import annotations
 
-import gc
 import zlib
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -206,33 +205,8 @@ def obstacles_from_pieces(pieces, collection=None) -> Obstacles:
         tris.append(t + offset)
         owners.append(np.full(len(t), owner))
         offset += len(v)
-    return build_obstacles(np.concatenate(verts), np.concatenate(tris),
-                           np.concatenate(owners), list(labels))
-
-
-def build_obstacles(vertices, triangles, owners, owner_names) -> Obstacles:
-    """One world-space BVH of finite ``vertices`` (N, 3) and ``triangles`` (M, 3) of vertex
-    indices, as :meth:`~reach_addon.core.Obstacles.from_triangles` builds it, with the
-    garbage collector paused while the lists for ``BVHTree.FromPolygons`` are made: making
-    millions of small lists ran Python's cyclic collector over and over, and most of the
-    time ``tolist`` took was that (1M triangles: ~1.8 s with it, ~0.3–0.6 s without)."""
-    from mathutils.bvhtree import BVHTree
-
-    verts = np.asarray(vertices, dtype=float).reshape(-1, 3)
-    tris = np.asarray(triangles).reshape(-1, 3)
-    if len(tris) == 0:
-        return Obstacles(None)
-    if tris.min() < 0 or tris.max() >= len(verts):
-        raise ReachError("obstacle triangles index vertices that do not exist")
-    collecting = gc.isenabled()
-    gc.disable()
-    try:
-        tree = BVHTree.FromPolygons(verts.tolist(), tris.tolist(), all_triangles=True)
-    finally:
-        if collecting:
-            gc.enable()
-    return Obstacles(tree, triangle_owner=owners, owner_names=owner_names,
-                     bounds=(verts.min(0), verts.max(0)), triangle_count=len(tris))
+    return Obstacles.from_triangles(np.concatenate(verts), np.concatenate(tris),
+                                    np.concatenate(owners), list(labels))
 
 
 class ObstacleCache:
@@ -350,12 +324,12 @@ class KeptObstacles:
 
         def read(piece, ob):
             # Inside the depsgraph's iteration step (see visit_obstacles): copy only.
-            entry = (piece.owner, piece.name, piece.type, piece.matrix.tobytes(),
-                     _content(ob, meshes, shared))
+            content, arrays = _content(ob, meshes, shared)
+            entry = (piece.owner, piece.name, piece.type, piece.matrix.tobytes(), content)
             if entry in by_entry or entry in before:
                 found = by_entry.get(entry, before.get(entry))
             else:
-                v, t = _triangles(ob, shared)
+                v, t = arrays if arrays is not None else _triangles(ob, shared)
                 found = None
                 if len(t):
                     m = piece.matrix
@@ -391,21 +365,22 @@ KEPT = KeptObstacles()
 
 
 def _content(ob, meshes, shared) -> tuple:
-    """What an evaluated object's triangles are made of, as sizes and checksums: for a
-    mesh its positions, its corners' vertices and the polygon of each triangle (which,
-    with the corners, fixes every face's size); for a curve, surface, text or metaball the
-    mesh Blender evaluates for it. Read inside the depsgraph's iteration step; meshes
-    shared by instances are read once (``meshes``, keyed like :func:`_triangles`'s
-    ``shared``)."""
+    """(signature, arrays): what an evaluated object's triangles are made of, as sizes and
+    checksums: for a mesh its positions, its corners' vertices and the polygon of each
+    triangle (which, with the corners, fixes every face's size); for a curve, surface,
+    text or metaball the mesh Blender evaluates for it, whose (vertices, triangles) come
+    back as ``arrays`` (they had to be read to be signed; None for a mesh). Read inside
+    the depsgraph's iteration step; meshes shared by instances are read once (``meshes``,
+    keyed like :func:`_triangles`'s ``shared``)."""
     if not _mesh_data(ob):
         v, t = _triangles(ob, shared)
         return ("tessellated", len(v), len(t), zlib.crc32(np.ascontiguousarray(v)),
-                zlib.crc32(np.ascontiguousarray(t)))
+                zlib.crc32(np.ascontiguousarray(t))), (v, t)
     mesh = ob.data
     key = (mesh.as_pointer(), len(mesh.vertices), len(mesh.loops))
     if key not in meshes:
         meshes[key] = _mesh_content(mesh)
-    return meshes[key]
+    return meshes[key], None
 
 
 def _mesh_content(mesh) -> tuple:
