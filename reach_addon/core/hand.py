@@ -187,6 +187,9 @@ class HandPass:
         # its cost per state at each pose, kept per pose
         self.goal = goal
         self._orient: dict = {}
+        # (id(pose at k - 1), id(pose at k)) -> that transition's bounded edge costs
+        # (:meth:`_dp`, before the ease): the same in every round of the pass
+        self._edges: dict = {}
 
     def _gen(self, k):
         if self.escape is not None and self.arcs[min(k, len(self.arcs) - 1)] < self.escape[1]:
@@ -416,27 +419,36 @@ class HandPass:
         prev_c = self._coefficients(poses[0], grid)
         for k in range(1, len(poses)):
             c = self._coefficients(poses[k], grid)
-            turn_in = wrist_turn(grid.coefficients, c[own]) / self.bound   # grid -> own
-            turn_out = wrist_turn(prev_c[own], c) / self.bound             # own -> all
             if k in lifted:
+                turn_in = wrist_turn(grid.coefficients, c[own]) / self.bound   # grid -> own
+                turn_out = wrist_turn(prev_c[own], c) / self.bound             # own -> all
                 free[:n_grid, own] = turn_in * turn_in
                 free[own] = turn_out * turn_out
                 m = cost[:, None] + free
             else:
-                edge[:n_grid, own] = np.where(turn_in <= 1.0 + 1e-9, turn_in * turn_in, np.inf)
-                edge[own] = np.where(turn_out <= 1.0 + 1e-9, turn_out * turn_out, np.inf)
-                # the hand's whole orientation in space may turn no faster either (so no
-                # bone of the hand, finger or thumb, turns faster): the forearm's own turn
-                # and roll count there, and the hand turns against them where it can
-                a, b = self._orientations(poses[k - 1], grid), self._orientations(poses[k], grid)
-                trace = a @ b.T                     # tr(A_i B_jᵀ) for every pair i, j
-                ok = trace >= 1.0 + 2.0 * space_cos
+                key = (id(poses[k - 1]), id(poses[k]))
+                bounded = self._edges.get(key)
+                if bounded is None:
+                    turn_in = wrist_turn(grid.coefficients, c[own]) / self.bound
+                    turn_out = wrist_turn(prev_c[own], c) / self.bound
+                    edge[:n_grid, own] = np.where(turn_in <= 1.0 + 1e-9, turn_in * turn_in,
+                                                  np.inf)
+                    edge[own] = np.where(turn_out <= 1.0 + 1e-9, turn_out * turn_out, np.inf)
+                    # the hand's whole orientation in space may turn no faster either (so
+                    # no bone of the hand, finger or thumb, turns faster): the forearm's
+                    # own turn and roll count there, and the hand turns against them
+                    # where it can
+                    a = self._orientations(poses[k - 1], grid)
+                    b = self._orientations(poses[k], grid)
+                    trace = a @ b.T                 # tr(A_i B_jᵀ) for every pair i, j
+                    bounded = np.where(trace >= 1.0 + 2.0 * space_cos, edge, np.inf)
+                    self._edges[key] = bounded
                 # and it eases in with the motion: at the start of a move a turn costs as
                 # much more as the minimum-jerk speed there is below its peak, so the hand
                 # does not set off faster than the arm (the motion joins what came before
                 # without a jump in speed) unless clearance leaves it no other way
                 ease = self._ease(k, len(poses))
-                m = cost[:, None] + np.where(ok, edge / (ease * ease), np.inf)
+                m = cost[:, None] + (bounded if ease == 1.0 else bounded / (ease * ease))
             for i, j in banned.get(k, ()):
                 if i >= 0:
                     m[i, j] = np.inf
