@@ -266,11 +266,13 @@ def steps(context, request: Request, bake: bool = True):
             else:
                 plan_steps = planner.plan_steps(task)
             plan = yield from _progress(plan_steps, k, len(tasks))
-            if moving and plan.success:
+            if moving and any(seg.success for seg in plan.segments):
                 # Obstacles that move while the arm does: plan against every place they
                 # take over the motion's frames, again if the motion outlasts them; then
                 # check each frame's pose against that frame's obstacles. (A motion that
-                # fails among the still obstacles fails among more.)
+                # fails among the still obstacles fails among more.) Any reach of the plan
+                # that succeeded counts: one target of a sequence may fail while the next
+                # succeeds, and with "bake closest" both are keyed.
                 swept, covered = {}, frame - 1
                 for _round in range(SWEEP_ROUNDS):
                     last = frame + len(plan.poses) - 1
@@ -490,19 +492,26 @@ def _check_moving(plan, frame, swept, covered, moving, settings):
     """Fail a successful ``plan`` (first frame ``frame``) whose pose on some frame touches
     a moving obstacle where that obstacle is on that frame, or whose motion outlasted the
     swept frames (what it meets after them is unknown). Contact on the first frames is
-    allowed while the arm leaves a contact it starts in, as with still obstacles."""
-    if not plan.success:
+    allowed while the arm leaves a contact it starts in, as with still obstacles. Only the
+    frames of the reaches that succeeded are checked (a failed one's closest motion is
+    reported as failed already)."""
+    done = [seg for seg in plan.segments if seg.success]
+    if not done:
         return
+    checked = {i for seg in done for i in range(seg.frame_start, seg.frame_end + 1)}
     from ..core import NO_PATH
     from ..core.collision import CollisionChecker
 
     touching = settings.replace(clearance=0.0)
     problem = None
-    if frame + len(plan.poses) - 1 > covered:
+    if frame + max(checked) > covered:
         problem = "outlasts every frame swept"
     else:
         leaving = True
         for i, joints in enumerate(plan.world_joints()):
+            if i not in checked:
+                leaving = False
+                continue
             at = swept.get((frame + i, 0), [])
             hit = (CollisionChecker(plan.arm, obstacles_from_pieces(at), touching)
                    .first_hit(joints) if at else None)

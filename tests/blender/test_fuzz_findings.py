@@ -85,6 +85,44 @@ def test_a_reach_stays_clear_of_an_obstacle_that_moves_into_its_path(fresh, addo
     assert np.linalg.norm(wrist_end - np.array(target.location)) <= 0.006 * length
 
 
+def test_a_sequence_whose_first_target_fails_keeps_the_next_reach_clear_of_a_moving_obstacle(
+        fresh, addon):
+    """Fuzz seed 2689: a sequence baked with "bake closest", whose first reach failed: the
+    second reach succeeded but was planned among the obstacles of its start frame only,
+    and an animated obstacle then cut through the baked hand. The reaches that succeed
+    are planned against every place the moving obstacles take, whether or not another
+    reach of the plan failed."""
+    arm, info = humanoid()
+    length = info.arm.arm_length
+    far = rigs.add_target("Far", point(info, 0.3, 0.2, 3.0))          # out of reach, above
+    target = rigs.add_target("Cup", point(info, 0.75, 0.1, -0.15))
+    # where the first (failed) reach ends, from a bake without the obstacle
+    first = bake(addon, arm, [far, target], task="sequence", bake_closest=True).results[0]
+    assert not first.success and first.reason in addon.core.REASONS
+    bpy.context.scene.frame_set(first.frame_end)
+    start = rig_mod.build(arm, "right").joints_world["wrist"]
+    bpy.context.scene.frame_set(1)
+    # a plate across the second reach's straight path, half way; on frame 1 it is far to
+    # the side, on frame 4 in place
+    path = np.array(target.location) - start
+    normal = path / np.linalg.norm(path)
+    across = np.cross(normal, info.frame.forward)
+    across /= np.linalg.norm(across)
+    rot = np.column_stack([across, np.cross(normal, across), normal])
+    plate = rigs.add_box("Plate", start + 0.5 * path, (0.3 * length, 0.3 * length,
+                                                       0.04 * length), rot)
+    across_path = np.array(plate.location)
+    slide(plate, across_path + 1.5 * length * info.frame.right, across_path, 4)
+
+    outcome = bake(addon, arm, [far, target], task="sequence", bake_closest=True,
+                   new_action=True)
+    first, second = outcome.results
+    assert not first.success and first.reason in addon.core.REASONS
+    assert second.success, second.message
+    wrist_end, _ = check_clear(arm, "right", second, ["Plate"])
+    assert np.linalg.norm(wrist_end - np.array(target.location)) <= 0.006 * length
+
+
 def test_a_motion_an_obstacle_cannot_miss_fails_with_its_name(fresh, addon):
     """A plate that comes down onto the hanging forearm at frame 3: no motion gets out of
     its way in time, so the reach fails naming it (it succeeded, touched, before)."""
