@@ -742,7 +742,9 @@ def markdown(result: dict) -> str:
              "scenes OMPL solved, a success touching an obstacle by the independent check "
              "counted as a failure; medians over the scenes OMPL solved, in ms: Reach's whole "
              "plan (search, smoothing, timing, the hand pass), its search alone, OMPL's "
-             "`solve` (no simplification).", "",
+             "`solve` (no simplification)."
+             + (f" Reach at `{result['reach_commit']}`." if result.get("reach_commit") else ""),
+             "",
              "| family | arm | scenes | OMPL solved | Reach solved (of those) | by method | "
              "Reach plan ms | Reach search ms | OMPL ms |", "|---|---|---|---|---|---|---|---|---|"]
     lines += [_row(c) for c in s["cells"]]
