@@ -382,8 +382,8 @@ class ConfigurationGenerator:
         tips = w_c + arm.hand_length * coefficients @ self.hand_axes(joints, bend)
         reach = arm.hand_length + arm.hand_radius
         wl = w_c.tolist()
-        caps = [(a, b, centre, half, r) for a, b, centre, half, r in self._capsules(float(body_rotation))
-                if point_segment_distance(wl, a, b) - r < reach]
+        caps = [c for c in self._capsules(float(body_rotation))     # (a, b, centre, half, r)
+                if point_segment_distance(wl, c[0], c[1]) - c[4] < reach]
         tips_l = tips.tolist()
         if caps:
             for i, tip in enumerate(tips_l):

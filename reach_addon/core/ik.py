@@ -693,17 +693,31 @@ def self_collision(arm: ArmModel, body: float, joints, include_hand: bool = True
                    capsules=None) -> np.ndarray:
     """True for each candidate (joints (n, 5, 3), canonical, one chest rotation ``body``)
     whose forearm, hand (if ``include_hand``) or elbow half of the upper arm passes through
-    one of the body's own capsules (chest and head turn with the chest rotation). The upper
-    arm's half nearest the shoulder is not tested: it is attached to the torso there.
-    ``capsules``: :func:`body_capsules_at` for ``body``, if the caller already has them."""
+    one of the body's own capsules (chest and head turn with the chest rotation): see
+    :func:`body_hit`. ``capsules``: :func:`body_capsules_at` for ``body``, if the caller
+    already has them."""
     joints = np.asarray(joints, dtype=float)
     out = np.zeros(len(joints), dtype=bool)
     if not arm.body_capsules:
         return out
     caps = body_capsules_at(arm, body) if capsules is None else capsules
-    for n, (_st, sh, el, wr, ha) in enumerate(joints.tolist()):
-        mid_upper = [0.5 * (sh[i] + el[i]) for i in range(3)]
-        out[n] = (segment_hits_body(mid_upper, el, arm.upper_arm_radius, caps)
-                  or segment_hits_body(el, wr, arm.forearm_radius, caps)
-                  or (include_hand and segment_hits_body(wr, ha, arm.hand_radius, caps)))
+    for n, pose in enumerate(joints.tolist()):
+        out[n] = body_hit(arm, pose, caps, include_hand) is not None
     return out
+
+
+def body_hit(arm: ArmModel, joints, capsules, include_hand: bool = True):
+    """(part, index into ``capsules``) of the first part of one pose — the elbow half of
+    the upper arm, the forearm, the hand (if ``include_hand``), in that order — that passes
+    through one of the body's ``capsules`` (:func:`body_capsules_at`), or None. ``joints``:
+    the pose's sternum, shoulder, elbow, wrist and hand end as float lists. The upper arm's
+    half nearest the shoulder is not tested: it is attached to the torso there."""
+    _st, sh, el, wr, ha = joints[:5]
+    parts = [("upper arm", [0.5 * (sh[i] + el[i]) for i in range(3)], el, arm.upper_arm_radius),
+             ("forearm", el, wr, arm.forearm_radius)]
+    if include_hand:
+        parts.append(("hand", wr, ha, arm.hand_radius))
+    for part, p, q, r in parts:
+        if segment_hits_body(p, q, r, capsules):
+            return part, next(k for k, c in enumerate(capsules) if segment_hits_body(p, q, r, [c]))
+    return None

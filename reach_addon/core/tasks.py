@@ -800,19 +800,12 @@ def chase_steps(planners, task: Task, chunk: int = 1):
 def body_contact(arm: ArmModel, pose: Pose):
     """(part, capsule name) of the first part of ``pose`` (the elbow half of the upper arm,
     the forearm, the hand) inside one of the character's own body capsules
-    (:func:`~reach_addon.core.ik.self_collision`'s test), or None."""
+    (:func:`~reach_addon.core.ik.body_hit`), or None."""
     if not arm.body_capsules:
         return None
-    caps = ik.body_capsules_at(arm, pose.config.body_rotation)
-    _st, sh, el, wr, ha = np.asarray(pose.joints, dtype=float)[:5].tolist()
-    mid = [0.5 * (a + b) for a, b in zip(sh, el)]
-    for part, p, q, r in (("upper arm", mid, el, arm.upper_arm_radius),
-                          ("forearm", el, wr, arm.forearm_radius),
-                          ("hand", wr, ha, arm.hand_radius)):
-        for capsule, c in zip(arm.body_capsules, caps):
-            if ik.segment_hits_body(p, q, r, [c]):
-                return part, capsule.name
-    return None
+    hit = ik.body_hit(arm, np.asarray(pose.joints, dtype=float).tolist(),
+                      ik.body_capsules_at(arm, pose.config.body_rotation))
+    return None if hit is None else (hit[0], arm.body_capsules[hit[1]].name)
 
 
 def first_contact(generator, poses, hand: HandReport, clearances, escaping: bool = False):
