@@ -1476,7 +1476,9 @@ def _reason_key(result: dict) -> str:
     the refusal's words."""
     detail = result["detail"]
     if detail.startswith("bad_input: "):
-        words = re.sub(r"'[^']*'", "'…'", detail[len("bad_input: "):])
+        # A name is quoted; it may hold quotes itself ('Cup''), so it ends at the quote
+        # that a space, a punctuation mark or the end of the line follows.
+        words = re.sub(r"(?<!\w)'.*?'(?=[\s;,.:)]|$)", "'…'", detail[len("bad_input: "):])
         words = re.sub(r"-?\d+(\.\d+)?(e-?\d+)?", "#", words)
         return "bad_input: " + words.split(";")[0]
     return detail.split(":")[0]

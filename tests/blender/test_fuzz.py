@@ -33,3 +33,16 @@ def test_every_generated_scene_is_a_verified_success_or_a_failure_with_a_reason(
         f"--quick --seed0 {r['seed']} --count 1 --keep DIR)" for r in bad)
     kinds = collections.Counter(r["category"] for r in results)
     assert kinds["success_verified"] >= 40 and kinds["failure_with_reason"] >= 40, kinds
+
+
+def test_refusals_are_counted_by_their_words_whatever_the_names_hold():
+    """fuzz.json counts refusals by their words with names and numbers taken out; a name
+    holding a quote (the generator's "Cup'") must not split a refusal into two keys."""
+    def key(detail):
+        return fuzz._reason_key({"detail": detail})
+    plain = key("bad_input: target 'Cup' has a NaN or infinite transform; fix its location")
+    quoted = key("bad_input: target 'Cup'' has a NaN or infinite transform; fix its location")
+    assert plain == quoted == "bad_input: target '…' has a NaN or infinite transform"
+    assert key("bad_input: armature 'A' is linked from '//lib.blend' and cannot be keyed; x") == (
+        "bad_input: armature '…' is linked from '…' and cannot be keyed")
+    assert key("no_path: the wrist did not catch 'a: b'") == "no_path"
