@@ -83,6 +83,7 @@ FUZZ_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 
 fuzz: setup
 	$(PY) bench/fuzz.py --count $(FUZZ_N) --jobs $(FUZZ_JOBS) --out bench/fuzz.json
+	$(PY) bench/readme.py
 
 # The extension zip: manifest + package + bundled presets staged into one folder, then
 # validated and built by Blender's own tool.

@@ -1571,6 +1571,9 @@ def main(argv=None) -> int:
             state["last"] = elapsed
             print(f"fuzz: {done}/{total} scenes, {elapsed:.0f} s", flush=True)
 
+    from bench.tight import git_commit
+
+    commit = git_commit()       # before the run: what the workers import from disk
     t0 = time.perf_counter()
     results = run_campaign(seeds, args.jobs, args.subframes, args.timeout, progress, args.quick)
     import bpy  # noqa: F401  (the versions below)
@@ -1578,6 +1581,7 @@ def main(argv=None) -> int:
     from reach_addon import __version__
 
     meta = {"generated_by": "bench/fuzz.py (make fuzz)", "reach_version": __version__,
+            "reach_commit": commit,
             "blender_version": bpy.app.version_string, "seed0": args.seed0, "count": args.count,
             "jobs": args.jobs, "subframes": args.subframes, "quick": args.quick,
             "wall_time_s": round(time.perf_counter() - t0, 1)}

@@ -1,10 +1,13 @@
 """Write the README's Performance table from ``bench/results.json`` (``make bench`` runs
-this after ``bench/run.py``), so the figures there are the bench's, never copied by hand.
+this after ``bench/run.py``) and its fuzz campaign's counts from ``bench/fuzz.json``
+(``make fuzz`` runs it after ``bench/fuzz.py``), so the figures there are the bench's,
+never copied by hand.
 
     python bench/readme.py [--check]
 
-The table sits between the markers ``<!-- bench:start -->`` and ``<!-- bench:end -->``.
-``--check`` exits 1 if the README's table is not the one the results give.
+The table sits between the markers ``<!-- bench:start -->`` and ``<!-- bench:end -->``, the
+counts between ``<!-- fuzz:start -->`` and ``<!-- fuzz:end -->``. ``--check`` exits 1 if
+the README's figures are not the ones the results give.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 START, END = "<!-- bench:start -->", "<!-- bench:end -->"
+FUZZ_START, FUZZ_END = "<!-- fuzz:start -->", "<!-- fuzz:end -->"
 TASKS = ("collision_free", "rotation", "guided", "chase")
 
 
@@ -134,24 +138,59 @@ def table(r: dict) -> str:
     return "\n".join(lines)
 
 
+def fuzz_counts(f: dict) -> str:
+    """The campaign's outcomes from ``bench/fuzz.json``: every category (a bug category
+    too, at 0), the seeds that did not pass, the most frequent failure reasons."""
+    last = f["seed0"] + f["scenes"] - 1
+    lines = [f"From `bench/fuzz.json`: {f['scenes']:,} scenes (seeds {f['seed0']}–{last}; Reach "
+             f"{f['reach_version']}" + (f" at {f['reach_commit']}" if f.get("reach_commit") else "")
+             + f", bpy {f['blender_version']}, {f['jobs']} worker process"
+             + ("es" if f["jobs"] != 1 else "") + ", "
+             f"{f['wall_time_s'] / 60:.0f} min, median {f['seconds_per_scene_median']:.2f} s a "
+             f"scene): **{f['passed']:,} passed** ({100 * f['passed'] / f['scenes']:.2f} %).",
+             "", "| outcome | scenes | example seed |", "|---|---:|---|"]
+    for name, c in f["categories"].items():
+        lines.append(f"| `{name}` | {c['count']:,} | {c.get('example_seed', '')} |")
+    if f["not_passing"]:
+        lines += ["", "Not passing: " + "; ".join(
+            f"seed {r['seed']} (`{r['category']}`: {r['detail']})" for r in f["not_passing"])
+            + "."]
+    reasons = sorted(f["failure_reasons"].items(), key=lambda kv: (-kv[1]["count"], kv[0]))
+    lines += ["", "The most frequent failure reasons: " + "; ".join(
+        f"`{k}` {v['count']:,} (seed {v['example_seed']})" for k, v in reasons[:8]) + "."]
+    return "\n".join(lines)
+
+
+def _between(text: str, start: str, end: str, body: str) -> str | None:
+    if start not in text or end not in text:
+        return None
+    head, rest = text.split(start, 1)
+    _old, tail = rest.split(end, 1)
+    return f"{head}{start}\n{body}\n{end}{tail}"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true")
     parser.add_argument("--results", default=str(ROOT / "bench" / "results.json"))
+    parser.add_argument("--fuzz", default=str(ROOT / "bench" / "fuzz.json"))
     args = parser.parse_args(argv)
     results = json.loads(Path(args.results).read_text())
+    fuzz = json.loads(Path(args.fuzz).read_text())
     readme = ROOT / "README.md"
     text = readme.read_text()
-    if START not in text or END not in text:
-        print(f"README.md has no {START} … {END} markers", file=sys.stderr)
-        return 2
-    head, rest = text.split(START, 1)
-    _old, tail = rest.split(END, 1)
-    new = f"{head}{START}\n{table(results)}\n{END}{tail}"
+    new = text
+    for start, end, body in ((START, END, table(results)),
+                             (FUZZ_START, FUZZ_END, fuzz_counts(fuzz))):
+        new = _between(new, start, end, body)
+        if new is None:
+            print(f"README.md has no {start} … {end} markers", file=sys.stderr)
+            return 2
     if args.check:
         return 0 if new == text else 1
     readme.write_text(new)
-    print("README.md: Performance table written from", args.results)
+    print("README.md: Performance table and fuzz counts written from", args.results, "and",
+          args.fuzz)
     return 0
 
 

@@ -604,7 +604,7 @@ def run(count: int = DEFAULT_COUNT, seed: int = 0, ompl_time_s: float = DEFAULT_
                                                                             families))}
     starts = {name: start_config(arm, settings) for name, arm in arm_models.items()}
     result = {"count": count, "seed": seed, "ompl_time_s": ompl_time_s,
-              "reach_commit": _commit(),
+              "reach_commit": git_commit(),
               "arms": {name: arm_record(arm, starts[name]) for name, arm in arm_models.items()},
               "scenes": []}
     earlier = {}
@@ -643,7 +643,7 @@ def run(count: int = DEFAULT_COUNT, seed: int = 0, ompl_time_s: float = DEFAULT_
     return result
 
 
-def _commit() -> str:
+def git_commit() -> str:
     """The commit Reach runs at (``-dirty`` with uncommitted changes), or '?'."""
     import subprocess
 

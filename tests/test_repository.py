@@ -1,6 +1,7 @@
 """Repository rules that can be checked mechanically."""
 
 import ast
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -33,12 +34,26 @@ def test_lint_is_clean():
 
 
 def test_the_readme_performance_figures_are_the_bench_results():
-    """The README's Performance table is generated from bench/results.json
-    (bench/readme.py), so it cannot drift from what make bench measured."""
+    """The README's Performance table is generated from bench/results.json and its fuzz
+    counts from bench/fuzz.json (bench/readme.py), so they cannot drift from what make
+    bench and make fuzz measured."""
     done = subprocess.run([sys.executable, str(ROOT / "bench" / "readme.py"), "--check"],
                           cwd=ROOT, capture_output=True, text=True, timeout=120)
-    assert done.returncode == 0, ("README.md's Performance table differs from "
-                                  "bench/results.json: run python bench/readme.py " + done.stderr)
+    assert done.returncode == 0, ("README.md's Performance table or fuzz counts differ from "
+                                  "bench/results.json, bench/fuzz.json: run python "
+                                  "bench/readme.py " + done.stderr)
+
+    # and the check can fail: the counts of another campaign are not the README's
+    sys.path.insert(0, str(ROOT / "bench"))
+    try:
+        import readme
+    finally:
+        sys.path.remove(str(ROOT / "bench"))
+    fuzz = json.loads((ROOT / "bench" / "fuzz.json").read_text())
+    text = (ROOT / "README.md").read_text()
+    assert readme.fuzz_counts(fuzz) in text
+    fuzz["passed"] -= 1
+    assert readme.fuzz_counts(fuzz) not in text
 
 
 def _import_cycles(*args):
