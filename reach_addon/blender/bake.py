@@ -234,11 +234,14 @@ def settle(context, armature, keyed, reference, targets_arm, locals_, start_pose
     :data:`SETTLE_TOLERANCE` radians, its keyed bone is turned by the difference
     (``pose_bone.matrix``, which Blender turns into channels through the evaluated parent)
     and the pose evaluated again, up to :data:`SETTLE_ROUNDS` times. Only turns are keyed, so
-    where the rig moves a bone's head itself the whole arm below keeps that offset (Rigify's
-    spine stretches a little as the chest turns: 0.2% of the arm at 10°, 0.8% at 40°; aiming
-    each bone's tail at the planned tail instead left the joints further off). The pose the
-    user had is restored, however this ends. Rigs without constraints or drivers on the
-    keyed chain are left as computed: parenting alone is exact there.
+    every bone keeps its own location throughout, as it will in the baked file. Where the
+    rig moves a bone's head itself (Rigify's spine stretches a little as the chest turns:
+    0.2% of the arm at 10°, 0.8% at 40°) the clavicle and the shoulder keep that offset,
+    and upper arm and forearm are turned so the wrist still lands on the plan's
+    (:func:`wrist_kept`; aiming each bone's tail at the planned tail instead left the joints
+    further off). The pose the user had is restored, however this ends. Rigs without
+    constraints or drivers on the keyed chain are left as computed: parenting alone is
+    exact there.
 
     Returns the largest distance left between a planned joint (each reference bone's head,
     the hand's tail) and where the rig puts it, as a share of the arm's length (0 when
@@ -259,21 +262,34 @@ def settle(context, armature, keyed, reference, targets_arm, locals_, start_pose
         palms.pop(keyed["hand"])
     hand_tail = np.array([0.0, data[reference["hand"]].length, 0.0, 1.0]) \
         if "hand" in reference else None
+    # only turns are keyed: each bone keeps the location it has, here as in the baked file
+    kept = {n: bones[n].location.copy() for n in touched}
     worst = 0.0
     try:
         for k in range(frames):
             for name in touched:
                 bones[name].matrix_basis = Matrix(locals_[name][k].tolist())
+                bones[name].location = kept[name]
             context.view_layer.update()
             goals = [(keyed[r], reference[r], targets_arm[r][k]) for r in order]
             goals += [(p, p, t[k]) for p, t in palms.items()]
-            for key, ref, target in goals:
+            for i, (key, ref, target) in enumerate(goals):
+                if order[i:i + 3] == ["upper_arm", "forearm", "hand"]:
+                    # the rig has put the shoulder where it does (chest and clavicle are
+                    # settled by now): turn upper arm and forearm so the wrist still lands
+                    # where it was planned
+                    shoulder = np.array(bones[ref].matrix)[:3, 3]
+                    upper, fore = wrist_kept(shoulder, target, goals[i + 1][2],
+                                             goals[i + 2][2][:3, 3])
+                    goals[i + 1] = (*goals[i + 1][:2], fore)
+                    target = upper
                 for _round in range(SETTLE_ROUNDS + 1):
                     actual = np.array(bones[ref].matrix)
                     if _turn_error(actual, target) <= SETTLE_TOLERANCE or _round == SETTLE_ROUNDS:
                         break
                     now = np.array(bones[key].matrix)
                     bones[key].matrix = Matrix((target @ affine_inverse(actual) @ now).tolist())
+                    bones[key].location = kept[key]
                     context.view_layer.update()
                 locals_[key][k] = np.array(bones[key].matrix_basis)
             for role, ref in reference.items():
@@ -287,6 +303,54 @@ def settle(context, armature, keyed, reference, targets_arm, locals_, start_pose
             bones[name].matrix_basis = basis
         context.view_layer.update()
     return worst / length
+
+
+def wrist_kept(shoulder, upper, fore, wrist):
+    """Turn targets for the upper arm and the forearm (armature-space matrices, their
+    heads at the planned shoulder and elbow) that keep the planned ``wrist`` where the
+    rig has put the shoulder instead (Rigify's spine stretches as the chest turns, moving
+    it by up to 0.8 % of the arm): the elbow goes to the point of the circle of elbows
+    between ``shoulder`` and ``wrist`` (the bones' own lengths) nearest the planned one,
+    and each bone turns by the least rotation onto its new direction. Where the wrist is
+    beyond the arm's reach from there the arm points straight at it. Returns the two
+    matrices, their heads at the new shoulder and elbow."""
+    elbow = fore[:3, 3]
+    a = float(np.linalg.norm(elbow - upper[:3, 3]))
+    b = float(np.linalg.norm(wrist - elbow))
+    axis = wrist - shoulder
+    d = float(np.linalg.norm(axis))
+    if a < 1e-12 or b < 1e-12 or d < 1e-12:
+        return upper, fore
+    axis = axis / d
+    d = min(max(d, abs(a - b)), a + b)
+    along = (a * a - b * b + d * d) / (2.0 * d)       # the elbow circle's centre ...
+    radius = math.sqrt(max(a * a - along * along, 0.0))    # ... and radius
+    side = (elbow - shoulder) - np.dot(elbow - shoulder, axis) * axis
+    n = float(np.linalg.norm(side))
+    new_elbow = shoulder + along * axis + (radius * side / n if n > 1e-12 else 0.0)
+
+    def turned(m, head, old_dir, new_dir):
+        out = m.copy()
+        out[:3, :3] = _least_rotation(old_dir, new_dir) @ m[:3, :3]
+        out[:3, 3] = head
+        return out
+
+    return (turned(upper, shoulder, elbow - upper[:3, 3], new_elbow - shoulder),
+            turned(fore, new_elbow, wrist - elbow, wrist - new_elbow))
+
+
+def _least_rotation(u, v):
+    """The rotation matrix of least angle that turns direction ``u`` onto ``v``."""
+    u = u / np.linalg.norm(u)
+    v = v / np.linalg.norm(v)
+    c = float(np.dot(u, v))
+    w = np.cross(u, v)
+    if c < -1.0 + 1e-12:        # opposite: half a turn about any axis across u
+        w = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
+        w /= np.linalg.norm(w)
+        return 2.0 * np.outer(w, w) - np.eye(3)
+    k = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    return np.eye(3) + k + k @ k / (1.0 + c)
 
 
 def affine_inverse(m):

@@ -154,7 +154,12 @@ def test_rigify_chest_turned_the_evaluated_arm_follows_the_plan(fresh, addon, mi
                                for i, h in enumerate(heads)))
     assert worst <= 0.01 * length, f"an arm joint is {worst / length:.3f} arm lengths off the plan"
     assert res.stats["rig_residual_arm_lengths"] <= 0.01
-    assert np.linalg.norm(heads[2] - np.array(target.matrix_world.translation)) <= 0.01 * length
+    # the wrist on the target within the planner's own goal tolerance, although the rig
+    # moves the shoulder (upper arm and forearm turn to keep the wrist; fuzz seed 6285, a
+    # chase on Rigify, ended 0.0056 arm lengths off: the bones' locations were off in the
+    # evaluation the keys were corrected by, and only turns are keyed)
+    gap = np.linalg.norm(heads[2] - np.array(target.matrix_world.translation))
+    assert gap <= plan.settings.goal_tolerance * length, f"the wrist {gap / length:.4f} off"
 
 
 def test_quaternions_do_not_flip_and_other_rotation_modes_are_respected(fresh, addon):
