@@ -263,7 +263,7 @@ def settle(context, armature, keyed, reference, targets_arm, locals_, start_pose
     hand_tail = np.array([0.0, data[reference["hand"]].length, 0.0, 1.0]) \
         if "hand" in reference else None
     # only turns are keyed: each bone keeps the location it has, here as in the baked file
-    kept = {n: bones[n].location.copy() for n in touched}
+    kept = {n: basis.to_translation() for n, basis in saved.items()}
     worst = 0.0
     try:
         for k in range(frames):
@@ -331,26 +331,13 @@ def wrist_kept(shoulder, upper, fore, wrist):
 
     def turned(m, head, old_dir, new_dir):
         out = m.copy()
-        out[:3, :3] = _least_rotation(old_dir, new_dir) @ m[:3, :3]
+        least = Vector(old_dir).rotation_difference(Vector(new_dir)).to_matrix()
+        out[:3, :3] = np.array(least) @ m[:3, :3]
         out[:3, 3] = head
         return out
 
     return (turned(upper, shoulder, elbow - upper[:3, 3], new_elbow - shoulder),
             turned(fore, new_elbow, wrist - elbow, wrist - new_elbow))
-
-
-def _least_rotation(u, v):
-    """The rotation matrix of least angle that turns direction ``u`` onto ``v``."""
-    u = u / np.linalg.norm(u)
-    v = v / np.linalg.norm(v)
-    c = float(np.dot(u, v))
-    w = np.cross(u, v)
-    if c < -1.0 + 1e-12:        # opposite: half a turn about any axis across u
-        w = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
-        w /= np.linalg.norm(w)
-        return 2.0 * np.outer(w, w) - np.eye(3)
-    k = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-    return np.eye(3) + k + k @ k / (1.0 + c)
 
 
 def affine_inverse(m):
