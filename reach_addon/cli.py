@@ -46,6 +46,9 @@ HAND_REPORT_KEYS = ("max_wrist_turn_deg_per_frame", "max_hand_turn_deg_per_frame
                     "unbounded_hand_turns", "touching_transitions",
                     # Match orientation (core.orient): null when it was not asked for
                     "orientation_error_deg", "orientation_met")
+#: The bake's figures of each baked task (README, "The report"): how far the rig put a
+#: planned joint, and the spans between keys made linear (and still too close after it).
+BAKE_REPORT_KEYS = ("rig_residual_arm_lengths", "linear_spans", "close_spans")
 
 
 class Interrupted(BaseException):
@@ -217,6 +220,7 @@ def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
             "frames": st["frames"], "planning_time_s": st["planning_time_s"],
             "sampling_states": st["sampling_states"],
             **{k: st[k] for k in HAND_REPORT_KEYS if k in st},
+            **{k: st[k] for k in BAKE_REPORT_KEYS if k in st},
         })
     return {
         "reach_version": __version__, "blender_version": bpy.app.version_string,

@@ -36,12 +36,15 @@ the running Blender has — ``Action.fcurves`` (≤ 4.3), or slots + layers + st
 channelbags (4.4+) — found by capability, not by version number. Existing keys of the baked
 channels inside the baked frame range are replaced; every other key stays. With
 ``new_action`` the armature's action is copied first and the copy receives the keys.
+New keys get the interpolation of the user's preferences; then the instants between them
+are checked as Blender evaluates them, and a span that comes closer to an obstacle than
+the planner allows is made linear (:func:`straighten`).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
@@ -64,6 +67,11 @@ class BakeResult:
     #: the largest distance left between a planned bone and where the keys put it, as a
     #: share of the arm's length (:func:`settle`; 0 for rigs that need no settling)
     residual: float = 0.0
+    #: per plan, the spans between two keys made linear because Blender's curve between
+    #: them came closer to an obstacle than the planner allows (:func:`straighten`)
+    linear_spans: list = field(default_factory=list)
+    #: per plan, the spans still closer than that after it (0 when every instant is clear)
+    close_spans: list = field(default_factory=list)
 
 
 # --- matrices ---------------------------------------------------------------------------
@@ -562,8 +570,11 @@ def write_channel(channels, path, values, frames, group):
         fc.update()
 
 
-def bake(context, armature, info, plans, new_action=False) -> BakeResult:
-    """Write keys for ``plans`` [(Plan, first frame)] on ``armature`` (see the module doc)."""
+def bake(context, armature, info, plans, new_action=False, checkers=None) -> BakeResult:
+    """Write keys for ``plans`` [(Plan, first frame)] on ``armature`` (see the module doc).
+    ``checkers``: per plan, the collision checkers of its between-key instants (one per
+    pose, or one for all); with them the instants between keys are checked as Blender
+    interpolates them (:func:`straighten`)."""
     bmap = info.bones
     pose = armature.pose.bones
     mw = np.array(armature.matrix_world)
@@ -601,10 +612,13 @@ def bake(context, armature, info, plans, new_action=False) -> BakeResult:
     action = ensure_action(armature, new_action)
     channels = Channels(armature, action)
     last = first
+    curves = []
     for locals_, frames in baked:
         for name, mats in locals_.items():
             path, values = channel_values(pose[name], mats)
-            write_channel(channels, f'pose.bones["{name}"].{path}', values, frames, name)
+            full = f'pose.bones["{name}"].{path}'
+            write_channel(channels, full, values, frames, name)
+            curves += [(full, i) for i in range(values.shape[1])]
         last = max(last, int(frames[-1]))
     for bone_name, prop in switches:
         write_channel(channels, f'pose.bones["{bone_name}"]["{prop}"]',
@@ -612,4 +626,226 @@ def bake(context, armature, info, plans, new_action=False) -> BakeResult:
     context.view_layer.update()
     order = [n for r in ROLE_ORDER if r in keyed
              for n in (hand_group(armature, keyed[r]) if r == "hand" else (keyed[r],))]
-    return BakeResult(action.name, order, (first, last), residual)
+    result = BakeResult(action.name, order, (first, last), residual)
+    if checkers is not None:
+        curves = [channels.bag.fcurves.find(path, index=i) for path, i in dict.fromkeys(curves)]
+        result.linear_spans, result.close_spans = straighten(
+            context, armature, info, plans, checkers, curves, reference)
+    return result
+
+
+def _carriers(info, reference) -> tuple:
+    """The bone that carries each of the arm's five joints (sternum, shoulder, elbow,
+    wrist, hand end): the chest, upper arm, forearm, hand, hand (reference bones)."""
+    return (info.bones.keyed_chest, reference["upper_arm"], reference["forearm"],
+            reference["hand"], reference["hand"])
+
+
+def straighten(context, armature, info, plans, checkers, curves, reference) -> tuple:
+    """Check the instants between keys as Blender interpolates them, and make linear the
+    spans that come too close.
+
+    The planner checks its motion at ``Settings.instants_per_frame`` instants between two
+    keys, interpolating its own five angles linearly, against half the clearance
+    (:meth:`~reach_addon.core.generator.ConfigurationGenerator.between_keys`). Blender
+    interpolates each keyed channel by its own curve: with the user's default, Bézier, a
+    span bows away from the straight line between its keys. With a margin that bow stays
+    inside the half of the clearance the keys do not use; with no clearance it can dip
+    into an obstacle (fuzz seeds 799, 849, 901: 0.001–0.005 arm lengths in at a sub-frame
+    instant).
+
+    So each span of each plan is evaluated by Blender at the same instants
+    (``scene.frame_set(f, subframe=s)``); the arm's joints are carried by their bones
+    (:func:`_carriers`) from where the plan puts them at the two keys, blended by ``s``,
+    and measured against the plan's own obstacles (``checkers``: per plan, one per pose
+    or one for all; each span against those of both its keys) to within
+    :data:`STRAIGHTEN_TOLERANCE` (:meth:`~reach_addon.core.collision.CollisionChecker.
+    pose_clearance`). A span must keep the planner's margin between keys where both of
+    its keys keep it, and must not touch where they are within it (a motion leaving a
+    start in contact); a span with a key in contact is the planner's own and is not
+    changed. A span that comes too close gets linear interpolation on every keyed
+    channel (the key at its start decides; neighbouring spans keep their shape): Blender
+    then follows the straight line between the keys, which the planner checked. If that
+    comes too close as well, the user's interpolation is put back and the span counted.
+
+    Cost: spans whose keys turn the arm too little to come that close (a bound read from
+    the curves, :func:`_turn_reader`) are not evaluated; the rest cost a scene
+    evaluation per instant (about 0.1 s a task on the demo's character).
+
+    Returns per plan (spans made linear, spans still too close after it)."""
+    scene = context.scene
+    bones = armature.pose.bones
+    mw = np.array(armature.matrix_world)
+    carriers = _carriers(info, reference)
+    # every curve's keys by frame, to find the key that starts a span
+    keys = []
+    for fc in curves:
+        pts = fc.keyframe_points
+        co = np.empty(2 * len(pts), np.float32)
+        pts.foreach_get("co", co)
+        keys.append((pts, {int(round(x)): i for i, x in enumerate(co[0::2].tolist())}))
+
+    def carried(frame, sub=0.0):
+        scene.frame_set(frame, subframe=sub)
+        return [mw @ np.array(bones[c].matrix) for c in carriers]
+
+    def local(mats, joints):
+        return [np.linalg.solve(m, np.append(p, 1.0))[:3] for m, p in zip(mats, joints)]
+
+    turned = _turn_reader(armature, curves, carriers)
+    chest_head = (mw @ np.array(bones[carriers[0]].matrix))[:3, 3]
+    now = (scene.frame_current, scene.frame_subframe)
+    try:
+        return _straighten_plans(plans, checkers, keys, carried, local, turned, chest_head)
+    finally:
+        scene.frame_set(now[0], subframe=now[1])
+
+
+def _turn_reader(armature, curves, carriers):
+    """A bound on how far the keys turn the arm between two keys, read from the keyed
+    curves alone (``FCurve.evaluate``, no scene evaluation): ``turned(f, s)`` gives, for
+    the instant ``f`` + ``s``, the sum over the keyed bones of the angle (radians) each
+    bone's own rotation has turned from key ``f`` and from key ``f`` + 1. No joint moves
+    farther than that sum times the distance from the chest to the hand's end (each
+    bone turns the joints it carries about its own head, and none is farther from it).
+    None on a rig whose keyed bones also move through constraints or drivers, where the
+    curves do not tell the whole motion."""
+    groups = {}
+    for fc in curves:
+        name = fc.data_path.split('"')[1]
+        mode = fc.data_path.rsplit(".", 1)[-1]
+        groups.setdefault((name, mode), []).append(fc)
+    if _driven(armature, {name for name, _m in groups} | set(carriers)):
+        return None
+
+    def rotation(mode, values):
+        if mode == "rotation_quaternion":
+            q = Quaternion(values)
+        elif mode == "rotation_axis_angle":
+            q = Quaternion(values[1:], values[0])
+        else:
+            return Euler(values).to_quaternion()     # any order: only bounds differences
+        return q.normalized()
+
+    def turned(f, s):
+        out = [0.0, 0.0]
+        for (_name, mode), fcs in groups.items():
+            fcs = sorted(fcs, key=lambda c: c.array_index)
+            now = rotation(mode, [c.evaluate(f + s) for c in fcs])
+            for i, key in enumerate((f, f + 1)):
+                if mode == "rotation_euler":
+                    # an Euler turn of each channel: the sum of the three angles bounds it
+                    out[i] += sum(abs(c.evaluate(f + s) - c.evaluate(key)) for c in fcs)
+                else:
+                    out[i] += now.rotation_difference(
+                        rotation(mode, [c.evaluate(key) for c in fcs])).angle
+        return out
+    return turned
+
+
+#: how exactly :func:`straighten` measures clearances, as a share of the arm's length
+STRAIGHTEN_TOLERANCE = 1e-4
+#: ... and the clearance of keys well clear of the margin (only a bound for the instants)
+KEY_TOLERANCE = 2e-3
+
+
+def _span_touches(carried, f, n, a, b, checkers, need, settings, keys) -> bool:
+    """Does the arm come closer than ``need`` to the obstacles (of any of ``checkers``)
+    at one of the ``n`` - 1 instants Blender evaluates between keys ``f`` and ``f`` + 1?
+    Each joint is carried by its bone from its place at either key (``a``, ``b``:
+    bone-local points), blended by the instant. ``keys``: ((joints, clearance) of both
+    keys): no joint moves farther than δ from a key's place, so no capsule comes nearer
+    than that key's clearance - δ; only instants this bound leaves open are measured."""
+    for i in range(1, n):
+        s = i / n
+        mats = carried(f, s)
+        world = np.array([(m @ np.append((1.0 - s) * p + s * q, 1.0))[:3]
+                          for m, p, q in zip(mats, a, b)])
+        bound = max(c - float(np.linalg.norm(world - j, axis=1).max()) for j, c in keys)
+        if bound >= need:
+            continue
+        if _pose_clearance(checkers, world, settings, need) < need:
+            return True
+    return False
+
+
+def _pose_clearance(checkers, joints, settings, horizon, share=STRAIGHTEN_TOLERANCE) -> float:
+    """A pose's least clearance (figure units, no margin) against each of ``checkers``'
+    obstacles, to ``share`` of the arm's length above it at most, looking no farther than
+    ``horizon`` (beyond it: at least ``horizon``)."""
+    tolerance = share * checkers[0].arm.arm_length
+    return min(c.pose_clearance(joints, horizon + tolerance, tolerance,
+                                bool(settings.check_hand)) for c in checkers)
+
+
+def _straighten_plans(plans, checkers, keys, carried, local, turned, chest_head) -> tuple:
+    """:func:`straighten`'s loop over every span of every plan."""
+    linear, close = [], []
+    for (plan, frame0), own in zip(plans, checkers):
+        linear.append(0)
+        close.append(0)
+        own = list(own)
+        settings = plan.settings
+        n = max(2, int(settings.instants_per_frame))
+        joints = plan.world_joints()
+        length = plan.arm.arm_length
+        margin = 0.5 * settings.clearance * length     # the planner's, between keys
+        ends = [None] * len(joints)                     # each key's clearance, once
+        before = None
+        # keys farther than this need no exact clearance: the bound of _span_touches
+        horizon = margin + 0.25 * length
+        # the farthest any joint is from the head of a bone that carries it: the chest's,
+        # or the clavicle's, upper arm's, ... (at most the chain's length from it)
+        reach = max(float(np.linalg.norm(joints - chest_head, axis=2).max()),
+                    float(np.linalg.norm(joints[0, 1] - joints[0, 0])) + length
+                    + plan.arm.hand_length)
+        coarse = KEY_TOLERANCE * length
+        for k in range(len(plan.poses) - 1):
+            pair = list({id(c): c for c in (own[min(k, len(own) - 1)],
+                                            own[min(k + 1, len(own) - 1)])}.values())
+            for i in (k, k + 1):
+                if ends[i] is None or len(pair) > 1:
+                    # coarsely first: a key clear of the margin by more than that
+                    # tolerance needs no more (its clearance only bounds the instants
+                    # near it, from below); one nearer is measured exactly
+                    ends[i] = _pose_clearance(pair, joints[i], settings, horizon,
+                                              KEY_TOLERANCE) - coarse
+                    if ends[i] < margin:
+                        ends[i] = _pose_clearance(pair, joints[i], settings, horizon)
+            if min(ends[k], ends[k + 1]) < 0.0:
+                # a key in contact: a start in contact being left, the planner's own
+                before = None
+                continue
+            # the planner's margin between keys where both keys keep it; elsewhere (a
+            # motion leaving a start in contact) no contact
+            need = (margin if min(ends[k], ends[k + 1]) >= margin else 0.0) \
+                - STRAIGHTEN_TOLERANCE * length
+            f = frame0 + k
+            if turned is not None and all(
+                    max(ends[k] - ta * reach, ends[k + 1] - tb * reach) >= need
+                    for ta, tb in (turned(f, i / n) for i in range(1, n))):
+                before = None      # the keys turn the arm too little to come that close
+                continue
+            a = before if before is not None else local(carried(f), joints[k])
+            b = local(carried(f + 1), joints[k + 1])
+            before = b
+
+            def touches(span=(f, n, a, b, pair, need, settings,
+                              ((joints[k], ends[k]), (joints[k + 1], ends[k + 1])))):
+                return _span_touches(carried, *span)
+
+            if not touches():
+                continue
+            starts = [(pts[i], pts[i].interpolation) for pts, at in keys
+                      if (i := at.get(int(f))) is not None]
+            for point, _was in starts:
+                point.interpolation = "LINEAR"
+            if touches():
+                # the straight line comes too close as well (the planner's angles and the
+                # bones' rotations part between keys): the user's interpolation stays
+                for point, was in starts:
+                    point.interpolation = was
+                close[-1] += 1
+            else:
+                linear[-1] += 1
+    return linear, close

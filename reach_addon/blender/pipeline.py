@@ -255,6 +255,8 @@ def steps(context, request: Request, bake: bool = True):
 
         planner = Planner(info.arm, obstacles, settings)
         plans = []
+        # per plan, the checkers of the instants between its keys (one per pose, or one)
+        between = []
         frame = frame_start
         for k, task in enumerate(tasks):
             if frame_obstacles is not None and any(o is not obstacles for o in frame_obstacles):
@@ -262,8 +264,10 @@ def steps(context, request: Request, bake: bool = True):
                 planners = {id(obstacles): planner}
                 for o in frame_obstacles:
                     planners.setdefault(id(o), Planner(info.arm, o, settings))
-                plan_steps = chase_steps([planners[id(o)] for o in frame_obstacles], task)
+                frame_planners = [planners[id(o)] for o in frame_obstacles]
+                plan_steps = chase_steps(frame_planners, task)
             else:
+                frame_planners = None
                 plan_steps = planner.plan_steps(task)
             plan = yield from _progress(plan_steps, k, len(tasks))
             if moving and any(seg.success for seg in plan.segments):
@@ -286,28 +290,32 @@ def steps(context, request: Request, bake: bool = True):
                     planner = Planner(info.arm, obstacles_from_pieces(union), settings)
                     plan = yield from _progress(planner.plan_steps(task), k, len(tasks))
                 _check_moving(plan, frame, swept, covered, moving, settings)
+            between.append([p.generator.between_keys().checker
+                            for p in (frame_planners or [planner])])
             plans.append((plan, frame))
             frame += len(plan.poses)
 
         outcome = Outcome(request, info, plans, [], obstacles=obstacles.triangle_counts())
-        keyed, residual = [], None
+        keyed, baked_result = [], None
         draw = request.draw
         baked = [(p, f) for p, f in plans if p.success or request.bake_closest] if bake else []
+        between = [c for (p, _f), c in zip(plans, between) if p.success or request.bake_closest]
         # The last yield: from here on the scene changes (keys, drawing), so nothing below
         # yields and a caller that stops at any yield has changed nothing.
         yield 0.92, "baking keys" if baked else "drawing"
         if bake:
             if baked:
-                result = bake_mod.bake(context, armature, info, baked, request.new_action)
+                result = bake_mod.bake(context, armature, info, baked, request.new_action,
+                                       checkers=between)
                 outcome.baked, outcome.action, keyed = True, result.action, result.bones
-                residual = result.residual
+                baked_result = result
             else:
                 # Nothing the user asked for can be baked: leave the scene as it was.
                 failed = next(p for p, _f in plans if not p.success)
                 outcome.failure = (f"{failed.message}; nothing was baked (turn on 'Bake "
                                    "closest approach' to bake the motion that gets closest)")
                 draw = False
-        outcome.results = _results(info, plans, keyed, request, residual)
+        outcome.results = _results(info, plans, keyed, request, baked_result)
         for r in outcome.results if still else ():
             r.message += f"; {still}"
         if draw:
@@ -555,18 +563,25 @@ def run(context, request: Request, bake: bool = True) -> Outcome:
     return drain(steps(context, request, bake))
 
 
-def _results(info, plans, keyed, request, residual=None):
-    """A :class:`TaskResult` per target. ``residual``: the bake's
-    (:attr:`.bake.BakeResult.residual`), in each baked task's statistics as
+def _results(info, plans, keyed, request, baked_result=None):
+    """A :class:`TaskResult` per target. ``baked_result``: the bake's
+    :class:`.bake.BakeResult`, in each baked task's statistics as
     ``rig_residual_arm_lengths`` (how far the rig put a planned joint; 0 on rigs whose keys
-    carry the arm exactly)."""
+    carry the arm exactly), ``linear_spans`` (spans between keys made linear so that
+    Blender's curve keeps clear, :func:`.bake.straighten`) and ``close_spans`` (spans
+    still too close after it; 0 when every instant is clear)."""
     out = []
+    index = -1           # the plan's place among the baked ones
     for plan, first in plans:
         baked = plan.success or request.bake_closest
+        index += baked
         for seg in plan.segments:
             stats = seg.stats.to_dict()
-            if baked and residual is not None:
-                stats["rig_residual_arm_lengths"] = float(residual)
+            if baked and baked_result is not None:
+                stats["rig_residual_arm_lengths"] = float(baked_result.residual)
+                if index < len(baked_result.linear_spans):
+                    stats["linear_spans"] = baked_result.linear_spans[index]
+                    stats["close_spans"] = baked_result.close_spans[index]
             out.append(TaskResult(
                 seg.name, info.side, seg.success, seg.reason, seg.message,
                 first + seg.frame_start, first + seg.frame_end,

@@ -387,6 +387,50 @@ class CollisionChecker:
         """Does a pose (world joints, (5, 3)) come within the clearance of an obstacle?"""
         return self.first_hit(world_joints, include_hand) is not None
 
+    def axis_distance(self, p, q, horizon: float, tolerance: float) -> float:
+        """Least distance from the segment p-q (world points) to the obstacles' surfaces,
+        to within ``tolerance`` (never more than ``tolerance`` above it), or ``horizon``
+        when nothing is that close. Branch and bound on the distance's 1-Lipschitz bound
+        (the class docstring's test 1): a piece whose ends are ``d_a`` and ``d_b`` away
+        and ``l`` apart is nowhere nearer than (``d_a`` + ``d_b`` - ``l``) / 2, so only
+        pieces that could hold a nearer point are split."""
+        tree = self.obstacles.tree
+        if tree is None:
+            return horizon
+        p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+        length = float(np.linalg.norm(q - p))
+        bound = horizon + length
+
+        def d(t):
+            hit = tree.find_nearest((p + (q - p) * t).tolist(), bound)
+            return bound if hit[0] is None else hit[3]
+
+        d0, d1 = d(0.0), d(1.0)
+        best = min(d0, d1)
+        pieces = [(0.0, 1.0, d0, d1)]
+        while pieces:
+            a, b, da, db = pieces.pop()
+            if 0.5 * (da + db - (b - a) * length) >= min(best, horizon) - tolerance:
+                continue
+            m = 0.5 * (a + b)
+            dm = d(m)
+            best = min(best, dm)
+            pieces += [(a, m, da, dm), (m, b, dm, db)]
+        return min(best, horizon)
+
+    def pose_clearance(self, world_joints, horizon: float, tolerance: float,
+                       include_hand: bool = True) -> float:
+        """Least distance between a pose's capsule surfaces (no margin) and the
+        obstacles, to within ``tolerance`` (:meth:`axis_distance`), at most ``horizon``;
+        negative where a capsule is in contact, by how deep."""
+        j = np.asarray(world_joints, dtype=float)
+        segments = self.segments if include_hand else self._arm_segments
+        best = horizon
+        for seg in segments:
+            r = seg.radius - self.margin
+            best = min(best, self.axis_distance(j[seg.a], j[seg.b], best + r, tolerance) - r)
+        return best
+
     def clearance(self, world_joints, search_radius) -> float:
         """Least distance between the arm's capsule surfaces (without the clearance margin)
         and any obstacle, looking no farther than ``search_radius``; ``inf`` if nothing is

@@ -34,3 +34,39 @@ def test_segment_distance_is_the_least_distance_between_the_segments():
         assert brute - slack <= exact <= brute + 1e-12, (p1, q1, p2, q2, exact, brute)
         if np.linalg.norm(q2 - p2) == 0.0:
             assert abs(exact - point_segment_distance(p2.tolist(), p1.tolist(), q1.tolist())) < 1e-12
+
+
+def test_axis_distance_is_the_segments_least_distance_to_the_mesh_within_its_tolerance():
+    """:meth:`CollisionChecker.axis_distance` (branch and bound on BVH distances) against
+    the exact segment–triangle distance of the tests' own geometry, on a table and a
+    shelf: never more than the tolerance above it, never below it; and a pose's
+    clearance is its segments' least distance minus their radii."""
+    from geometry import obstacles, segment_triangle_distance, shelf, standard_arm, table, triangles_of
+
+    from reach_addon.core.collision import CollisionChecker
+    from reach_addon.core.settings import Settings
+
+    parts = {"table": table((0.0, -0.5), (1.0, 0.6), 0.75),
+             "shelf": shelf((0.5, -0.6), 0.6, 0.3, (0.9, 1.2, 1.5))}
+    tris = triangles_of(parts)
+    arm = standard_arm()
+    checker = CollisionChecker(arm, obstacles(parts), Settings())
+    lo, hi = tris.reshape(-1, 3).min(0) - 0.2, tris.reshape(-1, 3).max(0) + 0.2
+    rng = np.random.default_rng(3)
+    tolerance, horizon = 1e-4, 0.5
+    checked = 0
+    for _ in range(300):
+        p = rng.uniform(lo, hi)
+        q = p + rng.normal(size=3) * rng.uniform(0.05, 0.5)
+        exact = min(horizon, segment_triangle_distance(p, q, tris))
+        measured = checker.axis_distance(p, q, horizon, tolerance)
+        # (the BVH holds single-precision floats)
+        assert exact - 1e-6 <= measured <= exact + tolerance + 1e-6, (p, q, exact, measured)
+        checked += exact < horizon
+    assert checked > 100
+    joints = np.array([arm.sternum, arm.shoulder, [0.0, 0.2, -0.3], [0.1, 0.45, -0.3],
+                       [0.1, 0.6, -0.3]])
+    world = arm.to_world_points(joints)
+    expected = min(segment_triangle_distance(world[a], world[b], tris) - seg.radius
+                   + checker.margin for seg in checker.segments for a, b in [(seg.a, seg.b)])
+    assert abs(checker.pose_clearance(world, 1.0, tolerance) - min(1.0, expected)) <= tolerance
