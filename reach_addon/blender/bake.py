@@ -572,9 +572,9 @@ def write_channel(channels, path, values, frames, group):
 
 def bake(context, armature, info, plans, new_action=False, checkers=None) -> BakeResult:
     """Write keys for ``plans`` [(Plan, first frame)] on ``armature`` (see the module doc).
-    ``checkers``: per plan, the collision checkers of its between-key instants (one per
-    pose, or one for all); with them the instants between keys are checked as Blender
-    interpolates them (:func:`straighten`)."""
+    ``checkers``: per plan, the collision checkers of its obstacles (one per pose, or one
+    for all; their margin is not used); with them the instants between keys are checked
+    as Blender interpolates them (:func:`straighten`)."""
     bmap = info.bones
     pose = armature.pose.bones
     mw = np.array(armature.matrix_world)
@@ -711,7 +711,7 @@ def _turn_reader(armature, curves, carriers):
     None on a rig whose keyed bones also move through constraints or drivers, where the
     curves do not tell the whole motion."""
     groups = {}
-    for fc in curves:
+    for fc in sorted(curves, key=lambda c: c.array_index):
         name = fc.data_path.split('"')[1]
         mode = fc.data_path.rsplit(".", 1)[-1]
         groups.setdefault((name, mode), []).append(fc)
@@ -720,25 +720,21 @@ def _turn_reader(armature, curves, carriers):
 
     def rotation(mode, values):
         if mode == "rotation_quaternion":
-            q = Quaternion(values)
-        elif mode == "rotation_axis_angle":
-            q = Quaternion(values[1:], values[0])
-        else:
-            return Euler(values).to_quaternion()     # any order: only bounds differences
-        return q.normalized()
+            return Quaternion(values).normalized()
+        return Quaternion(values[1:], values[0]).normalized()       # axis-angle
 
     def turned(f, s):
         out = [0.0, 0.0]
         for (_name, mode), fcs in groups.items():
-            fcs = sorted(fcs, key=lambda c: c.array_index)
-            now = rotation(mode, [c.evaluate(f + s) for c in fcs])
+            now = [c.evaluate(f + s) for c in fcs]
             for i, key in enumerate((f, f + 1)):
+                then = [c.evaluate(key) for c in fcs]
                 if mode == "rotation_euler":
-                    # an Euler turn of each channel: the sum of the three angles bounds it
-                    out[i] += sum(abs(c.evaluate(f + s) - c.evaluate(key)) for c in fcs)
+                    # each channel an angle: their sum bounds the whole turn
+                    out[i] += sum(abs(a - b) for a, b in zip(now, then))
                 else:
-                    out[i] += now.rotation_difference(
-                        rotation(mode, [c.evaluate(key) for c in fcs])).angle
+                    out[i] += rotation(mode, now).rotation_difference(
+                        rotation(mode, then)).angle
         return out
     return turned
 

@@ -255,8 +255,9 @@ def steps(context, request: Request, bake: bool = True):
 
         planner = Planner(info.arm, obstacles, settings)
         plans = []
-        # per plan, the checkers of the instants between its keys (one per pose, or one)
-        between = []
+        # per plan, the checkers of its obstacles (one per pose, or one for all), for the
+        # bake's check between keys (which measures without their margin)
+        checkers = []
         frame = frame_start
         for k, task in enumerate(tasks):
             if frame_obstacles is not None and any(o is not obstacles for o in frame_obstacles):
@@ -290,7 +291,7 @@ def steps(context, request: Request, bake: bool = True):
                     planner = Planner(info.arm, obstacles_from_pieces(union), settings)
                     plan = yield from _progress(planner.plan_steps(task), k, len(tasks))
                 _check_moving(plan, frame, swept, covered, moving, settings)
-            between.append([p.generator.between_keys().checker
+            checkers.append([p.generator.checker
                             for p in (frame_planners or [planner])])
             plans.append((plan, frame))
             frame += len(plan.poses)
@@ -299,14 +300,14 @@ def steps(context, request: Request, bake: bool = True):
         keyed, baked_result = [], None
         draw = request.draw
         baked = [(p, f) for p, f in plans if p.success or request.bake_closest] if bake else []
-        between = [c for (p, _f), c in zip(plans, between) if p.success or request.bake_closest]
+        checkers = [c for (p, _f), c in zip(plans, checkers) if p.success or request.bake_closest]
         # The last yield: from here on the scene changes (keys, drawing), so nothing below
         # yields and a caller that stops at any yield has changed nothing.
         yield 0.92, "baking keys" if baked else "drawing"
         if bake:
             if baked:
                 result = bake_mod.bake(context, armature, info, baked, request.new_action,
-                                       checkers=between)
+                                       checkers=checkers)
                 outcome.baked, outcome.action, keyed = True, result.action, result.bones
                 baked_result = result
             else:
