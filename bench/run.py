@@ -355,52 +355,65 @@ def _grid_object(name, n, matrix=None, mesh=None):
 
 
 def obstacles_ready(runs: int):
-    """Obstacles ready for a Plan in Blender (``scene.KEPT``, as Plan, Bake and the
-    envelope get them): one mesh object of 1M triangles, then 300 set-dressing objects of
-    3,200 triangles each (960k); the first build (gathered and built, nothing kept) and
-    ready again (nothing changed: the signature read and compared, the BVH kept)."""
+    """Obstacles ready for a Plan in Blender (``scene.KEPT``, as Plan and Bake get them,
+    objects beyond the arm's reach left out by the pipeline's :func:`reach_bounds`), with
+    the demo character and its workplace: one mesh object of 1M triangles in front of the
+    chest (all of it within reach), then 300 set-dressing objects of 3,200 triangles each
+    (960k) scattered over a 6 m cube about the character; the first build (gathered and
+    built, nothing kept) and ready again (nothing changed: the signature read and
+    compared, the BVH kept)."""
     from mathutils import Matrix
 
-    from reach_addon.blender.scene import KEPT
+    from reach_addon.blender import pipeline, rig
+    from reach_addon.blender.scene import KEPT, character_objects
+    from reach_addon.demo import build_scene
 
-    def measure(label):
+    def measure(label, armature):
         bpy.context.view_layer.update()
+        info = rig.build(armature, "right")
+        within = pipeline.reach_bounds(info.arm, Settings(), [])
+        exclude = character_objects(armature, bpy.context.scene)
         first, again, built = [], [], None
         for _ in range(runs):
             KEPT.clear()
             t0 = time.perf_counter()
-            _p, obs, built = KEPT.get(bpy.context)
+            _p, obs, built = KEPT.get(bpy.context, exclude, within=within)
             first.append(time.perf_counter() - t0)
             t0 = time.perf_counter()
-            _p, obs, rebuilt = KEPT.get(bpy.context)
+            _p, obs, rebuilt = KEPT.get(bpy.context, exclude, within=within)
             again.append(time.perf_counter() - t0)
             if not built or rebuilt:
                 raise RuntimeError(f"obstacles ready: {label}: built {built}, again {rebuilt}")
+        every = len([o for o in bpy.context.scene.objects
+                     if o.type == "MESH" and o.name not in exclude])
         row = {"triangles": obs.triangle_count, "objects": len(obs.owner_names),
+               "objects_in_scene": every,
                "first_build_ms": 1000 * statistics.median(first),
                "first_build_spread_ms": spread([1000 * t for t in first]),
                "ready_again_ms": 1000 * statistics.median(again),
                "ready_again_spread_ms": spread([1000 * t for t in again])}
-        log(f"  {label}, {row['triangles']:,d} triangles: first build "
-            f"{row['first_build_ms']:.0f} ms, ready again {row['ready_again_ms']:.1f} ms")
+        log(f"  {label}: {row['triangles']:,d} triangles of {row['objects']} of {every} "
+            f"objects within reach: first build {row['first_build_ms']:.0f} ms, ready "
+            f"again {row['ready_again_ms']:.1f} ms")
         return row
 
-    bpy.ops.wm.read_homefile(use_empty=True)
+    armature = build_scene()
+    chest = np.array(rig.build(armature, "right").joints_world["shoulder"])
     turn = np.eye(4)
     turn[:3, :3] = np.array(Matrix.Rotation(0.3, 3, "Z") @ Matrix.Rotation(0.2, 3, "X"))
-    turn[:3, 3] = (0.3, 0.1, 0.8)
+    turn[:3, 3] = chest + (0.0, -0.5, -0.2)
     _grid_object("Scan", 707, turn)
-    one = measure("one mesh object")
-    bpy.ops.wm.read_homefile(use_empty=True)
+    one = measure("one mesh object", armature)
+    armature = build_scene()
     rng = np.random.default_rng(0)
     base = None
     for k in range(300):
         m = np.eye(4)
-        m[:3, 3] = rng.uniform(-3.0, 3.0, 3)
+        m[:3, 3] = np.array(armature.matrix_world.translation) + rng.uniform(-3.0, 3.0, 3)
         ob = _grid_object(f"Prop {k}", 40, m, None if base is None else
                           base if k % 2 else base.copy())
         base = ob.data
-    many = measure("300 objects")
+    many = measure("300 objects", armature)
     bpy.ops.wm.read_homefile(use_empty=True)
     return {"obstacles_ready": {"one_object": one, "many_objects": many}}
 

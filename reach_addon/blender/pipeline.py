@@ -36,6 +36,7 @@ import numpy as np
 
 from ..core import Planner, ReachError, Settings, Task
 from ..core import envelope as envelope_mod
+from ..core.arm import REACH_SLACK, reach_sphere
 from ..core.steps import drain, relay
 from ..core.tasks import chase_steps
 from . import bake as bake_mod
@@ -204,6 +205,15 @@ def _chase_range(context, target, frame_start):
     return frame_start, end
 
 
+def reach_bounds(arm, settings: Settings, targets) -> tuple:
+    """(centre, radius, target positions), world space: what :meth:`.scene.KeptObstacles.get`
+    keeps obstacles within — the arm's reach sphere (:func:`~reach_addon.core.arm.reach_sphere`)
+    with :data:`~reach_addon.core.arm.REACH_SLACK` and the clearance to spare, and any
+    object holding a target."""
+    centre, radius = reach_sphere(arm, REACH_SLACK + settings.clearance)
+    return centre, radius, np.array([np.array(t.matrix_world.translation) for t in targets])
+
+
 def steps(context, request: Request, bake: bool = True):
     """The pipeline as a generator: yields (fraction, message), returns an :class:`Outcome`.
     Closing it early (a cancelled modal operator, at any of its yields) leaves the scene as
@@ -225,8 +235,10 @@ def steps(context, request: Request, bake: bool = True):
         fps = scene.render.fps / scene.render.fps_base
         names = tuple(t.name for t in targets)
         exclude = character_objects(armature, scene) | set(names)
-        # Kept from the last run while nothing in them changed (scene.KeptObstacles).
-        pieces, obstacles, _built = KEPT.get(context, exclude, collection)
+        # Kept from the last run while nothing in them changed (scene.KeptObstacles);
+        # objects beyond every pose's reach are left out (core.arm.reach_sphere).
+        pieces, obstacles, _built = KEPT.get(context, exclude, collection,
+                                             within=reach_bounds(info.arm, settings, targets))
         moving = set() if request.task == "chase" else \
             _moving_owners(context, exclude, collection, frame_start)
         yield 0.05, f"{obstacles.triangle_count} obstacle triangles"

@@ -310,10 +310,19 @@ class KeptObstacles:
     def clear(self) -> None:
         self._kept.clear()
 
-    def get(self, context, exclude=(), collection=None, depsgraph=None):
+    def get(self, context, exclude=(), collection=None, depsgraph=None, within=None):
         """(pieces, obstacles, rebuilt?) for the scene as it is now: ``pieces`` as
         :func:`gather_pieces` gives them (arrays read-only, shared with later calls),
-        ``obstacles`` their BVH, as :func:`gather_obstacles` would build it."""
+        ``obstacles`` their BVH, as :func:`gather_obstacles` would build it.
+
+        ``within``: (centre, radius, points) in world space, or None for every piece. A
+        piece whose world bounding box lies farther than ``radius`` from ``centre``
+        (:func:`reach_addon.core.arm.reach_sphere`: where no pose of the arm can be) and
+        holds none of ``points`` (the targets, so that a target inside a far object is
+        still found inside it) is left out whole, without its geometry being read: its
+        entry in the signature is its transform and bounding box, so it comes in again
+        the moment it moves or grows into reach. Objects are kept or left out whole, never
+        cut, so a closed obstacle stays closed for the inside tests."""
         key = (context.scene.name, frozenset(exclude),
                None if collection is None else collection.name)
         old = self._kept.get(key)
@@ -321,9 +330,16 @@ class KeptObstacles:
         by_entry: dict = {}
         shared: dict = {}
         meshes: dict = {}
+        beyond = [0]
 
         def read(piece, ob):
             # Inside the depsgraph's iteration step (see visit_obstacles): copy only.
+            if within is not None:
+                box = _beyond(piece, ob, within)
+                if box is not None:
+                    beyond[0] += 1
+                    return (piece.owner, piece.name, piece.type, piece.matrix.tobytes(),
+                            "beyond reach", box), None
             content, arrays = _content(ob, meshes, shared)
             entry = (piece.owner, piece.name, piece.type, piece.matrix.tobytes(), content)
             if entry in by_entry or entry in before:
@@ -352,7 +368,8 @@ class KeptObstacles:
             return old.pieces, old.obstacles, False
         pieces = [(piece.label, *found) for piece, (_entry, found) in visited
                   if found is not None]
-        obstacles = obstacles_from_pieces(pieces, collection)
+        # a collection whose objects all lie beyond reach is not an empty collection
+        obstacles = obstacles_from_pieces(pieces, None if beyond[0] else collection)
         self.builds += 1
         self._kept[key] = _Kept(signature, pieces, obstacles, by_entry)
         while len(self._kept) > self.size:
@@ -362,6 +379,34 @@ class KeptObstacles:
 
 #: Plan's, Bake's and the envelope's obstacles, kept between runs (:class:`KeptObstacles`).
 KEPT = KeptObstacles()
+
+
+def _beyond(piece, ob, within):
+    """The world bounding box of an evaluated object (bytes), if it lies wholly beyond
+    ``within`` = (centre, radius, points) and holds none of the points; else None (keep
+    it). Only a mesh with faces in object mode may be left out: a curve, text or metaball
+    is read, as is a mesh in edit mode (its box may not follow its edits), a mesh without
+    faces (an obstacle collection of nothing else is refused) and a box that is not
+    :func:`finite` (its vertices are refused by name). The box is the object's local box
+    (``bound_box``, after modifiers) carried by the piece's world matrix: it holds every
+    vertex."""
+    if not _mesh_data(ob) or not len(ob.data.polygons):
+        return None
+    corners = np.array(ob.bound_box, dtype=float)
+    if corners.shape != (8, 3):
+        return None
+    m = piece.matrix
+    world = corners @ m[:3, :3].T + m[:3, 3]
+    if not finite(world):
+        return None             # read, and refused by name
+    lo, hi = world.min(0), world.max(0)
+    centre, radius, points = within
+    gap = np.linalg.norm(np.maximum(0.0, np.maximum(lo - centre, centre - hi)))
+    if not gap > radius:
+        return None
+    if len(points) and bool(np.any(np.all((points >= lo) & (points <= hi), axis=1))):
+        return None
+    return np.concatenate([lo, hi]).tobytes()
 
 
 def _content(ob, meshes, shared) -> tuple:

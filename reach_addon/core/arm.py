@@ -223,6 +223,37 @@ class Pose:
         return self.joints[1]
 
 
+#: Arm lengths :func:`reach_sphere` adds beyond the farthest skin any pose can put anywhere
+#: (a rig that moves its shoulder off the model's, the clearance kept, round-off): an
+#: obstacle farther than that from every pose cannot change a plan.
+REACH_SLACK = 0.5
+
+
+def reach_sphere(arm: ArmModel, slack: float = REACH_SLACK) -> tuple:
+    """(world centre (3,), radius): a sphere holding every point of every pose the planner
+    can give the arm, skin and hand included, with ``slack`` arm lengths to spare.
+
+    The body rotation turns the chest about the canonical vertical axis through the
+    origin (:func:`~.torso.rotate_about_spine`), so on every turn the shoulder
+    :math:`s` and the sternum :math:`t` stay within
+
+    .. math:: r_0 = \\max\\left(ρ_s,\\; ρ_t + |t_z - s_z|\\right),\\quad ρ = \\sqrt{x^2 + y^2}
+
+    of :math:`c = (0, 0, s_z)`; the wrist within :math:`L_1 + L_2` of the shoulder, the
+    hand's end within :math:`L_h` of the wrist, and each segment's skin within its radius:
+
+    .. math:: R = r_0 + L_1 + L_2 + L_h + \\max(r_1, r_2, r_h) + \\text{slack}\\,(L_1 + L_2)
+
+    What lies beyond R from c cannot touch the arm (the Blender layer leaves such objects
+    out of the BVH)."""
+    s, t = arm.shoulder, arm.sternum
+    r0 = max(math.hypot(s[0], s[1]), math.hypot(t[0], t[1]) + abs(t[2] - s[2]))
+    radius = (r0 + arm.arm_length + arm.hand_length
+              + max(arm.upper_arm_radius, arm.forearm_radius, arm.hand_radius)
+              + slack * arm.arm_length)
+    return arm.to_world_points(np.array([0.0, 0.0, s[2]])), float(radius)
+
+
 # --- the shoulder angle convention --------------------------------------------------------
 
 def shoulder_angles(u):

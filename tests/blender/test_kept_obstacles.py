@@ -227,3 +227,45 @@ def test_plans_reuse_the_obstacles_until_one_changes(fresh, addon):
     assert not reach().success and kept.builds == builds + 4
     cage.hide_set(True)
     assert reach().success and kept.builds == builds + 5
+
+
+def test_objects_beyond_reach_are_left_out_until_they_come_near(fresh, addon):
+    """A set-dressed scene: a Plan builds its BVH from the objects within the arm's reach
+    (core.arm.reach_sphere); a far object is neither read nor built, an edit to it builds
+    nothing, and it counts again the moment it moves near — or holds a target."""
+    kept = addon.blender.scene.KEPT
+    arm = rigs.load("metarig")
+    rigs.rest_still(arm)
+    info = addon.blender.rig.build(arm, "right")
+    target, _plate = rigs.plate_scene(info, arm)
+    length = info.arm.arm_length
+    chest = info.joints_world["shoulder"]
+    far = add_box("Far", chest + 8 * length * info.frame.forward, length)
+    pipeline = addon.blender.pipeline
+    request = pipeline.Request(armature=arm.name, targets=[target.name], side="right",
+                               frame_start=1)
+
+    def plan():
+        outcome = pipeline.run(bpy.context, request, bake=False)
+        return outcome.results[0], [name for name, _n in outcome.obstacles]
+
+    kept.clear()
+    builds = kept.builds
+    result, names = plan()
+    assert result.success and names == ["Plate"] and kept.builds == builds + 1
+    _vertices_written(bpy.context.scene, far, None)
+    result, names = plan()
+    assert result.success and kept.builds == builds + 1
+    # the far box comes round the target: it blocks, and is listed
+    far.location = target.matrix_world.translation
+    far.scale = (0.3, 0.3, 0.3)
+    result, names = plan()
+    assert not result.success and "Far" in names and kept.builds == builds + 2
+    # a target inside a far closed box is still found inside it
+    far.scale = (1.0, 1.0, 1.0)
+    far.location = chest + 8 * length * info.frame.forward
+    target.location = far.location
+    bpy.context.view_layer.update()
+    result, names = plan()
+    assert not result.success and result.reason == "target_in_obstacle", result.message
+    assert "Far" in names

@@ -5,9 +5,9 @@ import pytest
 from hypothesis import assume, given, settings as hyp_settings, strategies as st
 
 from geometry import HANGING, standard_arm
-from reach_addon.core import ArmConfig, ReachError, Settings, forward_kinematics
-from reach_addon.core.arm import (bend_direction, config_from_joints, shoulder_angles,
-                                  twist_angle, upper_arm_direction)
+from reach_addon.core import ArmConfig, ArmModel, ReachError, Settings, forward_kinematics
+from reach_addon.core.arm import (REACH_SLACK, bend_direction, config_from_joints, shoulder_angles,
+                                  reach_sphere, twist_angle, upper_arm_direction)
 from reach_addon.core.ik import solve
 
 
@@ -218,3 +218,37 @@ def test_cross_is_numpys_cross_to_the_last_bit():
             ours, theirs = cross(a, b), np.cross(a, b)
             assert ours.shape == theirs.shape and np.array_equal(ours, theirs), (sa, sb)
     assert np.array_equal(cross([0.0, 0.0, 1.0], [1.0, 0.0, 0.0]), [0.0, 1.0, 0.0])
+
+
+@pytest.mark.parametrize("make", [
+    lambda: standard_arm(),
+    # a robot's proportions (forearm 2.4× the upper arm, thick), turned and moved in world
+    lambda: ArmModel(np.array([0.02, 0.05, 0.1]), np.array([0.3, -0.04, 0.0]),
+                     np.array([0.0, 0.0, -0.6]), 0.58, 1.38, 0.68, 0.09, 0.35, 0.24,
+                     to_world=_turned(0.7, (3.0, -2.0, 1.0))),
+])
+def test_every_pose_lies_inside_the_reach_sphere(make):
+    """The sphere the Blender layer leaves far objects out by holds every joint of every
+    pose with its skin, for any body rotation and any angles (limits or not), and is not
+    loose: a straight arm turned outward comes within the slack of its rim."""
+    arm = make()
+    centre, radius = reach_sphere(arm, slack=0.0)
+    rng = np.random.default_rng(3)
+    configs = np.column_stack([rng.uniform(-180, 180, 20000), rng.uniform(-180, 180, 20000),
+                               rng.uniform(-180, 180, 20000), rng.uniform(-180, 180, 20000),
+                               rng.uniform(0, 180, 20000)])
+    joints, _bend = forward_kinematics(arm, configs)
+    far = np.linalg.norm(arm.to_world_points(joints) - centre, axis=-1).max()
+    skin = max(arm.upper_arm_radius, arm.forearm_radius, arm.hand_radius)
+    assert far + skin <= radius + 1e-9
+    assert far + skin >= radius - 0.2 * arm.arm_length
+    _c, with_slack = reach_sphere(arm)
+    assert with_slack == pytest.approx(radius + REACH_SLACK * arm.arm_length)
+
+
+def _turned(angle, offset):
+    m = np.eye(4)
+    c, s = np.cos(angle), np.sin(angle)
+    m[:2, :2] = [[c, -s], [s, c]]
+    m[:3, 3] = offset
+    return m
