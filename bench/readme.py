@@ -97,9 +97,10 @@ def table(r: dict) -> str:
         lines.append(f"| obstacles from a 10,000-instance scatter | "
                      f"{r['gather_10k_instances_ms']:.0f} ms | |")
     for label, o in (r.get("obstacles_ready") or {}).items():
-        what = (f"one mesh object of {o['triangles'] / 1e6:.1f}M triangles"
-                if label == "one_object" else f"{o['objects']} objects, {o['triangles'] / 1e6:.2f}M "
-                "triangles")
+        what = (f"one mesh object of {o['triangles'] / 1e6:.1f}M triangles in reach"
+                if label == "one_object" else
+                f"{o['objects']} of {o.get('objects_in_scene', o['objects'])} objects in reach, "
+                f"{o['triangles'] / 1e6:.2f}M triangles")
         lines.append(f"| obstacles ready for a Plan in Blender, {what}: first build / again, "
                      f"nothing changed | {o['first_build_ms']:.0f} / {o['ready_again_ms']:.0f} ms "
                      "| goal ≤ 250 ms |")
