@@ -192,11 +192,9 @@ def test_a_triangle_mesh_is_read_as_its_own_triangulation(fresh, addon):
     assert sorted(map(sorted, read.tolist())) == sorted(map(sorted, tris.reshape(-1, 3).tolist()))
 
 
-def test_plans_reuse_the_obstacles_until_one_changes(fresh, addon):
-    """Plan twice and compute the envelope on an unchanged scene: one build. Then a box
-    round the target: built again, and the reach that was clear is blocked; moved away,
-    clear again; hidden round the target, clear."""
-    kept = addon.blender.scene.KEPT
+def _plate_plan(addon):
+    """The metarig at rest before a plate, and a request to reach past it: (the kept
+    obstacles, the rig's info, the target, the pipeline, the request)."""
     arm = rigs.load("metarig")
     rigs.rest_still(arm)
     info = addon.blender.rig.build(arm, "right")
@@ -204,6 +202,14 @@ def test_plans_reuse_the_obstacles_until_one_changes(fresh, addon):
     pipeline = addon.blender.pipeline
     request = pipeline.Request(armature=arm.name, targets=[target.name], side="right",
                                frame_start=1)
+    return addon.blender.scene.KEPT, info, target, pipeline, request
+
+
+def test_plans_reuse_the_obstacles_until_one_changes(fresh, addon):
+    """Plan twice and compute the envelope on an unchanged scene: one build. Then a box
+    round the target: built again, and the reach that was clear is blocked; moved away,
+    clear again; hidden round the target, clear."""
+    kept, info, target, pipeline, request = _plate_plan(addon)
 
     def reach():
         return pipeline.run(bpy.context, request, bake=False).results[0]
@@ -233,17 +239,10 @@ def test_objects_beyond_reach_are_left_out_until_they_come_near(fresh, addon):
     """A set-dressed scene: a Plan builds its BVH from the objects within the arm's reach
     (core.arm.reach_sphere); a far object is neither read nor built, an edit to it builds
     nothing, and it counts again the moment it moves near — or holds a target."""
-    kept = addon.blender.scene.KEPT
-    arm = rigs.load("metarig")
-    rigs.rest_still(arm)
-    info = addon.blender.rig.build(arm, "right")
-    target, _plate = rigs.plate_scene(info, arm)
+    kept, info, target, pipeline, request = _plate_plan(addon)
     length = info.arm.arm_length
     chest = info.joints_world["shoulder"]
     far = add_box("Far", chest + 8 * length * info.frame.forward, length)
-    pipeline = addon.blender.pipeline
-    request = pipeline.Request(armature=arm.name, targets=[target.name], side="right",
-                               frame_start=1)
 
     def plan():
         outcome = pipeline.run(bpy.context, request, bake=False)
