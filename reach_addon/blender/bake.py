@@ -723,18 +723,23 @@ def _turn_reader(armature, curves, carriers):
             return Quaternion(values).normalized()
         return Quaternion(values[1:], values[0]).normalized()       # axis-angle
 
+    def values(x):
+        return [[c.evaluate(x) for c in fcs] for fcs in groups.values()]
+
+    at_key = {}             # the curves at each key, read once for all its instants
+
     def turned(f, s):
         out = [0.0, 0.0]
-        for (_name, mode), fcs in groups.items():
-            now = [c.evaluate(f + s) for c in fcs]
-            for i, key in enumerate((f, f + 1)):
-                then = [c.evaluate(key) for c in fcs]
+        now = values(f + s)
+        for i, key in enumerate((f, f + 1)):
+            if key not in at_key:
+                at_key[key] = values(key)
+            for (_name, mode), a, b in zip(groups, now, at_key[key]):
                 if mode == "rotation_euler":
                     # each channel an angle: their sum bounds the whole turn
-                    out[i] += sum(abs(a - b) for a, b in zip(now, then))
+                    out[i] += sum(abs(x - y) for x, y in zip(a, b))
                 else:
-                    out[i] += rotation(mode, now).rotation_difference(
-                        rotation(mode, then)).angle
+                    out[i] += rotation(mode, a).rotation_difference(rotation(mode, b)).angle
         return out
     return turned
 
