@@ -646,10 +646,11 @@ def straighten(context, armature, info, plans, checkers, curves, reference) -> t
     spans that come too close.
 
     The planner checks its motion at ``Settings.instants_per_frame`` instants between two
-    keys, interpolating its own five angles linearly, against half the clearance
+    keys, where Blender puts the arm on a linear span (:func:`reach_addon.core.keys.
+    between`), against half the clearance
     (:meth:`~reach_addon.core.generator.ConfigurationGenerator.between_keys`). Blender
     interpolates each keyed channel by its own curve: with the user's default, Bézier, a
-    span bows away from the straight line between its keys. With a margin that bow stays
+    span bows away from the linear one. With a margin that bow stays
     inside the half of the clearance the keys do not use; with no clearance it can dip
     into an obstacle (fuzz seeds 799, 849, 901: 0.001–0.005 arm lengths in at a sub-frame
     instant).
@@ -665,8 +666,9 @@ def straighten(context, armature, info, plans, checkers, curves, reference) -> t
     start in contact); a span with a key in contact is the planner's own and is not
     changed. A span that comes too close gets linear interpolation on every keyed
     channel (the key at its start decides; neighbouring spans keep their shape): Blender
-    then follows the straight line between the keys, which the planner checked. If that
-    comes too close as well, the user's interpolation is put back and the span counted.
+    then follows the linear span, which the planner checked. If that comes too close as
+    well (bones in an Euler mode, whose angles interpolate otherwise; a rig whose
+    constraints move the arm), the user's interpolation is put back and the span counted.
 
     Cost: spans whose keys turn the arm too little to come that close (a bound read from
     the curves, :func:`_turn_reader`) are not evaluated; the rest cost a scene

@@ -17,11 +17,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import ik
+from . import ik, keys
 from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, hand_coefficients,
                   pose_from_config)
 from .collision import CollisionChecker, Obstacles, point_segment_distance
 from .numeric import cross
+
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
                      TARGET_IN_OBSTACLE)
 from .strength import strength_category
@@ -405,23 +406,23 @@ class ConfigurationGenerator:
                            instants: int | None = None, arm: bool = True):
         """What touches between two keyed poses as they interpolate — None, 'arm' or
         'hand' — at ``instants`` − 1 (default ``Settings.instants_per_frame`` − 1) evenly
-        spaced instants, the arm's five angles and the wrist's two (``hand_a`` → ``hand_b``,
-        default the poses' own) interpolated linearly, against half the clearance
-        (:meth:`between_keys`). ``arm=False`` skips the arm (already found clear)."""
+        spaced instants, against half the clearance (:meth:`between_keys`). The arm and
+        hand at those instants are Blender's on a linear span: each segment's rotation
+        relative to its parent blended by nlerp (:func:`~reach_addon.core.keys.between`),
+        with the wrist's angles ``hand_a`` → ``hand_b`` at the keys (default the poses'
+        own). ``arm=False`` skips the arm (already found clear)."""
         n = self.settings.instants_per_frame if instants is None else instants
         if n <= 1:
             return None
         loose = self.between_keys()
-        t = np.arange(1, n) / n
-        configs = (1.0 - t)[:, None] * a.config.as_array() + t[:, None] * b.config.as_array()
-        joints, bends = forward_kinematics(self.arm, configs)
-        if arm and not all(loose.arm_clear(j, c[0]) for j, c in zip(joints, configs)):
+        joints, bends, body = keys.between(self.arm, a, b, np.arange(1, n) / n, hand_a, hand_b)
+        if arm and not all(loose.arm_clear(j, c) for j, c in zip(joints, body)):
             return "arm"
-        ha = np.asarray(a.hand if hand_a is None else hand_a, dtype=float)
-        hb = np.asarray(b.hand if hand_b is None else hand_b, dtype=float)
-        for f, j, bend, c in zip(t, joints, bends, configs):
-            coef = [hand_coefficients(*((1.0 - f) * ha + f * hb))]
-            if not loose.hands_clear(j, bend, c[0], coef)[0]:
+        for j, bend, c in zip(joints, bends, body):
+            # the hand's direction as components along the pose's own (f, p, h) rows
+            d = (j[4] - j[3]) / self.arm.hand_length
+            coef = [self.hand_axes(j, bend) @ d]
+            if not loose.hands_clear(j, bend, c, coef)[0]:
                 return "hand"
         return None
 

@@ -46,9 +46,9 @@ places:
      and the grid holds one more state, the wanted direction within the wrist's range.
    * **Between keys** (lazy, as in lazy PRM: only the chosen path is checked). Each
      transition is checked at ``Settings.instants_per_frame`` − 1 instants between its
-     keys, the arm's five angles and the wrist's two interpolated linearly (what
-     Blender's interpolation of the keyed rotations does, to within the margin, for moves
-     this small), against half the clearance
+     keys, where Blender puts the arm on a linear span (each segment's rotation relative
+     to its parent blended by nlerp, :func:`~reach_addon.core.keys.between`), against
+     half the clearance
      (:meth:`ConfigurationGenerator.between_keys`): keys keep the whole margin. A hand
      that touches bans that transition and the DP runs again; after
      :attr:`HandPass.BANS_BEFORE_REFINING` bans the transition is refined instead.
@@ -276,17 +276,32 @@ class HandPass:
             # out of rounds: the least-cost path through clear states, turns unbounded
             lifted = set(range(1, len(poses)))
             path, _fail = self._dp(poses, grid, feasible, {}, lifted)
-        if path is not None:
-            # what is reported touching: every transition of the final path that touches
-            accepted, skip = set(), set()
-            while (problem := self._between(poses, grid, path, skip)) is not None:
-                accepted.add(problem[0])
-                skip.add(problem[0])
-        hands = [self._angles(p, grid, i) for p, i in zip(poses, path)] \
-            if path is not None else [p.hand for p in poses]
+        skip = set()
+        if path is None:
+            # no clear choice at some frame even unbounded: every frame keeps its own hand
+            # (the last state) and is checked between keys like any other path, except
+            # where a key itself touches (a start in contact or in the body being left,
+            # which the motion's own checks answer for)
+            path = [len(grid.angles)] * len(poses)
+            touching = [self._key_touches(k, p) for k, p in enumerate(poses)]
+            skip = {k for k in range(len(poses) - 1) if touching[k] or touching[k + 1]}
+        # what is reported touching: every transition of the final path that touches
+        accepted = set()
+        while (problem := self._between(poses, grid, path, skip)) is not None:
+            accepted.add(problem[0])
+            skip.add(problem[0])
+        hands = [self._angles(p, grid, i) for p, i in zip(poses, path)]
         return self._report(poses, hands, inserted, len(lifted), sorted(accepted))
 
     # --- the pieces -------------------------------------------------------------------
+    def _key_touches(self, k, pose: Pose) -> bool:
+        """Does frame ``k``'s own pose, its own hand included, touch the body or an
+        obstacle within half the margin (what the instants between keys may use)?"""
+        gen = self._gen(k).between_keys()
+        body = pose.config.body_rotation
+        return not (gen.arm_clear(pose.joints, body) and gen.hands_clear(
+            pose.joints, pose.bend, body, [hand_coefficients(*pose.hand)])[0])
+
     def _feasible(self, k, pose: Pose, grid: HandGrid) -> np.ndarray:
         """Which states are clear at frame ``k`` (``pose``): the grid's, then the pose's
         own hand (the last state, :meth:`_coefficients`). The own hand counts as clear

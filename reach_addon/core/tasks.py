@@ -46,9 +46,10 @@ from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_R
                      START_IN_COLLISION, TARGET_IN_OBSTACLE, ReachError, require_finite)
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
+from .keys import between
 from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
 from .orient import apply_roll, goal_for, pose_error
-from .sampling import joints_of, pose_row, sampling_steps
+from .sampling import sampling_steps
 from .search import BestFirstSearch, SearchResult, chase_step
 from .settings import Settings
 from .steps import drain, relay
@@ -839,10 +840,9 @@ def _between_hit(generator, a: Pose, b: Pose):
     """(part, obstacle) of the first contact between two keys as they interpolate (the
     instants of :meth:`ConfigurationGenerator.transition_problem`, at half the clearance)."""
     n = max(2, generator.settings.instants_per_frame)
-    t = np.arange(1, n)[:, None] / n
-    rows = (1.0 - t) * pose_row(a) + t * pose_row(b)
+    instants, _bends, _body = between(generator.arm, a, b, np.arange(1, n) / n)
     checker = generator.between_keys().checker
-    for joints in generator.arm.to_world_points(joints_of(generator.arm, rows)):
+    for joints in generator.arm.to_world_points(instants):
         hit = checker.first_hit(joints)
         if hit is not None:
             return hit

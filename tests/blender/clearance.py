@@ -24,8 +24,8 @@ planner's numbers: they are what is promised.
 
 **The tolerance** (:data:`TOLERANCE`, 0.002 arm lengths, about 1 mm on an adult): how much
 of its promised room a capsule may lack here. It covers what Blender shows differently from
-what the planner checked: the keyed rotations interpolated by Blender's F-curves rather
-than the planner's linear interpolation of the joint angles (over a quarter frame of a
+what the planner checked: the keyed rotations interpolated by Blender's Bézier curves
+rather than the linear spans the planner checks (``core.keys``; over a quarter frame of a
 reach, joints a few degrees apart: a fraction of a millimetre at the hand), the bake's error
 in reproducing the planned joints on a rig driven through constraints (Rigify's, reported as
 ``rig_residual_arm_lengths``; its reaches here keep 0.021 arm lengths) and the hand's axis

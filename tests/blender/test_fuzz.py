@@ -36,17 +36,21 @@ def test_every_generated_scene_is_a_verified_success_or_a_failure_with_a_reason(
 
 
 def test_the_campaigns_grazes_between_keys_are_clear_now():
-    """Three scenes of the full campaign (``bench/fuzz.json`` at 64fb85b) whose hand or arm
-    touched an obstacle between two keys, where Blender's Bézier curves bowed away from
-    the straight line the planner checked: 799 and 901 with no clearance (0.0010 and 0.0047
-    arm lengths in), 3777 after leaving a start in contact (0.0002). The bake now checks
-    those instants as Blender evaluates them and makes such spans linear
-    (``bake.straighten``); the independent check finds every instant clear, at the
+    """The four scenes of the full campaign (``bench/fuzz.json`` at 64fb85b) whose hand or
+    arm touched an obstacle between two keys. 799 and 901 with no clearance (0.0010 and
+    0.0047 arm lengths in) and 3777 after leaving a start in contact (0.0002): Blender's
+    Bézier curves bowed away from the linear span; the bake now checks those instants as
+    Blender evaluates them and makes such spans linear (``bake.straighten``). 849 with no
+    clearance (0.0035 in): the planner checked the straight line between its angles,
+    which parts from Blender's linear span where the hand turns fast; it now checks
+    Blender's (``core.keys``), and its hand pass, which found no clear hand at some frame
+    of the way out of the start's contact, checks every transition of the motion's own
+    hand instead of none. The independent check finds every instant clear, at the
     campaign's own three instants between frames."""
-    results = fuzz.run_campaign([799, 901, 3777], jobs=2, subframes=3, timeout_s=300)
+    seeds = [799, 849, 901, 3777]
+    results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
     assert [(r["seed"], r["category"]) for r in results] == [
-        (799, "success_verified"), (901, "success_verified"), (3777, "success_verified")], \
-        [r["detail"] for r in results]
+        (s, "success_verified") for s in seeds], [r["detail"] for r in results]
 
 
 def test_refusals_are_counted_by_their_words_whatever_the_names_hold():
