@@ -22,7 +22,6 @@ from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, han
                   pose_from_config)
 from .collision import CollisionChecker, Obstacles, point_segment_distance
 from .numeric import cross
-
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
                      TARGET_IN_OBSTACLE)
 from .strength import strength_category
@@ -375,12 +374,21 @@ class ConfigurationGenerator:
         obstacles at this arm pose? One obstacle query at the wrist settles every direction
         when nothing is within a hand's length of it."""
         coefficients = np.asarray(coefficients, dtype=float)
-        out = np.ones(len(coefficients), dtype=bool)
+        if not self._check_hand:
+            return np.ones(len(coefficients), dtype=bool)
+        tips = np.asarray(joints[3], dtype=float) + \
+            self.arm.hand_length * coefficients @ self.hand_axes(joints, bend)
+        return self.tips_clear(joints, body_rotation, tips)
+
+    def tips_clear(self, joints, body_rotation: float, tips) -> np.ndarray:
+        """For each hand end (rows of ``tips``, canonical): is the hand, from the wrist
+        (``joints[3]``) to it, clear of the body and the obstacles
+        (:meth:`hands_clear`)?"""
+        out = np.ones(len(tips), dtype=bool)
         if not self._check_hand:
             return out
         arm, checker, seg = self.arm, self.checker, self._seg_hand
         w_c = np.asarray(joints[3], dtype=float)
-        tips = w_c + arm.hand_length * coefficients @ self.hand_axes(joints, bend)
         reach = arm.hand_length + arm.hand_radius
         wl = w_c.tolist()
         caps = [c for c in self._capsules(float(body_rotation))     # (a, b, centre, half, r)
@@ -418,11 +426,8 @@ class ConfigurationGenerator:
         joints, bends, body = keys.between(self.arm, a, b, np.arange(1, n) / n, hand_a, hand_b)
         if arm and not all(loose.arm_clear(j, c) for j, c in zip(joints, body)):
             return "arm"
-        for j, bend, c in zip(joints, bends, body):
-            # the hand's direction as components along the pose's own (f, p, h) rows
-            d = (j[4] - j[3]) / self.arm.hand_length
-            coef = [self.hand_axes(j, bend) @ d]
-            if not loose.hands_clear(j, bend, c, coef)[0]:
+        for j, c in zip(joints, body):
+            if not loose.tips_clear(j, c, j[4:5])[0]:
                 return "hand"
         return None
 

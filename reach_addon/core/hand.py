@@ -299,8 +299,8 @@ class HandPass:
         obstacle within half the margin (what the instants between keys may use)?"""
         gen = self._gen(k).between_keys()
         body = pose.config.body_rotation
-        return not (gen.arm_clear(pose.joints, body) and gen.hands_clear(
-            pose.joints, pose.bend, body, [hand_coefficients(*pose.hand)])[0])
+        return not (gen.arm_clear(pose.joints, body) and
+                    gen.tips_clear(pose.joints, body, pose.joints[4:5])[0])
 
     def _feasible(self, k, pose: Pose, grid: HandGrid) -> np.ndarray:
         """Which states are clear at frame ``k`` (``pose``): the grid's, then the pose's

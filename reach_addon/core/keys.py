@@ -33,7 +33,7 @@ import numpy as np
 
 from .arm import ArmModel, Pose, hand_direction_floats
 from .orient import FOREARM_SHARE
-from .torso import rotate_about_spine
+from .torso import rotate_about_spine, spine_rotation_matrix
 
 # Plain floats throughout: the hand pass asks for a few instants of hundreds of
 # transitions, where numpy's cost per call on 3-vectors would be most of the time.
@@ -86,15 +86,7 @@ def segment_frames(arm: ArmModel, pose: Pose, hand=None) -> np.ndarray:
     the forearm's by ``FOREARM_SHARE`` · ψ about f (``bake.target_matrices``). ``hand``:
     the wrist's two angles (degrees) instead of the pose's own."""
     body, *limbs = _frames(pose, hand)
-    return np.array([np.array(cols).T for cols in [_chest_columns(body)] + limbs])
-
-
-def _chest_columns(body_deg: float):
-    """Columns of the spine's rotation by ``body_deg`` (:func:`~reach_addon.core.torso.
-    spine_rotation_matrix`)."""
-    t = math.radians(body_deg)
-    c, s = math.cos(t), math.sin(t)
-    return (c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0)
+    return np.array([spine_rotation_matrix(body)] + [np.array(cols).T for cols in limbs])
 
 
 def quaternion(cols) -> tuple:

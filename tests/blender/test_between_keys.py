@@ -2,49 +2,26 @@
 
 On a linear span Blender blends each bone's quaternion channels and normalises them. The
 planner's check between keys (``core.keys.between``) chains the segments' relative
-rotations blended the same way. Here a fast reach is baked with linear keys on rigs
-with their own bone rolls and rest poses (five: the synthetic Mixamo-like rig, CesiumMan,
+rotations blended the same way. Here a fast reach is baked with linear keys on rigs with
+their own bone rolls and rest poses (five: the synthetic Mixamo-like rig, CesiumMan,
 Quaternius' FBX character, Rigify's metarig, GoMakeHuman), right arms and left (whose
-canonical frame is mirrored); at three instants
-between every two keys the joints Blender evaluates (bone heads, the hand's end carried by
-the hand bone) must be the planner's, to round-off. The straight line between the
-planner's seven angles, which the planner checked before, parts from them by more than
-a millimetre's worth, so the comparison can tell the two apart."""
+canonical frame is mirrored). At three instants between every two keys the joints
+Blender evaluates, read by the fuzz campaign's independent reader (bone heads, the
+sternum and the hand's end carried by their bones), must be the planner's, to round-off.
+The straight line between the planner's seven angles, which the planner checked before,
+parts from them by more than a millimetre's worth, so the comparison can tell the two
+apart."""
 
 import bpy
 import numpy as np
 import pytest
 import rigs
 import synthetic
+from bench.fuzz import ArmReader
 
 from reach_addon.blender import rig as rig_mod
 
 INSTANTS = (0.25, 0.5, 0.75)
-
-
-def _reader(arm, info):
-    """A function giving the reaching arm's five joints (world) at the current evaluation:
-    sternum carried by the clavicle (or chest), shoulder, elbow and wrist as bone heads,
-    the hand's end carried by the hand bone from where the rig model puts it now."""
-    bones = info.bones.arms[info.side]
-    names = (bones.clavicle or info.bones.chest, bones.upper_arm, bones.forearm, bones.hand)
-
-    def mats():
-        mw = np.array(arm.matrix_world)
-        return [mw @ np.array(arm.pose.bones[n].matrix) for n in names]
-
-    m = mats()
-    sternum = info.arm.to_world_points(np.asarray(info.arm.sternum, dtype=float))
-    axis, _l, _s = rig_mod.hand_shape(arm, bones.hand, info.arm.forearm_length)
-    tip = m[3][:3, 3] + axis * info.arm.hand_length
-    local = [np.linalg.solve(m[0], np.append(sternum, 1.0)),
-             np.linalg.solve(m[3], np.append(tip, 1.0))]
-
-    def joints():
-        anchor, upper, fore, hand = mats()
-        return np.array([(anchor @ local[0])[:3], upper[:3, 3], fore[:3, 3], hand[:3, 3],
-                         (hand @ local[1])[:3]])
-    return joints
 
 
 @pytest.fixture
@@ -81,7 +58,7 @@ def test_blender_puts_the_arm_between_keys_where_the_planner_checked_it(fresh, a
     plan, first = outcome.plans[0]
     scene = bpy.context.scene
     scene.frame_set(first)
-    read = _reader(arm, rig_mod.build(arm, side))
+    reader = ArmReader(arm, rig_mod.build(arm, side))
     model = plan.arm
     keys, sampling = addon.core.keys, addon.core.sampling
     t = np.array(INSTANTS)
@@ -96,7 +73,7 @@ def test_blender_puts_the_arm_between_keys_where_the_planner_checked_it(fresh, a
             -1.0, 1.0)))))
         for i, s in enumerate(INSTANTS):
             scene.frame_set(first + k, subframe=s)
-            real = read()
+            real = reader.joints(arm)
             exact = max(exact, float(np.linalg.norm(
                 model.to_world_points(planned[i]) - real, axis=1).max()))
             straight = max(straight, float(np.linalg.norm(
