@@ -170,6 +170,12 @@ def local_matrices(armature, keyed, targets_arm, start_pose):
     return out
 
 
+def moves_chest(plans) -> bool:
+    """Whether any of ``plans`` [(Plan, first frame)] turns the chest (then it is keyed)."""
+    return any(abs(p.config.body_rotation - plan.poses[0].config.body_rotation) > 1e-9
+               for plan, _f in plans for p in plan.poses)
+
+
 def bone_roles(info, chest: bool) -> tuple:
     """(keyed, reference): role → the bone that receives the keys, and role → the bone
     whose place the plan describes (a Rigify FK control and its ORG bone; the same bone on
@@ -581,9 +587,7 @@ def bake(context, armature, info, plans, new_action=False, checkers=None) -> Bak
     mw_inv = np.linalg.inv(mw)
     start_pose = {pb.name: np.array(pb.matrix) for pb in pose}
 
-    moves_chest = any(abs(p.config.body_rotation - plan.poses[0].config.body_rotation) > 1e-9
-                      for plan, _f in plans for p in plan.poses)
-    keyed, reference = bone_roles(info, moves_chest)
+    keyed, reference = bone_roles(info, moves_chest(plans))
     for name in keyed.values():
         if name not in pose:
             raise ReachError(f"bone '{name}' is missing from armature '{armature.name}'")

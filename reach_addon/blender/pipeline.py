@@ -24,6 +24,10 @@ Targets carried by the character's own bones: one on a bone of the reaching arm 
 arm, forearm, hand or below) would move with the hand, so the arm is refused (with
 ``auto``, the other arm is taken); one on a bone the chest carries (the neck, the head, the
 other arm) would move as the chest turns, so the chest is kept still for that request.
+
+A bake is refused, before anything is keyed, where the rig's own animation (a walk on the
+hips, keys on the armature object, an NLA strip) would carry the arm off its plan by more
+than the goal tolerance while it reaches (:func:`.body.check`).
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ from ..core.arm import REACH_SLACK, reach_sphere
 from ..core.steps import drain, relay
 from ..core.tasks import chase_steps
 from . import bake as bake_mod
+from . import body as body_mod
 from . import rig as rig_mod
 from . import viz
 from .scene import (KEPT, ObstacleCache, character_objects, finite, gather_pieces,
@@ -313,6 +318,8 @@ def steps(context, request: Request, bake: bool = True):
         draw = request.draw
         baked = [(p, f) for p, f in plans if p.success or request.bake_closest] if bake else []
         checkers = [c for (p, _f), c in zip(plans, checkers) if p.success or request.bake_closest]
+        # the rig's own animation must not carry the arm off the plan (body.check refuses)
+        body_mod.check(context, armature, info, baked, settings)
         # The last yield: from here on the scene changes (keys, drawing), so nothing below
         # yields and a caller that stops at any yield has changed nothing.
         yield 0.92, "baking keys" if baked else "drawing"
