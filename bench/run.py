@@ -443,39 +443,58 @@ count = [5, 5, 8]
 
 
 def batch_throughput():
+    """The batch study :data:`STUDY` (200 tasks) on 1 and on 2 worker processes, run in the
+    order 1, 2, 2, 1 (a machine that speeds up or slows down during the step weighs on
+    both sides alike), each run into its own folder (a re-run would skip finished tasks).
+    Beside the walls, the work: the tasks' own wall times summed, which should agree
+    across runs; where they do not (``batch_work_spread`` well above 1), the machine's speed
+    changed and the speed-up is not a figure of Reach."""
     from reach_addon.demo import build_scene
 
     folder = Path(tempfile.mkdtemp(prefix="reach-bench-"))
     armature = build_scene()
     bpy.ops.wm.save_as_mainfile(filepath=str(folder / "workplace.blend"))
     (folder / "study.toml").write_text(STUDY.format(armature=armature.name))
-    walls, summaries = {}, {}
-    for workers in (1, 2):
-        out = folder / f"w{workers}"
+    walls, work, summaries = {1: [], 2: []}, {1: [], 2: []}, {}
+    for run, workers in enumerate((1, 2, 2, 1)):
+        out = folder / f"run{run}-w{workers}"
         t0 = time.perf_counter()
         proc = subprocess.run(
             [sys.executable, "-m", "reach_addon", "batch", str(folder / "study.toml"),
              "--workers", str(workers), "--output", str(out)],
             env=dict(os.environ, PYTHONPATH=str(ROOT)), cwd=ROOT, timeout=3600,
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, check=False)
-        walls[workers] = time.perf_counter() - t0
+        wall = time.perf_counter() - t0
         # exit 1 means some targets were not reached, which a study may hold; anything
         # else, or a summary short of tasks, is a broken run and not a figure
         summary_path = out / "summary.json"
         if proc.returncode not in (0, 1) or not summary_path.exists():
             raise RuntimeError(f"batch on {workers} worker(s) failed (exit {proc.returncode}): "
                                f"{proc.stderr[-2000:]}")
-        summaries[workers] = json.loads(summary_path.read_text())
-        log(f"  {summaries[workers]['tasks']} tasks on {workers} process(es): "
-            f"{walls[workers]:.1f} s, {summaries[workers]['succeeded']} reached")
-    if summaries[1]["tasks"] != summaries[2]["tasks"] or \
-            summaries[1]["succeeded"] != summaries[2]["succeeded"]:
-        raise RuntimeError(f"batch: 1 and 2 workers disagree ({summaries[1]['succeeded']}/"
-                           f"{summaries[1]['tasks']} against {summaries[2]['succeeded']}/"
-                           f"{summaries[2]['tasks']})")
+        summary = json.loads(summary_path.read_text())
+        tasks = [json.loads(f.read_text()) for f in (out / "tasks").glob("*.json")]
+        if len(tasks) != summary["tasks"]:
+            raise RuntimeError(f"batch on {workers} worker(s): {len(tasks)} task results for "
+                               f"{summary['tasks']} tasks")
+        walls[workers].append(wall)
+        work[workers].append(sum(t["wall_time_s"] for t in tasks))
+        log(f"  {summary['tasks']} tasks on {workers} process(es): {wall:.1f} s, "
+            f"{summary['succeeded']} reached; the tasks' own time {work[workers][-1]:.1f} s")
+        previous = summaries.setdefault(workers, summary)
+        if (summary["tasks"], summary["succeeded"]) != (summaries[1]["tasks"],
+                                                        summaries[1]["succeeded"]) or \
+                (previous["tasks"], previous["succeeded"]) != (summary["tasks"],
+                                                               summary["succeeded"]):
+            raise RuntimeError(f"batch: runs disagree ({summaries[1]['succeeded']}/"
+                               f"{summaries[1]['tasks']} against {summary['succeeded']}/"
+                               f"{summary['tasks']})")
+    one, two = float(np.mean(walls[1])), float(np.mean(walls[2]))
+    all_work = work[1] + work[2]
     return {"batch_tasks": summaries[1]["tasks"], "batch_reached": summaries[1]["succeeded"],
-            "batch_1proc_s": walls[1], "batch_2proc_s": walls[2],
-            "batch_speedup_2proc": walls[1] / walls[2]}
+            "batch_1proc_s": one, "batch_2proc_s": two, "batch_speedup_2proc": one / two,
+            "batch_runs_s": {"1": walls[1], "2": walls[2]},
+            "batch_work_s": {"1": work[1], "2": work[2]},
+            "batch_work_spread": max(all_work) / min(all_work)}
 
 
 # --- 6. tight scenes ---------------------------------------------------------------------------------
@@ -672,7 +691,7 @@ def markdown(results) -> str:
     for k in ("chase_update_ms_p50", "chase_update_ms_p95",
               "bake_1000_frames_ms", "bake_bones", "gather_10k_instances_ms",
               "gather_10k_instances_triangles", "batch_tasks", "batch_reached",
-              "batch_1proc_s", "batch_2proc_s", "batch_speedup_2proc"):
+              "batch_1proc_s", "batch_2proc_s", "batch_speedup_2proc", "batch_work_spread"):
         if k in results:
             v = results[k]
             lines.append(f"- `{k}`: {v:.2f}" if isinstance(v, float) else f"- `{k}`: {v}")
