@@ -112,7 +112,7 @@ FEATURES = (
     "animated_obstacle", "moving_parent_obstacle", "hidden", "disabled", "excluded_collection",
     "hidden_collection", "render_hidden", "linked_instance", "linked_mesh",
     "linked_armature", "obstacle_nan", "obstacle_inf", "armature_nan", "vertex_nan",
-    "no_obstacles",
+    "no_obstacles", "body_moves",
 )
 
 SYNTH_MAPS = ("mixamo", "vrm", "unity", "spaced", "makehuman", "unreal", "plain", "numbered")
@@ -436,6 +436,17 @@ def generate(seed: int, quick: bool = False) -> dict:
         spec["settings"].update(QUICK_SETTINGS)
         if rig["kind"] == "rigify":
             rig["kind"] = "metarig"
+    # the body moving while the arm reaches (keys on the armature, or on the object that
+    # carries it): from a stream of its own, so every other draw keeps its scene
+    body = np.random.default_rng([seed, 1])
+    spec["body_moves"] = None
+    if body.random() < 0.03 and not spec["linked_armature"]:
+        spec["body_moves"] = {"delta": _unit(body.normal(size=3)).tolist(),
+                              "arm_lengths": float(body.uniform(0.1, 0.4)),
+                              "spin_deg": float(body.uniform(-20, 20)) if body.random() < 0.5
+                              else 0.0,
+                              "frames": int(body.integers(20, 60))}
+        features.add("body_moves")
     spec["quick"] = quick
     spec["features"] = sorted(features)
     return spec
@@ -961,6 +972,14 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
             if not use_collection:
                 solids.append(ob.name)
 
+    moves = spec.get("body_moves")
+    if moves:
+        # the armature (or what carries it) walks off while the arm reaches: the bake
+        # must refuse naming it, fail with a reason, or be verified on target as it is
+        mover = rig_parent if rig_parent is not None else arm
+        _key_motion(mover, fs, moves["frames"],
+                    place.vector(moves["delta"]) * moves["arm_lengths"], moves["spin_deg"])
+        culprits |= {mover.name, arm.name}
     if spec["new_action"]:
         root_bone = next(b for b in arm.pose.bones if b.parent is None)
         root_bone.keyframe_insert("location", frame=fs)

@@ -17,11 +17,13 @@ replaced by Reach's keys over the reach, whatever they held. On every frame of e
 motion to bake (``scene.frame_set``, so keys, NLA, drivers, constraints and parents all
 count), the world matrix ``W_f`` of the upper arm's parent is composed from the armature's
 world matrix and each body bone's matrix relative to its parent, the keyed bones held at
-their start (``W_0``). The arm planned for that frame is carried by ``W_f W_0⁻¹``; how
-far its joints (sternum, shoulder, elbow, wrist, hand end) move is the *drift*. A drift
-above the goal tolerance (``Settings.goal_tolerance``: the baked wrist would miss the
-target) refuses the bake with a :class:`~reach_addon.core.ReachError` naming what moves,
-by how much and on which frame, and what to do; nothing in the scene is changed.
+the start frame, where the rig was read (``W_0``: every plan assumes that body, a reach
+baked after a failed one that is not keyed included). The arm planned for that frame
+is carried by ``W_f W_0⁻¹``; how far its joints (sternum, shoulder, elbow, wrist, hand
+end) move is the *drift*. A drift above the goal tolerance (``Settings.goal_tolerance``:
+the baked wrist would miss the target) refuses the bake with a
+:class:`~reach_addon.core.ReachError` naming what moves, by how much and on which frame,
+and what to do; nothing in the scene is changed.
 
 Where the keyed chest turns and an unkeyed bone sits between it and the clavicle, the
 composition holds the chest at its start: the drift is then measured about the start
@@ -126,10 +128,12 @@ def _curves(action) -> list:
     return list(action.fcurves)
 
 
-def check(context, armature, info, plans, settings) -> float:
+def check(context, armature, info, plans, settings, frame_start) -> float:
     """Refuse (ReachError) a bake of ``plans`` [(Plan, first frame)] that the rig's own
     animation would carry off the plan by more than the goal tolerance (see the module
-    doc); returns the largest drift, world units (0 where nothing can move). The scene's
+    doc); returns the largest drift, world units (0 where nothing can move).
+    ``frame_start``: the frame the rig was read at, whose body every plan assumes (a plan
+    baked later, after a failed reach that is not baked, starts after it). The scene's
     frame is put back."""
     chain, held = body_bones(armature, info, plans)
     free = [n for n in chain if n not in held]
@@ -162,7 +166,7 @@ def check(context, armature, info, plans, settings) -> float:
                 or np.linalg.norm(d[:3, 3]) * scale > MOVED * length)
 
     carrier = f" (carried by '{armature.parent.name}')" if armature.parent else ""
-    first = plans[0][1]
+    first = frame_start
     try:
         scene.frame_set(first)
         start_mw, start_rel = read()

@@ -319,7 +319,7 @@ def steps(context, request: Request, bake: bool = True):
         baked = [(p, f) for p, f in plans if p.success or request.bake_closest] if bake else []
         checkers = [c for (p, _f), c in zip(plans, checkers) if p.success or request.bake_closest]
         # the rig's own animation must not carry the arm off the plan (body.check refuses)
-        body_mod.check(context, armature, info, baked, settings)
+        body_mod.check(context, armature, info, baked, settings, frame_start)
         # The last yield: from here on the scene changes (keys, drawing), so nothing below
         # yields and a caller that stops at any yield has changed nothing.
         yield 0.92, "baking keys" if baked else "drawing"
