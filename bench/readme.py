@@ -114,11 +114,16 @@ def table(r: dict) -> str:
             f"; planner {1000 * g['gui_planner_s']['median']:.0f} ms in the interface | "
             "goal ≤ 1.5× |")
     if "batch_1proc_s" in r:
-        runs = r.get("batch_runs_s")
-        each = (" (runs in order 1, 2, 2, 1: " + ", ".join(
-            f"{x:.1f}" for x in (runs["1"][0], runs["2"][0], runs["2"][1], runs["1"][1]))
-            + f" s; the tasks' summed time varies {r['batch_work_spread']:.2f}× across runs)"
-            if runs and len(runs["1"]) == 2 else "")
+        runs, work = r.get("batch_runs_s"), r.get("batch_work_s")
+        each = ""
+        if runs and work and len(runs["1"]) == len(runs["2"]) == 2:
+            # the tasks' summed time: between runs alike (drift) and two at once against one
+            drift = max(max(w) / min(w) for w in work.values())
+            ratio = (sum(work["2"]) / 2) / (sum(work["1"]) / 2)
+            each = (" (runs in order 1, 2, 2, 1: " + ", ".join(
+                f"{x:.1f}" for x in (runs["1"][0], runs["2"][0], runs["2"][1], runs["1"][1]))
+                + f" s; each task takes {ratio:.2f}× as long with two processes at once; "
+                f"runs alike differ by up to {drift:.2f}×)")
         lines.append(f"| {r.get('batch_tasks', '')}-task batch study, 1 → 2 worker processes | "
                      f"{r['batch_1proc_s']:.1f} → {r['batch_2proc_s']:.1f} s "
                      f"({r['batch_speedup_2proc']:.2f}×){each} | goal ≥ 1.8× |")
