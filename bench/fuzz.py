@@ -979,7 +979,6 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
         mover = rig_parent if rig_parent is not None else arm
         _key_motion(mover, fs, moves["frames"],
                     place.vector(moves["delta"]) * moves["arm_lengths"], moves["spin_deg"])
-        culprits |= {mover.name, arm.name}
     if spec["new_action"]:
         root_bone = next(b for b in arm.pose.bones if b.parent is None)
         root_bone.keyframe_insert("location", frame=fs)

@@ -446,19 +446,18 @@ def batch_throughput():
     """The batch study :data:`STUDY` (200 tasks) on 1 and on 2 worker processes, run in the
     order 1, 2, 2, 1 (a machine that speeds up or slows down during the step weighs on
     both sides alike), each run into its own folder (a re-run would skip finished tasks).
-    Beside the walls, the work: the tasks' own wall times summed per run. Runs with the
-    same number of processes should agree (``batch_work_drift``, the largest ratio between
-    two of them: well above 1, the machine's speed changed during the step); two processes
-    at once each take longer per task than one alone (``batch_work_ratio``, their summed
-    time over one process's: the cores' shared cache and memory, the machine's other load),
-    which is what keeps the speed-up below 2."""
+    Beside the walls, the work: the tasks' own wall times summed per run
+    (``batch_work_s``). Runs with the same number of processes should agree (well apart,
+    the machine's speed changed during the step); two processes at once each take longer
+    per task than one alone (the cores' shared cache and memory, the machine's other
+    load), which is what keeps the speed-up below 2. ``bench/readme.py`` shows both."""
     from reach_addon.demo import build_scene
 
     folder = Path(tempfile.mkdtemp(prefix="reach-bench-"))
     armature = build_scene()
     bpy.ops.wm.save_as_mainfile(filepath=str(folder / "workplace.blend"))
     (folder / "study.toml").write_text(STUDY.format(armature=armature.name))
-    walls, work, summaries = {1: [], 2: []}, {1: [], 2: []}, {}
+    walls, work, first = {1: [], 2: []}, {1: [], 2: []}, None
     for run, workers in enumerate((1, 2, 2, 1)):
         out = folder / f"run{run}-w{workers}"
         t0 = time.perf_counter()
@@ -483,21 +482,15 @@ def batch_throughput():
         work[workers].append(sum(t["wall_time_s"] for t in tasks))
         log(f"  {summary['tasks']} tasks on {workers} process(es): {wall:.1f} s, "
             f"{summary['succeeded']} reached; the tasks' own time {work[workers][-1]:.1f} s")
-        previous = summaries.setdefault(workers, summary)
-        if (summary["tasks"], summary["succeeded"]) != (summaries[1]["tasks"],
-                                                        summaries[1]["succeeded"]) or \
-                (previous["tasks"], previous["succeeded"]) != (summary["tasks"],
-                                                               summary["succeeded"]):
-            raise RuntimeError(f"batch: runs disagree ({summaries[1]['succeeded']}/"
-                               f"{summaries[1]['tasks']} against {summary['succeeded']}/"
-                               f"{summary['tasks']})")
+        first = first or summary
+        if (summary["tasks"], summary["succeeded"]) != (first["tasks"], first["succeeded"]):
+            raise RuntimeError(f"batch: runs disagree ({first['succeeded']}/{first['tasks']} "
+                               f"against {summary['succeeded']}/{summary['tasks']})")
     one, two = float(np.mean(walls[1])), float(np.mean(walls[2]))
-    return {"batch_tasks": summaries[1]["tasks"], "batch_reached": summaries[1]["succeeded"],
+    return {"batch_tasks": first["tasks"], "batch_reached": first["succeeded"],
             "batch_1proc_s": one, "batch_2proc_s": two, "batch_speedup_2proc": one / two,
             "batch_runs_s": {"1": walls[1], "2": walls[2]},
-            "batch_work_s": {"1": work[1], "2": work[2]},
-            "batch_work_drift": max(max(w) / min(w) for w in work.values()),
-            "batch_work_ratio": float(np.mean(work[2]) / np.mean(work[1]))}
+            "batch_work_s": {"1": work[1], "2": work[2]}}
 
 
 # --- 6. tight scenes ---------------------------------------------------------------------------------
@@ -694,8 +687,7 @@ def markdown(results) -> str:
     for k in ("chase_update_ms_p50", "chase_update_ms_p95",
               "bake_1000_frames_ms", "bake_bones", "gather_10k_instances_ms",
               "gather_10k_instances_triangles", "batch_tasks", "batch_reached",
-              "batch_1proc_s", "batch_2proc_s", "batch_speedup_2proc", "batch_work_drift",
-              "batch_work_ratio"):
+              "batch_1proc_s", "batch_2proc_s", "batch_speedup_2proc"):
         if k in results:
             v = results[k]
             lines.append(f"- `{k}`: {v:.2f}" if isinstance(v, float) else f"- `{k}`: {v}")

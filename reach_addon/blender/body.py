@@ -135,9 +135,11 @@ def check(context, armature, info, plans, settings, frame_start) -> float:
     ``frame_start``: the frame the rig was read at, whose body every plan assumes (a plan
     baked later, after a failed reach that is not baked, starts after it). The scene's
     frame is put back."""
+    if not plans:
+        return 0.0
     chain, held = body_bones(armature, info, plans)
     free = [n for n in chain if n not in held]
-    if not plans or not may_move(armature, free):
+    if not may_move(armature, free):
         return 0.0
     scene = context.scene
     bones = armature.pose.bones
