@@ -112,7 +112,7 @@ FEATURES = (
     "animated_obstacle", "moving_parent_obstacle", "hidden", "disabled", "excluded_collection",
     "hidden_collection", "render_hidden", "linked_instance", "linked_mesh",
     "linked_armature", "obstacle_nan", "obstacle_inf", "armature_nan", "vertex_nan",
-    "no_obstacles", "body_moves",
+    "no_obstacles", "body_moves", "euler_bones",
 )
 
 SYNTH_MAPS = ("mixamo", "vrm", "unity", "spaced", "makehuman", "unreal", "plain", "numbered")
@@ -124,6 +124,8 @@ MESH_KINDS = ("box", "plane", "thin_wall", "open_mesh", "tube", "non_manifold",
 MESH_WEIGHTS = (24, 8, 8, 6, 4, 5, 3, 2, 2, 2, 2, 2, 3, 4, 4, 3)
 #: Meshes without faces or without area: never obstacles, so never checked.
 NO_SURFACE = {"edges_only", "empty_mesh", "zero_scale", "collapsed_mesh"}
+#: Share of scenes whose bones all rotate in an Euler order (feature ``euler_bones``).
+EULER_BONES_SHARE = 0.05
 #: Sub-frame instants checked between two frames (besides the frames themselves).
 SUBFRAMES = 3
 #: Planner settings of the quick scenes (the tests' subset): smaller search budgets.
@@ -447,6 +449,13 @@ def generate(seed: int, quick: bool = False) -> dict:
                               else 0.0,
                               "frames": int(body.integers(20, 60))}
         features.add("body_moves")
+    # every bone rotating in one Euler order, as a BVH import or a hand-made rig has it:
+    # Blender then blends three angles between keys, not a quaternion (a stream of its own)
+    euler = np.random.default_rng([seed, 2])
+    spec["euler_bones"] = None
+    if euler.random() < EULER_BONES_SHARE and not spec["linked_armature"]:
+        spec["euler_bones"] = _pick(euler, ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"))
+        features.add("euler_bones")
     spec["quick"] = quick
     spec["features"] = sorted(features)
     return spec
@@ -972,6 +981,9 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
             if not use_collection:
                 solids.append(ob.name)
 
+    if spec.get("euler_bones") and not spec["linked_armature"]:
+        for pb in arm.pose.bones:          # Blender converts the pose to the new order
+            pb.rotation_mode = spec["euler_bones"]
     moves = spec.get("body_moves")
     if moves:
         # the armature (or what carries it) walks off while the arm reaches: the bake
