@@ -27,7 +27,9 @@ other arm) would move as the chest turns, so the chest is kept still for that re
 
 A bake is refused, before anything is keyed, where the rig's own animation (a walk on the
 hips, keys on the armature object, an NLA strip) would carry the arm off its plan by more
-than the goal tolerance while it reaches (:func:`.body.check`).
+than the goal tolerance while it reaches (:func:`.body.check`). A drawn preview (Plan)
+runs the same check on the plans a Bake would key and adds its message to
+:attr:`Outcome.warnings` instead: the preview is drawn, and says the Bake would stop.
 """
 
 from __future__ import annotations
@@ -107,6 +109,8 @@ class Outcome:
     action: str | None = None
     failure: str | None = None           # why nothing was baked, when baking was asked for
     obstacles: list = field(default_factory=list)   # (name, triangles) of each obstacle used
+    #: what a Plan (no keys) found that a Bake of it would refuse (:func:`.body.check`)
+    warnings: list = field(default_factory=list)
 
     @property
     def success(self) -> bool:
@@ -118,6 +122,7 @@ class Outcome:
             "action": self.action, "success": self.success,
             "tasks": [r.to_dict() for r in self.results],
             "obstacles": [{"name": n, "triangles": t} for n, t in self.obstacles],
+            "warnings": list(self.warnings),
         }
 
 
@@ -318,8 +323,17 @@ def steps(context, request: Request, bake: bool = True):
         draw = request.draw
         baked = [(p, f) for p, f in plans if p.success or request.bake_closest] if bake else []
         checkers = [c for (p, _f), c in zip(plans, checkers) if p.success or request.bake_closest]
-        # the rig's own animation must not carry the arm off the plan (body.check refuses)
-        body_mod.check(context, armature, info, baked, settings, frame_start)
+        # the rig's own animation must not carry the arm off the plan (body.check refuses);
+        # a drawn preview (Plan) says so beforehand, for the plans a Bake would key
+        if bake:
+            body_mod.check(context, armature, info, baked, settings, frame_start)
+        elif draw:
+            try:
+                body_mod.check(context, armature, info,
+                               [(p, f) for p, f in plans if p.success or request.bake_closest],
+                               settings, frame_start)
+            except ReachError as exc:
+                outcome.warnings.append(f"a Bake of this plan would stop: {exc}")
         # The last yield: from here on the scene changes (keys, drawing), so nothing below
         # yields and a caller that stops at any yield has changed nothing.
         yield 0.92, "baking keys" if baked else "drawing"

@@ -228,7 +228,9 @@ class _Run:
         props.last_result = json.dumps({**outcome.summary(), "time": self._clock.times()})
         props.status = ""
         first = next((r for r in outcome.results if not r.success), None)
-        if first is None:
+        if first is None and outcome.warnings:
+            self.report({"WARNING"}, outcome.warnings[0])
+        elif first is None:
             verb = "Baked" if outcome.baked else "Planned"
             self.report({"INFO"}, f"{verb} {len(outcome.results)} reach(es) for "
                                   f"{outcome.rig.armature_name} ({outcome.rig.side} arm)")
@@ -329,6 +331,7 @@ def result_lines(props) -> list:
                          + ("" if st["orientation_met"] else " (over tolerance)"))
         if not t["success"]:
             lines.append("  " + t["message"])
+    lines += [f"Warning: {w}" for w in res.get("warnings", ())]
     if res.get("time"):
         lines.append(f"Time: planner {res['time']['planner_s'] * 1000:.0f} ms, "
                      f"wall {res['time']['wall_s'] * 1000:.0f} ms")

@@ -45,6 +45,15 @@ def test_a_walking_clip_is_refused_until_it_is_muted(fresh, addon):
     assert drift > addon.core.Settings().goal_tolerance, text
     print(text)
 
+    # Plan draws the preview and says beforehand what the Bake would say; it keys nothing
+    keys = _keys(arm)
+    assert bpy.ops.reach.plan() == {"FINISHED"}
+    warnings = _last()["warnings"]
+    assert len(warnings) == 1 and warnings[0].startswith("a Bake of this plan would stop"), warnings
+    assert f"armature '{arm.name}'" in warnings[0] and "its own animation" in warnings[0]
+    assert f"Warning: {warnings[0]}" in addon.ui.operators.result_lines(bpy.context.scene.reach)
+    assert _keys(arm) == keys and bpy.context.scene.frame_current == 1
+
     # the same clip in an NLA strip moves the body the same way
     ad = arm.animation_data
     clip = ad.action
@@ -58,10 +67,27 @@ def test_a_walking_clip_is_refused_until_it_is_muted(fresh, addon):
     # the target as Blender evaluates it
     track.mute = True
     bpy.context.scene.frame_set(1)
+    assert bpy.ops.reach.plan() == {"FINISHED"}
+    assert _last()["warnings"] == []
     assert bpy.ops.reach.bake() == {"FINISHED"}
     wrist = hand_at_end(arm, "cesium")
     goal = np.array(target.matrix_world.translation)
     assert np.linalg.norm(wrist - goal) <= 0.01 * length
+
+
+def _last() -> dict:
+    import json
+
+    return json.loads(bpy.context.scene.reach.last_result)
+
+
+def _keys(arm) -> list:
+    """Every key of the armature's action and NLA strips' actions, as numbers."""
+    ad = arm.animation_data
+    actions = ([ad.action] if ad and ad.action else []) + \
+        [st.action for tr in (ad.nla_tracks if ad else ()) for st in tr.strips if st.action]
+    return [(fc.data_path, fc.array_index, [tuple(k.co) for k in fc.keyframe_points])
+            for act in actions for fc in rigs.fcurves(act)]
 
 
 def _key_motion(ob, delta, frames=(1, 25)):
