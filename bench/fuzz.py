@@ -981,10 +981,11 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
             if not use_collection:
                 solids.append(ob.name)
 
-    if spec.get("euler_bones") and not spec["linked_armature"]:
+    if spec.get("euler_bones"):
         for pb in arm.pose.bones:          # Blender converts the pose to the new order
             pb.rotation_mode = spec["euler_bones"]
     moves = spec.get("body_moves")
+    mover = None
     if moves:
         # the armature (or what carries it) walks off while the arm reaches: the bake
         # must refuse naming it, fail with a reason, or be verified on target as it is
@@ -997,8 +998,11 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
     if spec["armature_nan"] and not spec["linked_armature"]:
         value = float("nan") if spec["armature_nan"] == "nan" else float("inf")
         arm.location = (value, arm.location[1], arm.location[2])
-        culprits.add(arm.name)
-        must_refuse = True
+        # where the armature's own location is keyed (body_moves), its curves put a finite
+        # location back on every frame: the input is not bad then
+        if mover is not arm:
+            culprits.add(arm.name)
+            must_refuse = True
     for t, m in zip(spec["targets"], manifest_targets):
         if t["nan"]:
             ob = bpy.data.objects[m["name"]]

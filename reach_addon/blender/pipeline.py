@@ -321,18 +321,18 @@ def steps(context, request: Request, bake: bool = True):
         outcome = Outcome(request, info, plans, [], obstacles=obstacles.triangle_counts())
         keyed, baked_result = [], None
         draw = request.draw
-        baked = [(p, f) for p, f in plans if p.success or request.bake_closest] if bake else []
-        checkers = [c for (p, _f), c in zip(plans, checkers) if p.success or request.bake_closest]
+        keyable = [p.success or request.bake_closest for p, _f in plans]
+        baked = [pf for pf, k in zip(plans, keyable) if k] if bake else []
+        checkers = [c for c, k in zip(checkers, keyable) if k]
         # the rig's own animation must not carry the arm off the plan (body.check refuses);
         # a drawn preview (Plan) says so beforehand, for the plans a Bake would key
-        if bake:
-            body_mod.check(context, armature, info, baked, settings, frame_start)
-        elif draw:
+        if bake or draw:
             try:
                 body_mod.check(context, armature, info,
-                               [(p, f) for p, f in plans if p.success or request.bake_closest],
-                               settings, frame_start)
+                               [pf for pf, k in zip(plans, keyable) if k], settings, frame_start)
             except ReachError as exc:
+                if bake:
+                    raise
                 outcome.warnings.append(f"a Bake of this plan would stop: {exc}")
         # The last yield: from here on the scene changes (keys, drawing), so nothing below
         # yields and a caller that stops at any yield has changed nothing.

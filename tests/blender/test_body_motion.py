@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import rigs
 from test_bad_input import expect_error
-from test_bake import SKIN_CHAIN, world_heads
+from test_bake import SKIN_CHAIN, snapshot_keys, world_heads
 
 
 def free_target(addon, arm, ahead=0.6, up=0.1):
@@ -46,13 +46,13 @@ def test_a_walking_clip_is_refused_until_it_is_muted(fresh, addon):
     print(text)
 
     # Plan draws the preview and says beforehand what the Bake would say; it keys nothing
-    keys = _keys(arm)
+    keys = snapshot_keys(arm)
     assert bpy.ops.reach.plan() == {"FINISHED"}
     warnings = _last()["warnings"]
     assert len(warnings) == 1 and warnings[0].startswith("a Bake of this plan would stop"), warnings
     assert f"armature '{arm.name}'" in warnings[0] and "its own animation" in warnings[0]
     assert f"Warning: {warnings[0]}" in addon.ui.operators.result_lines(bpy.context.scene.reach)
-    assert _keys(arm) == keys and bpy.context.scene.frame_current == 1
+    assert snapshot_keys(arm) == keys and bpy.context.scene.frame_current == 1
 
     # the same clip in an NLA strip moves the body the same way
     ad = arm.animation_data
@@ -79,15 +79,6 @@ def _last() -> dict:
     import json
 
     return json.loads(bpy.context.scene.reach.last_result)
-
-
-def _keys(arm) -> list:
-    """Every key of the armature's action and NLA strips' actions, as numbers."""
-    ad = arm.animation_data
-    actions = ([ad.action] if ad and ad.action else []) + \
-        [st.action for tr in (ad.nla_tracks if ad else ()) for st in tr.strips if st.action]
-    return [(fc.data_path, fc.array_index, [tuple(k.co) for k in fc.keyframe_points])
-            for act in actions for fc in rigs.fcurves(act)]
 
 
 def _key_motion(ob, delta, frames=(1, 25)):
