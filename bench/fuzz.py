@@ -837,6 +837,7 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
 
     # the obstacles
     solids, movers = [], []
+    nan_vertex = []             # still obstacles with a NaN vertex
     use_collection = spec["obstacle_collection"]
     linked = None
     wrist = place.joints["wrist"]
@@ -944,10 +945,19 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
         keyed = o["animated"] is not None and o["animated"]["kind"] == "keys"
         if keyed and o["nan"] in ("nan", "inf"):
             pass    # its location is animated: the keys set it on every frame, NaN or not
+        elif counts and o["nan"] == "vertex":
+            # A Plan does not read an object whose box lies beyond the arm's reach (the
+            # README's "Only what the arm can reach"; Blender's box skips the NaN vertex).
+            # Within 1.5 arm lengths of the shoulder it is surely read, hence refused (see
+            # below); farther, the bake may go on, and then the check holds the arm to its
+            # finite faces (solid_triangles drops the NaN ones).
+            culprits.add(ob.name)
+            if not o["animated"]:
+                nan_vertex.append(ob)
         elif counts and o["nan"] and o["kind"] not in ("edges_only", "empty_mesh"):
             culprits.add(ob.name)
             must_refuse = True
-        if counts and o["kind"] not in NO_SURFACE and not o["nan"]:
+        if counts and o["kind"] not in NO_SURFACE and o["nan"] in (None, "vertex"):
             solids.append(ob.name)
             if o["animated"]:
                 movers.append(ob.name)
@@ -1008,6 +1018,9 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
             ob = bpy.data.objects[m["name"]]
             ob.location = (float("nan") if t["nan"] == "nan" else float("inf"), 0.0, 0.0)
     scene.frame_current = fs
+    bpy.context.view_layer.update()
+    if nan_vertex and _near_shoulder(nan_vertex, G, place, 1.5):
+        must_refuse = True
     scene.frame_start = min(fs, scene.frame_start)
     scene.frame_end = max(scene.frame_end, fs + 60)
     bpy.context.view_layer.update()
@@ -1118,6 +1131,30 @@ def _mesh_triangles(mesh, matrix) -> np.ndarray:
     m = np.asarray(matrix, dtype=float)
     world = co.reshape(-1, 3).astype(float) @ m[:3, :3].T + m[:3, 3]
     return world[idx.reshape(-1, 3)]
+
+
+def _near_shoulder(objects, G, place, reach: float) -> bool:
+    """Whether the box of any object's finite vertices (world, evaluated now) comes within
+    ``reach`` arm lengths of the reaching shoulder in its start pose. Any point within
+    1.5 arm lengths of the shoulder lies inside the arm's reach sphere (its radius is at
+    least the shoulder's distance from the spine plus arm, hand and half an arm), so such
+    an object is read by a Plan."""
+    bpy = _bpy()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    shoulder = G[:3, :3] @ place.joints["shoulder"] + G[:3, 3]
+    length = place.length * np.linalg.norm(G[:3, 0])
+    for ob in objects:
+        ev = ob.evaluated_get(depsgraph)
+        co = np.array([v.co for v in ev.data.vertices], dtype=float).reshape(-1, 3)
+        co = co[np.isfinite(co).all(axis=1)]
+        if not len(co):
+            continue
+        m = np.array(ev.matrix_world)
+        world = co @ m[:3, :3].T + m[:3, 3]
+        lo, hi = world.min(0), world.max(0)
+        if np.linalg.norm(np.maximum(0.0, np.maximum(lo - shoulder, shoulder - hi))) <= reach * length:
+            return True
+    return False
 
 
 def solid_triangles(names, min_area: float) -> np.ndarray:

@@ -21,7 +21,9 @@ the start frame, where the rig was read (``W_0``: every plan assumes that body, 
 baked after a failed one that is not keyed included). The arm planned for that frame
 is carried by ``W_f W_0⁻¹``; how far its joints (sternum, shoulder, elbow, wrist, hand
 end) move is the *drift*. A drift above the goal tolerance (``Settings.goal_tolerance``:
-the baked wrist would miss the target) refuses the bake with a
+the baked wrist would miss the target), or a smaller one that carries the wrist farther
+than the tolerance from its target on a frame the plan arrives there (the drift adds to
+the plan's own error, itself up to the tolerance), refuses the bake with a
 :class:`~reach_addon.core.ReachError` naming what moves, by how much and on which frame,
 and what to do; nothing in the scene is changed.
 
@@ -130,8 +132,9 @@ def _curves(action) -> list:
 
 def check(context, armature, info, plans, settings, frame_start) -> float:
     """Refuse (ReachError) a bake of ``plans`` [(Plan, first frame)] that the rig's own
-    animation would carry off the plan by more than the goal tolerance (see the module
-    doc); returns the largest drift, world units (0 where nothing can move).
+    animation would carry off the plan by more than the goal tolerance, or carry a wrist
+    that arrives at its target farther than the tolerance from it (see the module doc);
+    returns the largest drift, world units (0 where nothing can move).
     ``frame_start``: the frame the rig was read at, whose body every plan assumes (a plan
     baked later, after a failed reach that is not baked, starts after it). The scene's
     frame is put back."""
@@ -175,35 +178,57 @@ def check(context, armature, info, plans, settings, frame_start) -> float:
         scale = float(np.abs(np.linalg.det(start_mw[:3, :3])) ** (1 / 3))
         inv0 = np.linalg.inv(compose(start_mw, start_rel))
         worst, worst_frame, movers = 0.0, first, []
+        miss = None     # (off, planned, frame, target, movers): the wrist carried off target
+        tolerance = settings.goal_tolerance * length
+
+        def moving(mw, rel):
+            out = ([f"the armature object '{armature.name}'" + carrier]
+                   if changed(mw, start_mw, 1.0) else [])
+            return out + [f"bone '{n}'" for n, r, r0 in zip(chain, rel, start_rel)
+                          if n not in held and changed(r, r0, scale)]
+
         for plan, frame0 in plans:
             joints = plan.world_joints()
+            arrivals = {s.frame_end: s for s in plan.segments if s.success}
             for i in range(len(plan.poses)):
                 f = frame0 + i
                 scene.frame_set(f)
                 mw, rel = read()
                 carry = compose(mw, rel) @ inv0
                 p = np.c_[joints[i], np.ones(len(joints[i]))]
-                drift = float(np.linalg.norm((p @ carry.T)[:, :3] - joints[i], axis=1).max())
+                carried = (p @ carry.T)[:, :3]
+                drift = float(np.linalg.norm(carried - joints[i], axis=1).max())
                 if drift > worst:
-                    worst, worst_frame = drift, f
-                    movers = ([f"the armature object '{armature.name}'" + carrier]
-                              if changed(mw, start_mw, 1.0) else [])
-                    movers += [f"bone '{n}'" for n, r, r0 in zip(chain, rel, start_rel)
-                               if n not in held and changed(r, r0, scale)]
+                    worst, worst_frame, movers = drift, f, moving(mw, rel)
+                seg = arrivals.get(i)
+                if seg is not None and drift > MOVED * length:
+                    # on a frame the wrist arrives, the drift adds to the plan's own error
+                    off = float(np.linalg.norm(carried[3] - seg.target))
+                    planned = float(np.linalg.norm(joints[i][3] - seg.target))
+                    if off > tolerance and (miss is None or off > miss[0]):
+                        miss = (off, planned, f, seg.name, moving(mw, rel))
     finally:
         scene.frame_set(now[0], subframe=now[1])
-    if worst > settings.goal_tolerance * length:
+    if worst > tolerance or miss is not None:
         last = max(f0 + len(p.poses) - 1 for p, f0 in plans)
+        if worst > tolerance:
+            cm = 100 * worst * info.arm.metres_per_unit
+            effect = (f"carry the {info.side} arm {cm:.1f} cm away from its plan on frame "
+                      f"{worst_frame} ({worst / length:.2f} arm lengths), so the hand would "
+                      "miss the target and may pass through obstacles")
+        else:
+            off, planned, worst_frame, target, movers = miss
+            cm = 100 * off * info.arm.metres_per_unit
+            effect = (f"carry the {info.side} wrist {cm:.1f} cm from target '{target}' on "
+                      f"frame {worst_frame} ({off / length:.4f} arm lengths, more than the goal "
+                      f"tolerance of {settings.goal_tolerance:g}; the plan leaves it "
+                      f"{planned / length:.4f} away)")
         what = ", ".join(movers[:4]) + (f" and {len(movers) - 4} more" if len(movers) > 4
                                         else "") if movers else "the rig's own animation"
-        cm = 100 * worst * info.arm.metres_per_unit
         raise ReachError(
             f"armature '{armature.name}': its own animation moves the body the arm hangs "
-            f"from while it reaches (frames {first}–{last}): {what} would carry the "
-            f"{info.side} arm {cm:.1f} cm away from its plan on frame {worst_frame} "
-            f"({worst / length:.2f} arm lengths), so the hand would miss the target and may "
-            "pass through obstacles. Reach plans with the body holding its pose of frame "
-            f"{first}: mute or clear those keys over these frames (or mute the NLA track, "
-            "or unassign the clip an importer left playing), or start the reach where the "
-            "body holds still")
+            f"from while it reaches (frames {first}–{last}): {what} would {effect}. Reach "
+            f"plans with the body holding its pose of frame {first}: mute or clear those "
+            "keys over these frames (or mute the NLA track, or unassign the clip an importer "
+            "left playing), or start the reach where the body holds still")
     return worst
