@@ -121,7 +121,7 @@ class ConfigurationGenerator:
         distance = math.dist(np.asarray(wrist, dtype=float).tolist(), previous.wrist.tolist())
         return self.settings.max_joint_step * max(1.0, distance / self.step_length)
 
-    def hand_order(self, previous_hand, scale: float = 1.0) -> list:
+    def hand_order(self, previous_hand, scale: float = 1.0, toward=None) -> list:
         """The hand samples within ``Settings.hand_step_turn`` × ``scale`` of the previous
         wrist angles (turn of the hand's direction relative to the forearm), in the order
         they are tried: the previous hand itself, then those that bend less than it
@@ -129,8 +129,12 @@ class ConfigurationGenerator:
         it is while it can, relaxes when it may, and bends only as far as it must; keeping
         it (rather than relaxing at every chance) spares the path a zig-zag of turns. A
         previous hand farther than the bound from every sample (a rig's own start pose) may
-        go to the nearest samples, within half the bound beyond the nearest."""
-        key = (tuple(previous_hand), scale)
+        go to the nearest samples, within half the bound beyond the nearest.
+
+        ``toward``: a sample the hand should lead toward (the hand the target needs, see
+        :class:`~reach_addon.core.search.BestFirstSearch`): the same samples, nearest to it
+        first (ties: the smaller turn)."""
+        key = (tuple(previous_hand), scale, toward)
         order = self._hand_orders.get(key)
         if order is None:
             c0 = hand_coefficients(*previous_hand)
@@ -144,9 +148,17 @@ class ConfigurationGenerator:
             bend0 = math.degrees(math.acos(max(-1.0, min(1.0, c0[0]))))
             bound = self.settings.hand_step_turn * scale
             bound = max(bound, min(turns.values()) + 0.5 * bound)
-            order = sorted((h for h in self.hand_samples if turns[h] <= bound + 1e-9),
-                           key=lambda h: (turns[h] > 1e-9, self._relax[h] > bend0 + 1e-9,
-                                          turns[h]))
+            within = [h for h in self.hand_samples if turns[h] <= bound + 1e-9]
+            if toward is None:
+                order = sorted(within, key=lambda h: (turns[h] > 1e-9,
+                                                      self._relax[h] > bend0 + 1e-9, turns[h]))
+            else:
+                g = self._hand_coefficients[toward]
+
+                def to_goal(h):
+                    c = self._hand_coefficients[h]
+                    return math.acos(max(-1.0, min(1.0, c[0] * g[0] + c[1] * g[1] + c[2] * g[2])))
+                order = sorted(within, key=lambda h: (round(to_goal(h), 9), turns[h]))
             if len(self._hand_orders) < 256:
                 self._hand_orders[key] = order
         return order
@@ -170,7 +182,7 @@ class ConfigurationGenerator:
         return caps
 
     def solve(self, wrist, previous: Pose | None = None, body_rotation=None,
-              hand_scale: float | None = None) -> Pose | None:
+              hand_scale: float | None = None, toward=None) -> Pose | None:
         """The strongest legal, collision-free pose with the wrist at ``wrist`` that is
         within the smoothness bound of ``previous`` (if given); None if there is none.
         After a None, :attr:`hand_blocked` says whether some arm pose there was clear and
@@ -268,7 +280,7 @@ class ConfigurationGenerator:
                 if hands is None:
                     hands = self.hand_order((0.0, 0.0), 180.0) \
                         if previous is None or hand_scale is None else \
-                        self.hand_order(previous.hand, hand_scale)
+                        self.hand_order(previous.hand, hand_scale, toward)
                 tip, hand = self._place_hand(s_c, e_c, w_c, w_w, d_w, bend, caps_hand, hands,
                                              None if hand_scale is None else previous)
                 if tip is None:

@@ -33,6 +33,16 @@ choices (each a setting):
 * **Visited** positions: a candidate within ``Settings.visited_resolution`` steps of a
   position already tested (a hash grid of that size) is skipped, so the search never loops.
 * **Guiding nodes** are passed once the wrist comes within ``Settings.guide_radius`` cells.
+* **The hand leads** (ours; the paper has no hand in the search). Where the hand is kept
+  continuous, the pose the generator gives the target itself (its strongest clear arm, the
+  most relaxed clear hand) says which hand the target needs. If that is not the relaxed
+  hand, then within ``Settings.hand_lead`` hand lengths of the target every step and every
+  turn in place tries the hand samples nearest that one first (within the turn a step
+  allows). A hand that must tilt to fit at the target — into a drawer over its front wall
+  — tilts on the way in. Without it the search reached the drawer's opening with the hand
+  straight, found it blocked there and spent its whole budget round the opening (2,983
+  positions, then the sampling planner); with it, 62 positions for a 54-position path. On
+  Table 2's tasks the node counts are the same either way.
 * **Termination**: success within ``Settings.goal_tolerance`` of the target; a caller may
   also stop at a depth (chase reach commits a few steps per frame); failure when
   backtracking leaves the start, after ``Settings.node_budget`` tested positions, or after
@@ -133,6 +143,12 @@ class BestFirstSearch:
         self.stall_budget = s.stall_budget if stall_budget is None else stall_budget
         self.depth_limit = depth_limit
         self.hand_continuity = hand_continuity
+        self.goal_hand, self.lead_radius = None, 0.0
+        if hand_continuity and generator.settings.hand_lead > 0.0:
+            at_target = generator.solve(self.target)
+            if at_target is not None and at_target.hand != (0.0, 0.0):
+                self.goal_hand = at_target.hand
+                self.lead_radius = generator.settings.hand_lead * generator.arm.hand_length
         self.offsets = self.step * self.directions
         self.target_list = self.target.tolist()
         self.blocked_radius = float(s.blocked_radius)
@@ -157,6 +173,13 @@ class BestFirstSearch:
             self.done = self.success = True
 
     # --- helpers ---------------------------------------------------------------------
+    def _lead(self, wrist):
+        """The hand the target needs, where the wrist is near enough to lead the hand
+        toward it (else None)."""
+        if self.goal_hand is None or math.dist(self.target_list, list(wrist)) > self.lead_radius:
+            return None
+        return self.goal_hand
+
     def _key(self, p):
         r = self.resolution
         return (math.floor(p[0] / r), math.floor(p[1] / r), math.floor(p[2] / r))
@@ -210,8 +233,8 @@ class BestFirstSearch:
         # the hand turned in place (to the samples within a step's bound, the most relaxed
         # popped first): after every step that gets nearer the goal, before those that do
         # not, so that a hand in the way turns rather than the search wander sideways
-        turns = [h for h in self.generator.hand_order(node.pose.hand) if h != node.pose.hand] \
-            if self.hand_continuity else []
+        turns = [h for h in self.generator.hand_order(node.pose.hand, 1.0, self._lead(w))
+                 if h != node.pose.hand] if self.hand_continuity else []
         if turns:
             g = goal.tolist()
             near = dist - 1e-12
@@ -264,7 +287,8 @@ class BestFirstSearch:
                 elif self.hand_continuity:
                     pose = self.generator.solve(np.array(point), node.pose,
                                                 hand_scale=self.generator.move_scale(
-                                                    node.pose, point))
+                                                    node.pose, point),
+                                                toward=self._lead(point))
                 else:
                     pose = self.generator.solve(np.array(point), node.pose)
                 if pose is None:

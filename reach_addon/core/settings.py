@@ -171,6 +171,13 @@ class Settings:
         "bend): the hand may move to the next sample but never flips across the wrist's "
         "range, which no timing could make smooth", "motion", 5.0, 180.0, "deg")
 
+    hand_lead: float = _f(
+        2.0, "Hand lead", "Within this many hand lengths of the target the search turns "
+        "the hand toward the one the target needs (where that is not the relaxed hand): "
+        "a hand that must tilt to fit at the target, into a drawer or a cubby, tilts "
+        "before it goes in rather than getting stuck at the opening. 0 turns it only "
+        "when it must", "search", 0.0, 10.0, "hand lengths")
+
     start_contact_depth: float = _f(
         0.1, "Start contact", "A start pose closer to an obstacle than the "
         "clearance (a hand resting on a table) first moves out of contact, every step "
