@@ -146,6 +146,18 @@ def table(r: dict) -> str:
                      f"{_pairs(race, 'reach_mean_f_r', 'ompl_mean_f_r', ' vs ', '{:.2f}')} | |")
         lines.append(f"| interpolated samples touching, Reach vs OMPL (a–d) | "
                      f"{_pairs(race, 'reach_collisions', 'ompl_collisions', ' vs ')} | 0 |")
+    tight = (r.get("tight") or {}).get("summary", {}).get("total")
+    if tight:
+        commit = r["tight"].get("reach_commit")
+        saved = ROOT / "bench" / "tight.json"
+        if commit is None and saved.exists():      # the run that wrote results.json wrote it
+            commit = json.loads(saved.read_text()).get("reach_commit")
+        lines.append(
+            f"| tight scenes (`bench/tight.json`, Reach at {commit or '?'}): "
+            "Reach's successes among the scenes OMPL solves; median plan, Reach / OMPL | "
+            f"{tight['reach_solved']} of {tight['ompl_solved']} ({100 * tight['reach_rate']:.1f} %)"
+            f" of {tight['scenes']}; {1000 * tight['reach_median_s']:.0f} / "
+            f"{1000 * tight['ompl_median_s']:.0f} ms | goal ≥ 99 % |")
     return "\n".join(lines)
 
 

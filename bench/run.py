@@ -503,7 +503,11 @@ def tight_scenes(folder: Path):
         return {}
     from bench import tight
 
-    return {"tight": tight.bench_step(folder, log=log)}
+    out = tight.bench_step(folder, log=log)
+    saved = folder / "tight.json"
+    if saved.exists():
+        out.setdefault("reach_commit", json.loads(saved.read_text()).get("reach_commit"))
+    return {"tight": out}
 
 
 # --- report ------------------------------------------------------------------------------------------
