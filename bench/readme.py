@@ -150,7 +150,7 @@ def table(r: dict) -> str:
     if tight:
         commit = r["tight"].get("reach_commit")
         saved = ROOT / "bench" / "tight.json"
-        if commit is None and saved.exists():      # the run that wrote results.json wrote it
+        if commit is None and saved.exists():      # results.json from before it was kept there
             commit = json.loads(saved.read_text()).get("reach_commit")
         lines.append(
             f"| tight scenes (`bench/tight.json`, Reach at {commit or '?'}): "

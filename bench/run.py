@@ -503,11 +503,7 @@ def tight_scenes(folder: Path):
         return {}
     from bench import tight
 
-    out = tight.bench_step(folder, log=log)
-    saved = folder / "tight.json"
-    if saved.exists():
-        out.setdefault("reach_commit", json.loads(saved.read_text()).get("reach_commit"))
-    return {"tight": out}
+    return {"tight": tight.bench_step(folder, log=log)}
 
 
 # --- report ------------------------------------------------------------------------------------------

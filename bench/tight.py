@@ -789,7 +789,7 @@ def bench_step(folder: Path, log=print, count: int = DEFAULT_COUNT,
     log(f"  Reach {t['reach_solved']}/{t['ompl_solved']} of the scenes OMPL solved ({rate}); "
         f"median Reach {_ms(t['reach_median_s'])} ms, OMPL {_ms(t['ompl_median_s'])} ms")
     return {k: result[k] for k in ("count", "seed", "ompl_time_s", "arms", "summary",
-                                   "wall_time_s")}
+                                   "wall_time_s", "reach_commit") if k in result}
 
 
 def main(argv=None) -> int:

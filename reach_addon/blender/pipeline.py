@@ -322,14 +322,14 @@ def steps(context, request: Request, bake: bool = True):
         keyed, baked_result = [], None
         draw = request.draw
         keyable = [p.success or request.bake_closest for p, _f in plans]
-        baked = [pf for pf, k in zip(plans, keyable) if k] if bake else []
+        to_key = [pf for pf, k in zip(plans, keyable) if k]
+        baked = to_key if bake else []
         checkers = [c for c, k in zip(checkers, keyable) if k]
         # the rig's own animation must not carry the arm off the plan (body.check refuses);
         # a drawn preview (Plan) says so beforehand, for the plans a Bake would key
         if bake or draw:
             try:
-                body_mod.check(context, armature, info,
-                               [pf for pf, k in zip(plans, keyable) if k], settings, frame_start)
+                body_mod.check(context, armature, info, to_key, settings, frame_start)
             except ReachError as exc:
                 if bake:
                     raise

@@ -143,12 +143,11 @@ class BestFirstSearch:
         self.stall_budget = s.stall_budget if stall_budget is None else stall_budget
         self.depth_limit = depth_limit
         self.hand_continuity = hand_continuity
-        self.goal_hand, self.lead_radius = None, 0.0
-        if hand_continuity and generator.settings.hand_lead > 0.0:
-            at_target = generator.solve(self.target)
-            if at_target is not None and at_target.hand != (0.0, 0.0):
-                self.goal_hand = at_target.hand
-                self.lead_radius = generator.settings.hand_lead * generator.arm.hand_length
+        # the hand the target needs: worked out (one IK call) when the wrist first comes
+        # within the lead's radius, so a search that stops short of it (a chase's step)
+        # never pays for it; False until then
+        self.lead_radius = s.hand_lead * generator.arm.hand_length if hand_continuity else 0.0
+        self.goal_hand = False if self.lead_radius > 0.0 else None
         self.offsets = self.step * self.directions
         self.target_list = self.target.tolist()
         self.blocked_radius = float(s.blocked_radius)
@@ -175,9 +174,13 @@ class BestFirstSearch:
     # --- helpers ---------------------------------------------------------------------
     def _lead(self, wrist):
         """The hand the target needs, where the wrist is near enough to lead the hand
-        toward it (else None)."""
+        toward it and that is not the relaxed hand (else None)."""
         if self.goal_hand is None or math.dist(self.target_list, list(wrist)) > self.lead_radius:
             return None
+        if self.goal_hand is False:
+            at_target = self.generator.solve(self.target)
+            self.goal_hand = None if at_target is None or at_target.hand == (0.0, 0.0) \
+                else at_target.hand
         return self.goal_hand
 
     def _key(self, p):
