@@ -27,7 +27,7 @@ from mathutils import Matrix
 from .. import atomic
 from ..core.envelope import CLASSES, COLOURS, OUT
 from . import viz
-from .scene import VIZ_TAG, ObstacleCache, character_objects
+from .scene import VIZ_TAG, ObstacleCache, character_objects, rounded_bytes
 
 MESH_NAME = "Reach Envelope"
 #: Each point's octahedron reaches this share of the grid's spacing from its centre.
@@ -47,8 +47,8 @@ def state_key(context, request) -> str:
     signature = ObstacleCache(exclude, request.obstacles).compute_signature(context)
     h = hashlib.sha1()
     # (to 1e-6: a bone turned and turned back by hand comes back within float32 rounding)
-    h.update(np.round(np.array(armature.matrix_world), 6).tobytes())
-    h.update(np.round(pose, 6).tobytes())
+    h.update(rounded_bytes(np.array(armature.matrix_world), 6))
+    h.update(rounded_bytes(pose, 6))
     h.update(repr(signature).encode())
     h.update(json.dumps([request.settings.to_dict(), request.side, request.overrides,
                          request.obstacles, targets], sort_keys=True, default=str).encode())

@@ -74,6 +74,15 @@ VIZ_TAG = "reach_viz"
 INFINITE = 1e30
 
 
+def rounded_bytes(values, decimals: int) -> bytes:
+    """``values`` rounded to ``decimals`` as bytes, for a signature: a matrix turned and
+    turned back comes back within float rounding. Values too large to round (an infinite
+    location, kept by Blender as 3.4e38) become inf without numpy's overflow warning; such
+    objects are refused or left out before anything reads their geometry."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.round(np.asarray(values, dtype=float), decimals).tobytes()
+
+
 def finite(values) -> bool:
     """Are all ``values`` numbers below :data:`INFINITE` in size (no NaN, no infinity)?"""
     a = np.asarray(values, dtype=float)
@@ -251,7 +260,7 @@ class ObstacleCache:
             original = ob.original
             data = ob.data
             count = len(data.vertices) if piece.type == "MESH" else 0
-            entry = (piece.owner, piece.name, np.round(piece.matrix, 9).tobytes(),
+            entry = (piece.owner, piece.name, rounded_bytes(piece.matrix, 9),
                      getattr(original.data, "name", ""), count, edits.get(piece.name, 0))
             if geometry and count and _deformable(original):
                 co = np.empty(count * 3, dtype=np.float32)

@@ -191,6 +191,29 @@ def test_an_infinite_location_is_refused_naming_the_object(fresh, addon, what):
         bake(addon, arm, [target])
 
 
+def test_an_obstacle_at_an_infinite_location_is_signed_without_a_warning(fresh, addon):
+    """Fuzz seed 3638 (a chase): the obstacle cache's signature rounded the object's
+    matrix, and rounding 3.4e38 overflowed with numpy's RuntimeWarning. The signature is
+    read without one, is the same when read again, and changes when the object comes
+    back."""
+    import warnings
+
+    scene_mod = addon.blender.scene
+    arm, info = humanoid()
+    box = rigs.add_box("Crate", point(info, 0.6, 0.8, -0.5), (0.2, 0.2, 0.2))
+    cache = scene_mod.ObstacleCache(scene_mod.character_objects(arm, bpy.context.scene))
+    box.location = (float("inf"), 0.0, 0.0)
+    bpy.context.view_layer.update()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        far = cache.compute_signature(bpy.context, geometry=True)
+        assert cache.compute_signature(bpy.context, geometry=True) == far
+    assert any(entry[1] == "Crate" for entry in far)
+    box.location = point(info, 0.6, 0.8, -0.5).tolist()
+    bpy.context.view_layer.update()
+    assert cache.compute_signature(bpy.context, geometry=True) != far
+
+
 def test_a_closed_room_round_the_character_is_named_and_explained(fresh, addon):
     """A closed box round the whole character (fuzz seed 98): its inside counts as solid,
     so the start is refused, and the message says why and what to do, not that the arm
