@@ -104,6 +104,42 @@ def segment_distance_float(p1, q1, p2, q2) -> float:
     return math.sqrt(dx * dx + dy * dy + dz * dz)
 
 
+def fan_segment_distances(p, tips, a, b) -> np.ndarray:
+    """:func:`segment_distance_float` between each segment p-tips[i] (a fan from one point
+    ``p``, ``tips`` (N, 3)) and each segment a[k]-b[k] (``a``, ``b`` (K, 3)), as an (N, K)
+    array: the same operations in the same order on arrays, so every distance is the
+    float one to the last bit (each numpy operation rounds as a float operation does).
+    For the many hand directions of one pose tested against the body at once."""
+    p = [float(v) for v in p]
+    tips = np.asarray(tips, dtype=float)
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    d1x, d1y, d1z = (tips[:, i:i + 1] - p[i] for i in range(3))          # (N, 1)
+    d2x, d2y, d2z = (b[None, :, i] - a[None, :, i] for i in range(3))      # (1, K)
+    rx, ry, rz = (p[i] - a[None, :, i] for i in range(3))                  # (1, K)
+    aa = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    bb = d1x * d2x + d1y * d2y + d1z * d2z
+    c = d1x * rx + d1y * ry + d1z * rz
+    f = d2x * rx + d2y * ry + d2z * rz
+    eps = 1e-18
+    a_s, e_s = np.maximum(aa, eps), np.maximum(e, eps)
+    denom = aa * e - bb * bb
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(denom > 1e-12 * aa * e,
+                     np.clip((bb * f - c * e) / np.where(denom > eps, denom, eps), 0.0, 1.0),
+                     0.0)
+        t = (bb * s + f) / e_s
+        s = np.where(t < 0.0, np.clip(-c / a_s, 0.0, 1.0),
+                     np.where(t > 1.0, np.clip((bb - c) / a_s, 0.0, 1.0), s))
+        t = np.clip(t, 0.0, 1.0)
+        s = np.where(aa <= eps, 0.0, np.where(e <= eps, np.clip(-c / a_s, 0.0, 1.0), s))
+        t = np.where(e <= eps, 0.0, np.where(aa <= eps, np.clip(f / e_s, 0.0, 1.0), t))
+    dx = rx + d1x * s - d2x * t
+    dy = ry + d1y * s - d2y * t
+    dz = rz + d1z * s - d2z * t
+    return np.sqrt(dx * dx + dy * dy + dz * dz)
+
+
 class Obstacles:
     """World-space obstacle geometry behind one BVHTree.
 

@@ -20,7 +20,8 @@ import numpy as np
 from . import ik, keys
 from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, hand_coefficients,
                   pose_from_config)
-from .collision import CollisionChecker, Obstacles, point_segment_distance
+from .collision import (CollisionChecker, Obstacles, fan_segment_distances,
+                        point_segment_distance)
 from .numeric import cross
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
                      TARGET_IN_OBSTACLE)
@@ -341,16 +342,23 @@ class ConfigurationGenerator:
 
         sweep_step = 3.0 * self.settings.hand_grid_step
         previous_hand = None if previous is None else previous.hand
+        if previous_hand is not None and not clear_far and \
+                not clear(tip_of(hand_coefficients(*previous_hand))):
+            # every sweep starts from the previous hand: where it is not clear at this
+            # pose, no hand gets anywhere (one test instead of one per sample)
+            return None, None
         for hand in hands:
             tip = tip_of(self._hand_coefficients[hand])
+            if hand == previous_hand and not clear_far:
+                return tip, hand                 # tested just above
             if not clear(tip):
                 continue
-            if previous_hand is not None and hand != previous_hand:
+            if previous_hand is not None and hand != previous_hand and not clear_far:
                 db, ds = hand[0] - previous_hand[0], hand[1] - previous_hand[1]
                 n = max(1, int(math.ceil(max(abs(db), abs(ds)) / sweep_step)))
                 between = [hand_coefficients(previous_hand[0] + db * t / n,
-                                             previous_hand[1] + ds * t / n) for t in range(n)]
-                if not clear_far and not all(clear(tip_of(c)) for c in between):
+                                             previous_hand[1] + ds * t / n) for t in range(1, n)]
+                if not all(clear(tip_of(c)) for c in between):
                     continue
             return tip, hand
         return None, None
@@ -405,9 +413,13 @@ class ConfigurationGenerator:
         wl = w_c.tolist()
         caps = [c for c in self._capsules(float(body_rotation))     # (a, b, centre, half, r)
                 if point_segment_distance(wl, c[0], c[1]) - c[4] < reach]
-        tips_l = tips.tolist()
-        if caps:
-            for i, tip in enumerate(tips_l):
+        if caps and len(tips) > 2:
+            # many directions (the hand pass's grid): every hand against every capsule
+            # in one array expression
+            gap = fan_segment_distances(wl, tips, [c[0] for c in caps], [c[1] for c in caps])
+            out &= ~(gap < arm.hand_radius + np.array([c[4] for c in caps])).any(1)
+        elif caps:
+            for i, tip in enumerate(tips.tolist()):
                 if ik.segment_hits_body(wl, tip, arm.hand_radius, caps):
                     out[i] = False
         w_w = self._world(wl)

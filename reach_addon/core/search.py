@@ -352,7 +352,9 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
     (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
     along. The hand is kept continuous; where that does not reach the target and a search
     with the hand free does, or where it is stuck (not half a step nearer) and the free one
-    gets a step nearer, the free one is taken. The pose committed is the farthest along
+    gets a step nearer, the free one is taken (it is not run where neither can happen: the
+    kept hand got half a step nearer and the target is farther than the frame's steps
+    reach). The pose committed is the farthest along
     the path (at most ``steps``) that the arm and hand reach clear as the keys interpolate
     (:meth:`ConfigurationGenerator.transition_problem`) and, unless that pose is on the
     target, whose hand has turned (its roll included,
@@ -364,6 +366,7 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
     view = generator.for_reach(previous, target)
     turn = s.hand_space_turn_speed / fps       # the hand's whole turn in a frame, roll too
     results = []
+    stuck = False
     for continuity in (True, False):
         searcher = BestFirstSearch(view, previous, target,
                                    node_budget=s.chase_nodes_per_frame,
@@ -386,9 +389,15 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
         results.append((math.dist(pose.wrist.tolist(), result.target.tolist()), pose, result))
         if result.success:
             break
+        if continuity:
+            # The free search is taken only where it reaches the target or where the kept
+            # hand is stuck; it cannot reach a target farther than its steps go (each
+            # move carries the wrist a step at most), so it runs only where one can be.
+            before = math.dist(previous.wrist.tolist(), result.target.tolist())
+            stuck = results[0][0] >= before - 0.5 * generator.step_length
+            if not stuck and before > steps * generator.step_length + searcher.tolerance:
+                break
     best = results[0]
-    before = math.dist(previous.wrist.tolist(), results[0][2].target.tolist())
-    stuck = best[0] >= before - 0.5 * generator.step_length
     if len(results) > 1 and (results[1][2].success or
                              (stuck and results[1][0] < best[0] - generator.step_length)):
         best = results[1]

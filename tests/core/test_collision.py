@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from reach_addon.core.collision import point_segment_distance, segment_distance_float
+from reach_addon.core.collision import (fan_segment_distances, point_segment_distance,
+                                        segment_distance_float)
 
 
 def brute_distance(p1, q1, p2, q2, n=401):
@@ -34,6 +35,27 @@ def test_segment_distance_is_the_least_distance_between_the_segments():
         assert brute - slack <= exact <= brute + 1e-12, (p1, q1, p2, q2, exact, brute)
         if np.linalg.norm(q2 - p2) == 0.0:
             assert abs(exact - point_segment_distance(p2.tolist(), p1.tolist(), q1.tolist())) < 1e-12
+
+
+def test_fan_distances_are_the_float_distances_to_the_last_bit():
+    """The hand pass tests a fan of hand directions against the body in one array
+    expression: it must give exactly the scalar formula's numbers (the planner's results
+    may not depend on which of the two ran), degenerate segments included."""
+    rng = np.random.default_rng(11)
+    for trial in range(200):
+        p = rng.normal(size=3)
+        tips = rng.normal(size=(12, 3))
+        a, b = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+        if trial % 4 == 0:
+            b[0] = a[0]                                  # a capsule that is a sphere
+        if trial % 5 == 0:
+            tips[0] = p                                  # a hand of no length
+        if trial % 6 == 0:
+            b[1] = a[1] + 0.3 * (tips[2] - p)            # parallel to a hand
+        fan = fan_segment_distances(p.tolist(), tips, a, b)
+        one = [[segment_distance_float(p.tolist(), t.tolist(), a[k].tolist(), b[k].tolist())
+                for k in range(5)] for t in tips]
+        assert fan.tolist() == one
 
 
 def test_axis_distance_is_the_segments_least_distance_to_the_mesh_within_its_tolerance():

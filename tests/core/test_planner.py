@@ -421,3 +421,41 @@ def test_progress_never_falls_back_when_the_search_falls_back(arm):
     assert len(result.segments[0].guiding_nodes) > 0, "the guided fallback did not run"
     assert progress == sorted(progress), progress
     assert len(set(progress)) >= 10
+
+
+def test_a_chase_frame_skips_the_free_search_only_where_it_could_not_be_taken(arm):
+    """chase_step runs the search with the hand free only where its result could be kept:
+    where it may reach the target (within the frame's steps) or where the kept hand is
+    stuck. The premise: a free search of ``steps`` steps never carries the wrist farther
+    than a step per move, so a target beyond that is never reached."""
+    from reach_addon.core.search import BestFirstSearch, chase_step
+    from reach_addon.core.tasks import chase_steps_per_frame
+
+    s = Settings()
+    planner = Planner(arm, obstacles({"Table": table((-0.3, -0.6), (1.0, 0.5), 0.95)}), s)
+    gen = planner.generator
+    start = gen.config_pose(HANGING)
+    steps = chase_steps_per_frame(s, 24.0)
+    far = arm.to_canonical_points(np.array([-0.30, -0.50, 1.30]))
+    assert np.linalg.norm(far - start.wrist) > 3 * steps * gen.step_length
+    view = gen.for_reach(start, far)
+    free = BestFirstSearch(view, start, far, node_budget=s.chase_nodes_per_frame,
+                           stall_budget=s.chase_nodes_per_frame, depth_limit=steps,
+                           hand_continuity=False)
+    free.run()
+    result = free.result()
+    assert not result.success and len(result.path) == steps + 1
+    travel = np.linalg.norm([p.wrist - start.wrist for p in result.path], axis=1)
+    assert (travel <= gen.step_length * np.arange(steps + 1) + 1e-12).all()
+    # the frame: the kept hand gets nearer (not stuck), so only its search ran
+    kept = BestFirstSearch(view, start, far, node_budget=s.chase_nodes_per_frame,
+                           stall_budget=s.chase_nodes_per_frame, depth_limit=steps)
+    kept.run()
+    pose, frame = chase_step(gen, start, far, steps)
+    assert frame.nodes_searched == kept.result().nodes_searched
+    assert np.linalg.norm(pose.wrist - far) < np.linalg.norm(start.wrist - far) - gen.step_length
+    # a target within the frame's steps: the chase catches it
+    near = start.wrist + 0.5 * steps * gen.step_length * (far - start.wrist) / \
+        np.linalg.norm(far - start.wrist)
+    pose, frame = chase_step(gen, start, near, steps)
+    assert frame.success and np.linalg.norm(pose.wrist - near) <= s.goal_tolerance * arm.arm_length
