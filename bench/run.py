@@ -354,6 +354,46 @@ def _grid_object(name, n, matrix=None, mesh=None):
     return ob
 
 
+def blender_builds(ob, runs: int) -> dict:
+    """Blender's own BVH builders on one mesh object, alone (ms, spread): the floor under
+    any way of making its obstacles ready. ``FromObject`` (the evaluated mesh, in the
+    object's own space), ``FromBMesh`` (a BMesh read from the mesh; reading included) and
+    ``FromPolygons`` (world-space lists, made before the clock: the build alone)."""
+    import bmesh
+    from mathutils.bvhtree import BVHTree
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    mesh = ob.evaluated_get(depsgraph).data
+    mesh.calc_loop_triangles()
+    n = len(mesh.vertices)
+    co = np.empty(3 * n)
+    mesh.vertices.foreach_get("co", co)
+    m = np.array(ob.matrix_world)
+    world = (co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]).tolist()
+    tris = np.empty(3 * len(mesh.loop_triangles), dtype=np.int64)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    tris = tris.reshape(-1, 3).tolist()
+
+    def from_bmesh():
+        bm = bmesh.new()
+        bm.from_mesh(mesh)
+        BVHTree.FromBMesh(bm)
+        bm.free()
+
+    builders = {"FromObject": lambda: BVHTree.FromObject(ob, depsgraph),
+                "FromBMesh": from_bmesh,
+                "FromPolygons": lambda: BVHTree.FromPolygons(world, tris, all_triangles=True)}
+    out = {}
+    for name, build in builders.items():
+        times = []
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            build()
+            times.append(1000 * (time.perf_counter() - t0))
+        out[name] = spread(times)
+    return out
+
+
 def obstacles_ready(runs: int):
     """Obstacles ready for a Plan in Blender (``scene.KEPT``, as Plan and Bake get them,
     objects beyond the arm's reach left out by the pipeline's :func:`reach_bounds`), with
@@ -402,8 +442,11 @@ def obstacles_ready(runs: int):
     turn = np.eye(4)
     turn[:3, :3] = np.array(Matrix.Rotation(0.3, 3, "Z") @ Matrix.Rotation(0.2, 3, "X"))
     turn[:3, 3] = chest + (0.0, -0.5, -0.2)
-    _grid_object("Scan", 707, turn)
+    scan = _grid_object("Scan", 707, turn)
     one = measure("one mesh object", armature)
+    one["blender_build_ms"] = blender_builds(scan, runs)
+    log("  Blender's own BVH build of it: " + ", ".join(
+        f"{k} {v['median']:.0f} ms" for k, v in one["blender_build_ms"].items()))
     armature = build_scene()
     rng = np.random.default_rng(0)
     base = None
