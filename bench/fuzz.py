@@ -945,12 +945,14 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
         keyed = o["animated"] is not None and o["animated"]["kind"] == "keys"
         if keyed and o["nan"] in ("nan", "inf"):
             pass    # its location is animated: the keys set it on every frame, NaN or not
-        elif counts and o["nan"] == "vertex":
+        elif counts and o["nan"] == "vertex" and o["kind"] not in ("edges_only", "empty_mesh"):
             # A Plan does not read an object whose box lies beyond the arm's reach (the
             # README's "Only what the arm can reach"; Blender's box skips the NaN vertex).
             # Within 1.5 arm lengths of the shoulder it is surely read, hence refused (see
             # below); farther, the bake may go on, and then the check holds the arm to its
-            # finite faces (solid_triangles drops the NaN ones).
+            # finite faces (solid_triangles drops the NaN ones). A mesh with no faces is no
+            # obstacle at all (seeds 4456, 8867: edges only, under a Solidify, which makes
+            # no faces of bare edges): nothing is read, nothing refused.
             culprits.add(ob.name)
             if not o["animated"]:
                 nan_vertex.append(ob)
