@@ -455,6 +455,15 @@ class ConfigurationGenerator:
                 return "hand"
         return None
 
+    def key_clear(self, pose: Pose) -> bool:
+        """Is ``pose``, its own hand included, clear with half the clearance (what the
+        instants between keys keep, :meth:`transition_problem`)? A pose held over a frame
+        is its own instants between."""
+        loose = self.between_keys()
+        body = pose.config.body_rotation
+        return loose.arm_clear(pose.joints, body) and \
+            bool(loose.tips_clear(pose.joints, body, pose.joints[4:5])[0])
+
     def arm_clear(self, joints, body_rotation: float) -> bool:
         """Is the arm (sternum to wrist, without the hand) of a pose clear of the obstacles
         and of the body? ``joints`` (≥ 4, 3), canonical."""

@@ -63,7 +63,10 @@ places:
      demo's guided reach on a real character lifted the bound there after 96 holds).
      At most ``Settings.slowdown_budget`` × frames are added; past that
      (or where frames are tied to the clock, as in a chase) the bound is lifted for that
-     transition, and ``unbounded_hand_turns`` / ``touching_transitions`` report it.
+     transition, and ``unbounded_hand_turns`` reports it; a hand that still touches
+     between the two keys gives way to the motion's own hands at both of them, which the
+     motion's own checks passed there (a chase's step checks its frames as the keys
+     interpolate), and ``touching_transitions`` counts what even those do not mend.
 
 Measured: a pass over the frames alone (a free hand in the search) could not mend the
 pockets (the demo kept 130–140° flips); the hand bounded inside the search without turns
@@ -211,6 +214,7 @@ class HandPass:
         feasible = [None] + [self._feasible(k, p, grid) for k, p in enumerate(poses) if k]
         banned: dict = {}          # frame k -> {(state at k - 1, state at k)} that touch
         lifted: set = set()        # frames k whose turn from k - 1 may exceed the bound
+        own_only: set = set()      # frames k reached only from the own hand, by the own hand
         accepted: set = set()      # transitions k -> k + 1 left touching (nothing helped)
         path = None
 
@@ -220,7 +224,7 @@ class HandPass:
             """Insert ``count`` frames between k and k + 1 (fewer if the budget is short):
             poses between the two, or with ``hold`` copies of both ends (the arm waits
             while the hand turns, before and after the move); renumber what is kept."""
-            nonlocal banned, lifted, accepted, inserted
+            nonlocal banned, lifted, accepted, inserted, own_only
             count = min(count, budget - inserted)
             if count <= 0:
                 return False
@@ -234,11 +238,12 @@ class HandPass:
             inserted += added
             banned = {(j + added if j > k else j): v for j, v in banned.items()}
             lifted = {j + added if j > k else j for j in lifted}
+            own_only = {j + added if j > k else j for j in own_only}
             accepted = {j + added if j > k else j for j in accepted}
             return True
 
         for _round in range(64 + 4 * len(poses)):
-            path, fail = self._dp(poses, grid, feasible, banned, lifted)
+            path, fail = self._dp(poses, grid, feasible, banned, lifted, own_only)
             if path is None:
                 fail, reachable, lost = fail
                 if lost is not None and slow_down(lost - 1, self._own_need(poses, lost)):
@@ -267,15 +272,24 @@ class HandPass:
             if problem is None:
                 break
             k, what = problem
+            own = len(grid.angles)
             if what == "hand" and (k + 1) not in lifted and \
                     len(banned.get(k + 1, ())) < self.BANS_BEFORE_REFINING:
                 banned.setdefault(k + 1, set()).add((path[k], path[k + 1]))
-            elif not slow_down(k):
+            elif slow_down(k):
+                pass
+            elif what == "hand" and (path[k], path[k + 1]) != (own, own) and \
+                    (k + 1) not in own_only:
+                # nothing slows it (a chase, or the budget spent): the motion's own hands,
+                # which its checks passed between these keys, at both ends
+                own_only.add(k + 1)
+                lifted.add(k + 1)
+            else:
                 accepted.add(k)
         if path is None:
             # out of rounds: the least-cost path through clear states, turns unbounded
             lifted = set(range(1, len(poses)))
-            path, _fail = self._dp(poses, grid, feasible, {}, lifted)
+            path, _fail = self._dp(poses, grid, feasible, {}, lifted, own_only)
         skip = set()
         if path is None:
             # no clear choice at some frame even unbounded: every frame keeps its own hand
@@ -297,10 +311,7 @@ class HandPass:
     def _key_touches(self, k, pose: Pose) -> bool:
         """Does frame ``k``'s own pose, its own hand included, touch the body or an
         obstacle within half the margin (what the instants between keys may use)?"""
-        gen = self._gen(k).between_keys()
-        body = pose.config.body_rotation
-        return not (gen.arm_clear(pose.joints, body) and
-                    gen.tips_clear(pose.joints, body, pose.joints[4:5])[0])
+        return not self._gen(k).key_clear(pose)
 
     def _feasible(self, k, pose: Pose, grid: HandGrid) -> np.ndarray:
         """Which states are clear at frame ``k`` (``pose``): the grid's, then the pose's
@@ -404,7 +415,7 @@ class HandPass:
             self._orient[id(pose)] = c
         return c
 
-    def _dp(self, poses, grid: HandGrid, feasible, banned, lifted):
+    def _dp(self, poses, grid: HandGrid, feasible, banned, lifted, own_only=()):
         """(least-cost state path (a state index per frame), None), or (None, (k,
         reachable, lost)) with the first frame ``k`` no bounded, clear state can reach,
         the mask of the states reachable at frame k - 1, and the frame (≤ k) where the own
@@ -467,6 +478,10 @@ class HandPass:
             for i, j in banned.get(k, ()):
                 if i >= 0:
                     m[i, j] = np.inf
+            if k in own_only:
+                keep = m[own, own]
+                m[:] = np.inf
+                m[own, own] = keep
             arg = np.argmin(m, axis=0)
             bend_own = math.degrees(math.acos(max(-1.0, min(1.0, float(c[own, 0])))))
             node[own] = s.wrist_relax_weight * (bend_own / 45.0) ** 2 + \

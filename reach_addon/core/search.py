@@ -361,7 +361,11 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
     :func:`~reach_addon.core.arm.frame_turn`) no more than the hand turn speed in space
     allows in a frame at ``fps``. (The hand pass
     then smooths the hand and reports what it could not). Returns (the pose committed,
-    the search result, with the nodes of both searches counted)."""
+    the search result, with the nodes of both searches counted). Where even the first pose
+    along the path touches something as the keys interpolate, the arm holds its pose for
+    the frame if that pose is clear (a chase may fall behind; it does not pass through
+    anything to keep up); an obstacle that moved into the pose itself is left by the first
+    step."""
     s = generator.settings
     view = generator.for_reach(previous, target)
     turn = s.hand_space_turn_speed / fps       # the hand's whole turn in a frame, roll too
@@ -379,6 +383,9 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
         k = min(steps, len(result.path) - 1)
         while k > 1 and view.transition_problem(previous, result.path[k]) is not None:
             k -= 1
+        if k == 1 and view.transition_problem(previous, result.path[1]) is not None and \
+                view.key_clear(previous):
+            k = 0                                  # the arm holds for the frame
         on_target = result.success and k == len(result.path) - 1
         if not on_target:
             # while catching up, the hand turns (roll included) no faster than the limit;

@@ -53,6 +53,24 @@ def test_the_campaigns_grazes_between_keys_are_clear_now():
         (s, "success_verified") for s in seeds], [r["detail"] for r in results]
 
 
+def test_the_campaigns_chases_keep_the_hand_clear_between_keys():
+    """Three chases of the full campaign at ce461f4 (seeds 3820, 4217, 4716) touched an
+    obstacle with the hand between two keys, 0.06-0.09 arm lengths deep, and said so
+    (``touching_transitions`` 1) while calling the chase a success: the hand lead turns the
+    hand in the chase's short searches, and where the hand pass found no clear hand it
+    could not slow down (a chase's frames are the target's) and kept the touching one. It
+    now keeps the motion's own hands there, which the chase step checked between those
+    keys (and where even the first pose along a frame's path touches, the arm holds for
+    the frame). Seeds 4456 and 8867 were the harness's: a mesh of bare edges under a
+    Solidify is no obstacle, so its NaN vertex is nothing to refuse."""
+    seeds = [3820, 4217, 4716, 4456, 8867]
+    results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
+    assert [(r["seed"], r["category"]) for r in results] == [
+        (3820, "success_verified"), (4217, "success_verified"), (4716, "success_verified"),
+        (4456, "failure_with_reason"), (8867, "failure_with_reason")], \
+        [r["detail"] for r in results]
+
+
 def test_refusals_are_counted_by_their_words_whatever_the_names_hold():
     """fuzz.json counts refusals by their words with names and numbers taken out; a name
     holding a quote (the generator's "Cup'") must not split a refusal into two keys."""
