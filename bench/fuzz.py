@@ -951,8 +951,8 @@ def build(spec: dict, cache: RigCache, workdir: Path, library: Path) -> dict:
             # Within 1.5 arm lengths of the shoulder it is surely read, hence refused (see
             # below); farther, the bake may go on, and then the check holds the arm to its
             # finite faces (solid_triangles drops the NaN ones). A mesh with no faces is no
-            # obstacle at all (seeds 4456, 8867: edges only, under a Solidify, which makes
-            # no faces of bare edges): nothing is read, nothing refused.
+            # obstacle at all (seeds 4456, 8867: bare edges): nothing is read, nothing
+            # refused.
             culprits.add(ob.name)
             if not o["animated"]:
                 nan_vertex.append(ob)

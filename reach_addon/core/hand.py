@@ -242,8 +242,33 @@ class HandPass:
             accepted = {j + added if j > k else j for j in accepted}
             return True
 
+        # (frame, its earliest frame lifted for it, the frames lifted for it) just forced
+        forced = None
         for _round in range(64 + 4 * len(poses)):
             path, fail = self._dp(poses, grid, feasible, banned, lifted, own_only)
+            if path is None and forced is not None:
+                j, low, lifts = forced
+                at = fail[0]
+                if at not in lifted and abs(at - j) <= self.OWN_REACH:
+                    # no bounded way on from (or into) the own hand there: lift the bound
+                    # where the way stops (clearance comes before the turn's speed; the
+                    # report counts it)
+                    lifted.add(at)
+                    lifts.append(at)
+                    continue
+                if low > 1 and j - low < self.OWN_REACH:
+                    low -= 1                       # ... else a frame earlier
+                    if low not in lifted:
+                        lifted.add(low)
+                        lifts.append(low)
+                    forced = (j, low, lifts)
+                    continue
+                own_only.discard(j)
+                lifted.difference_update(lifts)
+                accepted.add(j - 1)
+                forced = None
+                continue
+            forced = None
             if path is None:
                 fail, reachable, lost = fail
                 if lost is not None and slow_down(lost - 1, self._own_need(poses, lost)):
@@ -273,17 +298,22 @@ class HandPass:
                 break
             k, what = problem
             own = len(grid.angles)
-            if what == "hand" and (k + 1) not in lifted and \
+            if (k + 1) in own_only:
+                accepted.add(k)                    # the own hands touch there themselves
+            elif what == "hand" and (k + 1) not in lifted and \
                     len(banned.get(k + 1, ())) < self.BANS_BEFORE_REFINING:
                 banned.setdefault(k + 1, set()).add((path[k], path[k + 1]))
             elif slow_down(k):
                 pass
-            elif what == "hand" and (path[k], path[k + 1]) != (own, own) and \
-                    (k + 1) not in own_only:
+            elif what == "hand" and (path[k], path[k + 1]) != (own, own):
                 # nothing slows it (a chase, or the budget spent): the motion's own hands,
-                # which its checks passed between these keys, at both ends
+                # which its checks passed between these keys, at both ends (the bound
+                # lifted only where the own hands turn faster than it); undone if the DP
+                # then finds no way
                 own_only.add(k + 1)
-                lifted.add(k + 1)
+                lifts = [] if (k + 1) in lifted or self._own_within(poses, k + 1) else [k + 1]
+                lifted.update(lifts)
+                forced = (k + 1, k + 1, lifts)
             else:
                 accepted.add(k)
         if path is None:
@@ -308,6 +338,14 @@ class HandPass:
         return self._report(poses, hands, inserted, len(lifted), sorted(accepted))
 
     # --- the pieces -------------------------------------------------------------------
+    def _own_within(self, poses, k: int) -> bool:
+        """Do the own hands turn within the bounds (relative to the forearm and in space)
+        from frame k - 1 to frame k?"""
+        a, b = poses[k - 1], poses[k]
+        rel = float(wrist_turn(np.array(hand_coefficients(*a.hand)),
+                               np.array(hand_coefficients(*b.hand))))
+        return rel <= self.bound + 1e-9 and frame_turn(a, b) <= self.space_bound + 1e-9
+
     def _key_touches(self, k, pose: Pose) -> bool:
         """Does frame ``k``'s own pose, its own hand included, touch the body or an
         obstacle within half the margin (what the instants between keys may use)?"""
@@ -334,6 +372,11 @@ class HandPass:
             turn = wrist_turn(coefficients, coefficients[-1])
             clear &= turn <= max(float(turn.min()), 0.5 * self.settings.hand_grid_step) + 1e-9
         return clear
+
+    #: Frames about one held to the motion's own hand over which the bound may be lifted
+    #: so that the hand gets to and from the own hand there (else the touching transition
+    #: stands and is reported).
+    OWN_REACH = 8
 
     #: Cost of a frame whose own hand (the validated path's) is chosen where only half
     #: the margin is kept: more than any bounded sequence of turns costs, so the full

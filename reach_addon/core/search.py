@@ -110,6 +110,9 @@ class SearchResult:
     method: str = "best-first"
     #: states the sampling planner tested (its own count, beside nodes_searched)
     states_tested: int = 0
+    #: a chase's frame held its pose: its first step would have touched as the keys
+    #: interpolate (:func:`chase_step`)
+    held: bool = False
 
     @property
     def nodes_in_solution(self) -> int:
@@ -364,8 +367,8 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
     the search result, with the nodes of both searches counted). Where even the first pose
     along the path touches something as the keys interpolate, the arm holds its pose for
     the frame if that pose is clear (a chase may fall behind; it does not pass through
-    anything to keep up); an obstacle that moved into the pose itself is left by the first
-    step."""
+    anything to keep up), and the search with the hand free is tried as where the kept one
+    is stuck; an obstacle that moved into the pose itself is left by the first step."""
     s = generator.settings
     view = generator.for_reach(previous, target)
     turn = s.hand_space_turn_speed / fps       # the hand's whole turn in a frame, roll too
@@ -386,6 +389,7 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
         if k == 1 and view.transition_problem(previous, result.path[1]) is not None and \
                 view.key_clear(previous):
             k = 0                                  # the arm holds for the frame
+            result.held = True
         on_target = result.success and k == len(result.path) - 1
         if not on_target:
             # while catching up, the hand turns (roll included) no faster than the limit;
@@ -393,8 +397,12 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
             while k > 1 and frame_turn(previous, result.path[k]) > turn:
                 k -= 1
         pose = result.path[k]
+        if k == 0:
+            # a pose of its own (the frames' caches are kept by the poses' identities)
+            pose = Pose(pose.config, pose.joints.copy(), pose.bend.copy(), pose.f_r,
+                        pose.hand, pose.roll)
         results.append((math.dist(pose.wrist.tolist(), result.target.tolist()), pose, result))
-        if result.success:
+        if result.success and k > 0:
             break
         if continuity:
             # The free search is taken only where it reaches the target or where the kept

@@ -744,12 +744,14 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     path = [p.wrist for p in poses]
     stats = Stats()
     on_target = 0
+    held = 0
     hit = None
     for f in range(len(poses), len(trajectory)):
         if chunk and f % chunk == 0:
             yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
         gen = planners[f].generator
         nxt, res = chase_step(gen, poses[-1], trajectory[f], steps, task.fps)
+        held += res.held
         stats.nodes_searched += res.nodes_searched
         stats.search_time_s += res.search_time_s
         stats.nodes_in_solution += min(steps, len(res.path) - 1)
@@ -785,7 +787,12 @@ def chase_steps(planners, task: Task, chunk: int = 1):
         fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
                             trajectory[-1])
         reason, message = last.explain_failure(name, fake, diagnosis, start)
-        if reason == NO_PATH:
+        if reason == NO_PATH and held:
+            message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
+                       f"lengths behind): on {held} frame(s) the arm held still where its "
+                       "next step would have touched an obstacle as the keys interpolate; "
+                       "slow the target there or give the arm more room")
+        elif reason == NO_PATH:
             message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
                        "lengths behind); raise the chase speed limit or the nodes per frame")
     seg = Segment(0, name, task.targets[-1], reason is None, reason, message, 0,

@@ -60,9 +60,10 @@ def test_the_campaigns_chases_keep_the_hand_clear_between_keys():
     hand in the chase's short searches, and where the hand pass found no clear hand it
     could not slow down (a chase's frames are the target's) and kept the touching one. It
     now keeps the motion's own hands there, which the chase step checked between those
-    keys (and where even the first pose along a frame's path touches, the arm holds for
-    the frame). Seeds 4456 and 8867 were the harness's: a mesh of bare edges under a
-    Solidify is no obstacle, so its NaN vertex is nothing to refuse."""
+    keys, lifting the turn's bound about them where the hand cannot otherwise get to and
+    from them (and where even the first pose along a frame's path touches, the arm holds
+    for the frame). Seeds 4456 and 8867 were the harness's: a mesh of bare edges is no
+    obstacle, so its NaN vertex is nothing to refuse."""
     seeds = [3820, 4217, 4716, 4456, 8867]
     results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
     assert [(r["seed"], r["category"]) for r in results] == [
