@@ -244,6 +244,7 @@ class HandPass:
 
         # (frame, its earliest frame lifted for it, the frames lifted for it) just forced
         forced = None
+        own = len(grid.angles)     # the state index of the motion's own hand
         for _round in range(64 + 4 * len(poses)):
             path, fail = self._dp(poses, grid, feasible, banned, lifted, own_only)
             if path is None and forced is not None:
@@ -297,7 +298,6 @@ class HandPass:
             if problem is None:
                 break
             k, what = problem
-            own = len(grid.angles)
             if (k + 1) in own_only:
                 accepted.add(k)                    # the own hands touch there themselves
             elif what == "hand" and (k + 1) not in lifted and \
@@ -311,7 +311,8 @@ class HandPass:
                 # lifted only where the own hands turn faster than it); undone if the DP
                 # then finds no way
                 own_only.add(k + 1)
-                lifts = [] if (k + 1) in lifted or self._own_within(poses, k + 1) else [k + 1]
+                within = (k + 1) in lifted or self._own_turn(poses, k + 1) <= 1.0 + 1e-9
+                lifts = [] if within else [k + 1]
                 lifted.update(lifts)
                 forced = (k + 1, k + 1, lifts)
             else:
@@ -338,13 +339,6 @@ class HandPass:
         return self._report(poses, hands, inserted, len(lifted), sorted(accepted))
 
     # --- the pieces -------------------------------------------------------------------
-    def _own_within(self, poses, k: int) -> bool:
-        """Do the own hands turn within the bounds (relative to the forearm and in space)
-        from frame k - 1 to frame k?"""
-        a, b = poses[k - 1], poses[k]
-        rel = float(wrist_turn(np.array(hand_coefficients(*a.hand)),
-                               np.array(hand_coefficients(*b.hand))))
-        return rel <= self.bound + 1e-9 and frame_turn(a, b) <= self.space_bound + 1e-9
 
     def _key_touches(self, k, pose: Pose) -> bool:
         """Does frame ``k``'s own pose, its own hand included, touch the body or an
@@ -405,14 +399,19 @@ class HandPass:
             return (float(pose.hand[0]), float(pose.hand[1]))
         return tuple(grid.angles[state])
 
-    def _own_need(self, poses, k: int) -> int:
-        """Frames to insert before frame ``k`` so that the own hand turns within the
-        bounds (relative to the forearm and in space) from frame k - 1."""
+    def _own_turn(self, poses, k: int) -> float:
+        """The own hand's turn from frame k - 1 to frame ``k`` in units of its bound: the
+        larger of its turn relative to the forearm and its turn in space, each over its
+        bound (≤ 1: within both)."""
         a, b = poses[k - 1], poses[k]
         rel = float(wrist_turn(np.array(hand_coefficients(*a.hand)),
                                np.array(hand_coefficients(*b.hand))))
-        turn = max(rel / self.bound, frame_turn(a, b) / self.space_bound)
-        return max(1, math.ceil(turn - 1e-9) - 1)
+        return max(rel / self.bound, frame_turn(a, b) / self.space_bound)
+
+    def _own_need(self, poses, k: int) -> int:
+        """Frames to insert before frame ``k`` so that the own hand turns within the
+        bounds (relative to the forearm and in space) from frame k - 1."""
+        return max(1, math.ceil(self._own_turn(poses, k) - 1e-9) - 1)
 
     #: Least weight of the ease at the very start of a move (a turn there costs at most
     #: 1 / EASE_FLOOR² times more than at full speed).

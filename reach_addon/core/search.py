@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import numpy as np
@@ -399,8 +399,7 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
         pose = result.path[k]
         if k == 0:
             # a pose of its own (the frames' caches are kept by the poses' identities)
-            pose = Pose(pose.config, pose.joints.copy(), pose.bend.copy(), pose.f_r,
-                        pose.hand, pose.roll)
+            pose = replace(pose)
         results.append((math.dist(pose.wrist.tolist(), result.target.tolist()), pose, result))
         if result.success and k > 0:
             break

@@ -787,14 +787,13 @@ def chase_steps(planners, task: Task, chunk: int = 1):
         fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
                             trajectory[-1])
         reason, message = last.explain_failure(name, fake, diagnosis, start)
-        if reason == NO_PATH and held:
+        if reason == NO_PATH:
             message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
-                       f"lengths behind): on {held} frame(s) the arm held still where its "
-                       "next step would have touched an obstacle as the keys interpolate; "
-                       "slow the target there or give the arm more room")
-        elif reason == NO_PATH:
-            message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
-                       "lengths behind); raise the chase speed limit or the nodes per frame")
+                       "lengths behind)")
+            message += (f": on {held} frame(s) the arm held still where its next step would "
+                        "have touched an obstacle as the keys interpolate; slow the target "
+                        "there or give the arm more room" if held else
+                        "; raise the chase speed limit or the nodes per frame")
     seg = Segment(0, name, task.targets[-1], reason is None, reason, message, 0,
                   len(poses) - 1, stats, arm.to_world_points(np.array(path)), np.zeros((0, 3)),
                   "chase")
