@@ -146,6 +146,8 @@ class ArmModel:
             floats.append((p, q, [0.5 * (p[i] + q[i]) for i in range(3)],
                            0.5 * math.dist(p, q), float(c.radius), bool(c.turns_with_chest)))
         object.__setattr__(self, "capsule_floats", tuple(floats))
+        # per configuration, is the elbow on Algorithm 1's side (ik.on_elbow_side)
+        object.__setattr__(self, "side_cache", {})
 
     @property
     def arm_length(self) -> float:

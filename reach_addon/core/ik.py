@@ -32,7 +32,7 @@ from functools import lru_cache
 import numpy as np
 
 from . import strength
-from .arm import ArmConfig, ArmModel, Pose
+from .arm import ArmConfig, ArmModel, Pose, forward_kinematics
 from .collision import segment_distance_float
 from .numeric import ARRAY, SCALAR
 from .torso import body_rotation_deg, turn_about_spine
@@ -182,17 +182,21 @@ class Solutions:
     def order(self, i: int, elbow_side: str) -> np.ndarray:
         """Indices of wrist ``i``'s valid candidates, best first: the key of
         :func:`~reach_addon.core.strength.rank_order` (a few candidates are sorted as
-        Python tuples, which is the same order and cheaper than numpy for short lists)."""
+        Python tuples, which is the same order and cheaper than numpy for short lists).
+        The elbow's side leads the key under "prefer", and under "require" too where the
+        move starts off the side (:func:`solve` lets it come back; elsewhere every valid
+        candidate is on the side and the key changes nothing)."""
         if i == 0 and self._ranked is not None and self._ranked[0] == elbow_side:
             return np.array(self._ranked[1], dtype=np.intp)
         idx = np.flatnonzero(self.valid[i])
         if idx.size <= 1:
             return idx
+        sided = elbow_side == "prefer" or (elbow_side == "require" and not self._require_side)
         if idx.size <= _SCALAR_SCORING:
             return np.array(_rank(idx.tolist(), self.f_r[i].tolist(), self.second[i].tolist(),
-                                  self.wrong_side[i].tolist() if elbow_side == "prefer"
-                                  else None), dtype=idx.dtype)
-        first = self.wrong_side[i, idx] if elbow_side == "prefer" else None
+                                  self.wrong_side[i].tolist() if sided else None),
+                            dtype=idx.dtype)
+        first = self.wrong_side[i, idx] if sided else None
         return idx[strength.rank_order(self.f_r[i, idx], self.second[i, idx], first)]
 
     def joints(self, i: int, k) -> np.ndarray:
@@ -297,8 +301,13 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
     basis = swivel_basis(step)                                           # (3, S)
     n_s = basis.shape[1]
     gamma_prev = 0.0 if previous is None else previous.gamma
-    limits = _settings_limits(st)
+    smooth_bound = previous is not None and max_change is not None
+    limits = move_limits(st, previous) if smooth_bound else _settings_limits(st)
     require = st.elbow_side == "require"
+    if require and smooth_bound and not on_elbow_side(arm, previous):
+        # a move that starts with the elbow off its side (a rig's own start pose) may
+        # stay off it on the way back; the side then leads the ranking (Solutions.order)
+        require = False
 
     # --- per wrist: plain floats for one wrist, arrays for many ---------------------
     if n_w == 1:
@@ -370,10 +379,10 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
 
     prev_angles = (0.0, 0.0, 0.0) if previous is None else (
         previous.alpha, previous.beta, previous.gamma)
-    smooth_bound = previous is not None and max_change is not None
     if m is SCALAR:
         body_, flex_, ok_ = packed[:, at_body], packed[:, at_flex], wrist_ok
-        bounds = _valid_bounds(st, previous, body, flex, max_change) if smooth_bound else limits
+        bounds = _valid_bounds(limits, previous, body, flex, max_change) if smooth_bound \
+            else limits
         if bounds is None:                       # the body or the elbow moves too far
             valid = np.zeros((1, n_s), dtype=bool)
         else:
@@ -404,7 +413,8 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
                         sa, sb = read(a_[k], b_[k], st.strength_reading)
                         f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv,
                                                   wa, wb, wg, sa, sb)
-            wrong = wrong_side[0].tolist() if st.elbow_side == "prefer" else None
+            wrong = wrong_side[0].tolist() if st.elbow_side == "prefer" or \
+                (st.elbow_side == "require" and not require) else None
             ranked = (st.elbow_side, _rank(ks, f_r, second, wrong))
         else:
             f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
@@ -463,24 +473,70 @@ def _limits(alpha_min, beta_min, gamma_min, alpha_max, beta_max, gamma_max, elev
     return lo, hi
 
 
-def _valid_bounds(st, previous: ArmConfig, body: float, flex: float, max_change: float):
+def move_limits(st, previous: ArmConfig | None):
+    """The joint limits (lower, upper), each (4, 1) over (α, β, γ, θ), of a move from
+    ``previous``: the settings' limits widened to take in ``previous``'s own angles.
+
+    A rig's start pose is taken as it is held, outside the limits or not (a T-posed arm
+    whose slight bend reads as a humeral twist of -130°; an arm raised past the elevation
+    limit): the limits bound where a move may go, never where it starts. A move from a
+    pose outside them may stay as far out or come back in, never go farther out, so the
+    arm returns toward the legal range as it moves and the target's own pose (solved with
+    no previous pose) is always inside it."""
+    lo, hi = _settings_limits(st)
+    if previous is None:
+        return lo, hi
+    alpha, beta = previous.alpha, previous.beta
+    gamma = (previous.gamma + 180.0) % 360.0 - 180.0
+    theta = math.hypot(alpha, beta)
+    if lo[0, 0] <= alpha <= hi[0, 0] and lo[1, 0] <= beta <= hi[1, 0] and \
+            lo[2, 0] <= gamma <= hi[2, 0] and theta <= hi[3, 0]:
+        return lo, hi
+    own = np.array([[alpha], [beta], [gamma], [theta]])
+    return np.minimum(lo, own), np.maximum(hi, own)
+
+
+def on_elbow_side(arm: ArmModel, config: ArmConfig) -> bool:
+    """Is the elbow of ``config`` on Algorithm 1's preferred side (:func:`side_normal`),
+    or the side undefined there (a straight elbow, a degenerate plane)? Remembered on the
+    arm for the last configurations asked about (a search asks once per node, for each of
+    the positions it tries from there)."""
+    cache = arm.side_cache
+    side = cache.get(config)
+    if side is None:
+        joints, _bend = forward_kinematics(arm, config.as_array())
+        s, e, w = joints[1].tolist(), joints[2].tolist(), joints[3].tolist()
+        nx, ny, nz, degenerate = side_normal(w, s, arm.waist.tolist(), SCALAR)
+        value = (e[0] - s[0]) * nx + (e[1] - s[1]) * ny + (e[2] - s[2]) * nz
+        side = bool(degenerate or value > 0.0
+                    or math.sin(math.radians(config.elbow)) < _STRAIGHT)
+        if len(cache) >= 256:
+            cache.clear()
+        cache[config] = side
+    return side
+
+
+def _valid_bounds(limits, previous: ArmConfig, body: float, flex: float, max_change: float):
     """(lower, upper) bounds (4, 1) on (α, β, γ, θ) of one wrist's candidates that are both
     legal and within the smoothness bound of ``previous`` (:func:`smooth`): the joint
-    limits intersected with ``previous ± max_change`` for α and β and with the twist
-    window ``|γ - γ'| ≤ limit`` (mod 360°) for γ. None when nothing can be valid (the body
-    or the elbow moves too far, or the windows miss the limits); a third element when the
-    twist window meets the limits in two pieces (the caller then tests γ in full)."""
+    ``limits`` (:func:`move_limits`) intersected with ``previous ± max_change`` for α and β
+    and with the twist window ``|γ - γ'| ≤ limit`` (mod 360°) for γ. None when nothing can
+    be valid (the body or the elbow moves too far, or the windows miss the limits); a third
+    element when the twist window meets the limits in two pieces (the caller then tests γ
+    in full)."""
     if not (abs(flex - previous.elbow) <= max_change
             and abs(body - previous.body_rotation) <= max_change):
         return None
-    a_lo, a_hi = max(st.alpha_min, previous.alpha - max_change), \
-        min(st.alpha_max, previous.alpha + max_change)
-    b_lo, b_hi = max(st.beta_min, previous.beta - max_change), \
-        min(st.beta_max, previous.beta + max_change)
+    (alpha_min, beta_min, gamma_min, _t), (alpha_max, beta_max, gamma_max, elevation_max) = \
+        limits[0][:, 0].tolist(), limits[1][:, 0].tolist()
+    a_lo, a_hi = max(alpha_min, previous.alpha - max_change), \
+        min(alpha_max, previous.alpha + max_change)
+    b_lo, b_hi = max(beta_min, previous.beta - max_change), \
+        min(beta_max, previous.beta + max_change)
     if a_lo > a_hi or b_lo > b_hi:
         return None
     twist = max_change
-    g_lo, g_hi, split = st.gamma_min, st.gamma_max, False
+    g_lo, g_hi, split = gamma_min, gamma_max, False
     if twist < 180.0:
         centre = (previous.gamma + 180.0) % 360.0 - 180.0     # wrap_degrees, on a float
         pieces = [(max(g_lo, centre + k - twist), min(g_hi, centre + k + twist))
@@ -493,7 +549,7 @@ def _valid_bounds(st, previous: ArmConfig, body: float, flex: float, max_change:
         else:
             split = True
     bounds = np.array([a_lo, b_lo, g_lo, -np.inf, a_hi, b_hi, g_hi,
-                       st.elevation_max]).reshape(2, 4, 1)
+                       elevation_max]).reshape(2, 4, 1)
     return (bounds[0], bounds[1], True) if split else (bounds[0], bounds[1])
 
 

@@ -14,9 +14,10 @@ configuration and then greedily connected to the other. The choices the method l
 open, each a setting:
 
 * **Space**: the seven joints the core animates — chest rotation, α, β, γ, elbow flexion
-  and the wrist's two angles — within the joint limits of :class:`Settings`; the elevation
-  limit and, with ``elbow_side = "require"``, Algorithm 1's elbow side are part of validity
-  (:class:`StateValidity`), as they are for every pose the generator returns.
+  and the wrist's two angles — within the joint limits of :class:`Settings` (widened to
+  take in the start, the rig's own pose); the elevation limit and, with ``elbow_side =
+  "require"``, Algorithm 1's elbow side are part of validity (:class:`StateValidity`), as
+  they are for every pose the generator returns (the side unless the start is off it).
 * **Metric** (:class:`JointSpace`): each angle in radians times the farthest it can carry
   the wrist (its lever arm, in arm lengths; the wrist's angles by the hand's length), so a
   distance approximates the wrist's travel in arm lengths.
@@ -79,9 +80,14 @@ class JointSpace:
     farthest the joint can carry the wrist, in arm lengths — the chest turns the wrist
     about the spine axis (shoulder offset + arm), α and β swing the whole arm (1), γ and the
     elbow swing the forearm; the wrist angles move only the hand, by its length.
+
+    ``start``: the configuration row (7,) a plan starts from. The box of limits, the
+    elevation limit (:attr:`elevation_max`) and the elbow's side (:attr:`require_side`) are
+    then widened to take it in, as the search widens them for a move from a pose outside
+    them (:func:`~reach_addon.core.ik.move_limits`): the start is the rig's own pose.
     """
 
-    def __init__(self, arm, settings):
+    def __init__(self, arm, settings, start=None):
         self.arm = arm
         self.settings = settings
         s, length = settings, arm.arm_length
@@ -92,6 +98,15 @@ class JointSpace:
         # a joint held fixed by the settings gets a sliver of room (samplers need lo < hi)
         self.lo = np.array([lo if hi > lo else lo - 1e-6 for lo, hi in limits])
         self.hi = np.array([hi if hi > lo else hi + 1e-6 for lo, hi in limits])
+        self.elevation_max = float(s.elevation_max)
+        self.require_side = s.elbow_side == "require"
+        if start is not None:
+            q = np.asarray(start, dtype=float).copy()
+            q[3] = (q[3] + 180.0) % 360.0 - 180.0
+            self.lo, self.hi = np.minimum(self.lo, q), np.maximum(self.hi, q)
+            self.elevation_max = max(self.elevation_max, math.hypot(q[1], q[2]))
+            if self.require_side:
+                self.require_side = ik.on_elbow_side(arm, ArmConfig.from_array(q[:5]))
         spine = float(np.hypot(arm.shoulder[0], arm.shoulder[1]))
         fore = arm.forearm_length / length
         hand = max(arm.hand_length / length, 0.05)
@@ -185,16 +200,17 @@ class StateValidity:
         self.settings = settings
         self.checker = checker
         self.space = space if space is not None else JointSpace(arm, settings)
-        self.elbow_rule = settings.elbow_side == "require"
+        self.elbow_rule = self.space.require_side
+        self.elevation_max = self.space.elevation_max
         self.waist = tuple(arm.waist.tolist())
         self.calls = 0
 
     def valid(self, q) -> bool:
         """Is configuration ``q`` (7 angles, degrees) valid?"""
         self.calls += 1
-        arm, st = self.arm, self.settings
+        arm = self.arm
         q = [float(v) for v in q]
-        if math.hypot(q[1], q[2]) > st.elevation_max:
+        if math.hypot(q[1], q[2]) > self.elevation_max:
             return False
         sternum, shoulder, elbow, wrist, hand = joints = joints_of_one(arm, q)
         if self.elbow_rule:
@@ -534,10 +550,10 @@ def sampling_steps(generator, start: Pose, target, chunk: int = 0, seed=(),
     t0 = time.perf_counter()
     arm = generator.arm
     target = np.asarray(target, dtype=float)
-    space = JointSpace(arm, s)
+    start_row = pose_row(start)
+    space = JointSpace(arm, s, start_row)
     validity = StateValidity(arm, s, generator.checker, space)
     rng = np.random.default_rng(int(s.sampling_seed))
-    start_row = pose_row(start)
     goals = goal_configurations(generator, target, start, validity)
     path = None
     if goals:

@@ -8,7 +8,7 @@ from geometry import HANGING, standard_arm
 from reach_addon.core import ArmConfig, ArmModel, ReachError, Settings, forward_kinematics
 from reach_addon.core.arm import (REACH_SLACK, bend_direction, config_from_joints, shoulder_angles,
                                   reach_sphere, twist_angle, upper_arm_direction)
-from reach_addon.core.ik import solve
+from reach_addon.core.ik import move_limits, on_elbow_side, solve
 
 
 @pytest.mark.parametrize("direction, alpha, beta", [
@@ -161,6 +161,69 @@ def test_smoothness_bound_limits_the_change():
         assert abs(c.alpha - start.alpha) <= 5 and abs(c.beta - start.beta) <= 5
         assert abs(c.elbow - start.elbow) <= 5
     assert sol.valid.sum() < sol.legal.sum()
+
+
+# --- a start outside the limits: the rig's own pose --------------------------------------
+
+def _t_pose(gamma, elbow):
+    """A T-posed arm (straight out to the side) with this twist and elbow flexion."""
+    return ArmConfig(0.0, 90.0, 0.0, gamma, elbow)
+
+
+def test_the_limits_of_a_move_take_in_where_it_starts():
+    s = Settings()
+    lo, hi = move_limits(s, None)
+    assert (lo[2, 0], hi[2, 0]) == (s.gamma_min, s.gamma_max)
+    assert move_limits(s, _t_pose(10.0, 9.0))[0] is lo           # inside: the same limits
+    lo2, hi2 = move_limits(s, _t_pose(-132.0, 9.0))
+    assert lo2[2, 0] == pytest.approx(-132.0) and hi2[2, 0] == s.gamma_max
+    assert (lo2[:2] == lo[:2]).all() and (hi2[[0, 1, 3]] == hi[[0, 1, 3]]).all()
+    raised = ArmConfig(0.0, 175.0, 0.0, 0.0, 10.0)                # past the elevation limit
+    assert move_limits(s, raised)[1][3, 0] == pytest.approx(175.0)
+
+
+@pytest.mark.parametrize("gamma, elbow", [(-132.0, 9.0), (-179.0, 1.0), (150.0, 1.0)])
+def test_a_start_twisted_outside_the_limits_moves_and_comes_back(gamma, elbow):
+    """A T-posed arm whose slight bend reads as a twist outside [-90°, 90°] (a straight
+    elbow bent backward, a Goblin's 9° bent up): every step away from it has valid poses
+    (none did when the limits applied to the start itself), none twisted farther out than
+    the start, and the twist comes back toward the legal range as the arm moves."""
+    arm, s = standard_arm(), Settings()
+    start = _t_pose(gamma, elbow)
+    joints, _ = forward_kinematics(arm, start.as_array())
+    # forward, a little inward: a straight arm can only bend so far (15°) in one step
+    inward = joints[3] + s.step * arm.arm_length * np.array([-0.2, 0.98, 0.0])
+    sol = solve(arm, inward[None], s, start, body_rotation=0.0, max_change=s.max_joint_step)
+    assert sol.valid[0].any()
+    lo, hi = s.gamma_min, s.gamma_max
+    out_of_range = np.maximum(lo - sol.gamma[0], sol.gamma[0] - hi)
+    start_out = max(lo - gamma, gamma - hi)
+    assert (out_of_range[sol.valid[0]] <= start_out + 1e-9).all()
+    # a plain solve (no previous pose: the target's own) keeps to the limits
+    plain = solve(arm, inward[None], s)
+    assert (plain.gamma[0][plain.legal[0]] >= lo - 1e-9).all()
+    assert (plain.gamma[0][plain.legal[0]] <= hi + 1e-9).all()
+
+
+def test_an_elbow_off_its_side_may_come_back_and_the_side_leads():
+    """With ``elbow_side = "require"``, a move from a pose whose elbow is off Algorithm 1's
+    side has valid poses on either side, the preferred side ranked first; a move from a
+    pose on the side keeps to it."""
+    arm, s = standard_arm(), Settings()
+    wrist = arm.shoulder + np.array([0.0, 0.45, -0.1])
+    free = solve(arm, wrist[None], Settings(elbow_side="off"))
+    off = [k for k in np.flatnonzero(free.legal[0]) if free.wrong_side[0, k]]
+    on = [k for k in np.flatnonzero(free.legal[0]) if not free.wrong_side[0, k]]
+    assert off and on
+    start_off, start_on = free.config(0, off[len(off) // 2]), free.config(0, on[len(on) // 2])
+    assert not on_elbow_side(arm, start_off) and on_elbow_side(arm, start_on)
+    sol = solve(arm, wrist[None], s, start_off, max_change=180.0)
+    order = sol.order(0, s.elbow_side)
+    assert sol.wrong_side[0, order].any() and not sol.wrong_side[0, order].all()
+    sides = sol.wrong_side[0, order]
+    assert not sides[:np.count_nonzero(~sides)].any()           # the preferred side first
+    kept = solve(arm, wrist[None], s, start_on, max_change=180.0)
+    assert not kept.wrong_side[0, kept.valid[0]].any()
 
 
 def test_reading_a_pose_back_from_joints():
