@@ -95,6 +95,35 @@ ROBOT = {
 PROPORTIONS = {None: {"arm_lengths": ARM_LENGTHS, "hand_length": HAND_LENGTH,
                       "arm_drop_deg": ARM_DROP_DEG, "shoulder_half_width": SHOULDER_HALF_WIDTH},
                "robot": ROBOT}
+#: Rest poses of the arm (``shape(pose=...)``): degrees below the horizontal.
+POSES = {"T": 0.0, "A": ARM_DROP_DEG, "down": 80.0}
+
+
+def shape(proportions=None, *, pose=None, elbow_bend_deg=None, elbow_bend_dir=None,
+          forearm_ratio=None) -> dict:
+    """A proportions dict (what ``proportions`` takes besides a key of :data:`PROPORTIONS`):
+    those of ``proportions`` with the arm's rest ``pose`` (a key of :data:`POSES`), its
+    elbow bend (degrees) and the direction it bends toward (construction axes, default the
+    front, (0, -1, 0)), and the forearm's length over the upper arm's (the arm's length,
+    shoulder to wrist, kept) changed where given. Plain data (JSON)."""
+    out = dict(_proportions(proportions))
+    if pose is not None:
+        out["arm_drop_deg"] = POSES[pose]
+    if elbow_bend_deg is not None:
+        out["elbow_bend_deg"] = float(elbow_bend_deg)
+    if elbow_bend_dir is not None:
+        out["elbow_bend_dir"] = [float(v) for v in elbow_bend_dir]
+    if forearm_ratio is not None:
+        total = sum(out["arm_lengths"])
+        out["arm_lengths"] = (total / (1.0 + forearm_ratio), total * forearm_ratio / (1.0 + forearm_ratio))
+    return out
+
+
+def _proportions(proportions) -> dict:
+    """The proportions dict of a key of :data:`PROPORTIONS` or of a dict (:func:`shape`)."""
+    if isinstance(proportions, dict):
+        return {**PROPORTIONS[None], **proportions}
+    return PROPORTIONS[proportions]
 #: Share of the hand (wrist to fingertips) taken by the palms when ``palms`` is set; the
 #: fingers take the rest.
 PALM_SHARE = 0.6
@@ -117,20 +146,21 @@ def _mixamo(t):
     return {"clavicle": f"mixamorig:{s}Shoulder", "upper_arm": f"mixamorig:{s}Arm",
             "forearm": f"mixamorig:{s}ForeArm", "hand": f"mixamorig:{s}Hand",
             "thigh": f"mixamorig:{s}UpLeg", "shin": f"mixamorig:{s}Leg", "foot": f"mixamorig:{s}Foot",
-            "toe": f"mixamorig:{s}ToeBase"}
+            "toe": f"mixamorig:{s}ToeBase", "digits": f"mixamorig:{s}Hand" + "{Finger}{k}"}
 
 
 def _vrm(t):
     return {"clavicle": f"J_Bip_{t}_Shoulder", "upper_arm": f"J_Bip_{t}_UpperArm",
             "forearm": f"J_Bip_{t}_LowerArm", "hand": f"J_Bip_{t}_Hand", "thigh": f"J_Bip_{t}_UpperLeg",
-            "shin": f"J_Bip_{t}_LowerLeg", "foot": f"J_Bip_{t}_Foot", "toe": f"J_Bip_{t}_ToeBase"}
+            "shin": f"J_Bip_{t}_LowerLeg", "foot": f"J_Bip_{t}_Foot", "toe": f"J_Bip_{t}_ToeBase",
+            "digits": f"J_Bip_{t}_" + "{Finger}{k}", "little": "Little"}
 
 
 def _unity(t):
     s = {"R": "Right", "L": "Left"}[t]
     return {"clavicle": f"{s}Shoulder", "upper_arm": f"{s}UpperArm", "forearm": f"{s}LowerArm",
             "hand": f"{s}Hand", "thigh": f"{s}UpperLeg", "shin": f"{s}LowerLeg", "foot": f"{s}Foot",
-            "toe": f"{s}Toes"}
+            "toe": f"{s}Toes", "digits": f"{s} " + "{Finger} {Part}", "little": "Little"}
 
 
 def _spaced(t):
@@ -144,7 +174,8 @@ def _makehuman(t):
     return {"clavicle": f"clavicle.{t}", "shoulder": f"shoulder01.{t}", "upper_arm": f"upperarm01.{t}",
             "upper_arm_2": f"upperarm02.{t}", "forearm": f"lowerarm01.{t}",
             "forearm_2": f"lowerarm02.{t}", "hand": f"wrist.{t}", "thigh": f"upperleg01.{t}",
-            "shin": f"lowerleg01.{t}", "foot": f"foot.{t}", "toe": f"toe1-1.{t}"}
+            "shin": f"lowerleg01.{t}", "foot": f"foot.{t}", "toe": f"toe1-1.{t}",
+            "digits": "finger{i}-{k}." + t, "metacarpal": "metacarpal{m}." + t}
 
 
 def _unreal(t):
@@ -152,7 +183,7 @@ def _unreal(t):
     return {"clavicle": f"clavicle_{t}", "upper_arm": f"upperarm_{t}", "forearm": f"lowerarm_{t}",
             "hand": f"hand_{t}", "upper_arm_twist": f"upperarm_twist_01_{t}",
             "forearm_twist": f"lowerarm_twist_01_{t}", "thigh": f"thigh_{t}", "shin": f"calf_{t}",
-            "foot": f"foot_{t}", "toe": f"ball_{t}"}
+            "foot": f"foot_{t}", "toe": f"ball_{t}", "digits": "{finger}_0{k}_" + t}
 
 
 MIXAMO = {"hips": "mixamorig:Hips", "spine": ("mixamorig:Spine", "mixamorig:Spine1"),
@@ -219,14 +250,17 @@ def _unit(v):
 def arm_joints(tag: str, proportions=None) -> dict:
     """Sternum, shoulder, elbow, wrist and hand tip of side ``tag`` (R/L), standing, metres
     (``proportions``: None for the standard adult, or a key of :data:`PROPORTIONS`)."""
-    lengths = PROPORTIONS[proportions]["arm_lengths"]
-    hand_length = PROPORTIONS[proportions]["hand_length"]
+    p = _proportions(proportions)
+    lengths = p["arm_lengths"]
+    hand_length = p["hand_length"]
     s = SIDES[tag]
-    shoulder = np.array([s * PROPORTIONS[proportions]["shoulder_half_width"], 0.0, SHOULDER_Z])
-    drop = math.radians(PROPORTIONS[proportions]["arm_drop_deg"])
+    shoulder = np.array([s * p["shoulder_half_width"], 0.0, SHOULDER_Z])
+    drop = math.radians(p["arm_drop_deg"])
     d1 = np.array([s * math.cos(drop), 0.0, -math.sin(drop)])
-    bend = math.radians(ELBOW_BEND_DEG)
-    d2 = _unit(math.cos(bend) * d1 + math.sin(bend) * np.array([0.0, -1.0, 0.0]))
+    bend = math.radians(p.get("elbow_bend_deg", ELBOW_BEND_DEG))
+    toward = np.asarray(p.get("elbow_bend_dir", (0.0, -1.0, 0.0)), dtype=float)
+    toward = _unit(toward - (toward @ d1) * d1)
+    d2 = _unit(math.cos(bend) * d1 + math.sin(bend) * toward)
     elbow = shoulder + lengths[0] * d1
     wrist = elbow + lengths[1] * d2
     return {"sternum": np.array([s * 0.02, -0.03, 1.40]), "clavicle_end": np.array([s * 0.05, -0.02, 1.42]),
@@ -267,8 +301,85 @@ def palm_joints(tag: str, n: int, fingers: int = 1, proportions=None) -> list:
     return out
 
 
+#: Hand kinds of :func:`humanoid` besides sibling palms: one bone; a mitten (the hand bone,
+#: then ``MiddleHand`` and ``Fingers`` in a row, no thumb); five fingers of three bones, the
+#: thumb's on the hand bone, the others' on metacarpals where the map names them.
+HANDS = ("bone", "mitten", "fingers")
+#: The fingers, thumb first, and each one's length as a share of the hand bone's.
+FINGERS = (("thumb", 0.85), ("index", 0.95), ("middle", 1.0), ("ring", 0.95), ("little", 0.8))
+_PARTS = ("Proximal", "Intermediate", "Distal")
+
+
+def hand_frame(tag: str, proportions=None) -> tuple:
+    """(d, a, n) of side ``tag``'s hand at rest (standing, metres): d along the hand bone
+    (wrist to its tail), a across the palm toward the thumb (forward, made perpendicular
+    to d) and n the way the palm faces. The thumb points forward, so a T-posed hand faces
+    down and an A-posed one down and in. For a right hand n = a × d (a left hand is its
+    mirror image: n = -(a × d) in world axes)."""
+    j = arm_joints(tag, proportions)
+    d = _unit(j["hand_tip"] - j["wrist"])
+    a = np.array([0.0, -1.0, 0.0])
+    a = a - (a @ d) * d
+    a = _unit(a if np.linalg.norm(a) > 1e-6 else np.array([0.0, 0.0, 1.0]) - d[2] * d)
+    n = -SIDES[tag] * np.cross(a, d)
+    return d, a, n
+
+
+def digit_name(names: dict, tag: str, i: int, k: int) -> str:
+    """Bone ``k`` (1–3) of finger ``i`` (1 thumb … 5 little) of side ``tag``, by the map's
+    ``digits_<tag>`` pattern (fields {Finger}, {finger}, {i}, {k}, {Part}), by default
+    ``Index1.R`` and so on."""
+    word = FINGERS[i - 1][0]
+    if word == "little":
+        word = names.get(f"little_{tag}", "Pinky").lower()
+    pattern = names.get(f"digits_{tag}", "{Finger}{k}." + tag)
+    return pattern.format(Finger=word.capitalize(), finger=word, i=i, k=k, Part=_PARTS[k - 1])
+
+
+def hand_segments(tag: str, hand: str, names: dict, proportions=None) -> list:
+    """(key, head, tail, parent key) of the bones below the hand bone ``hand_<tag>`` for
+    hand kind ``hand`` (:data:`HANDS`): nothing for "bone"; a mitten's two bones on from the
+    hand bone; or five fingers fanned across the knuckle line at the hand bone's tail
+    (their roots 0.22 hand-bone lengths apart, index on the thumb's side), each of three
+    bones, the thumb from beside the wrist toward the palm, the four fingers on
+    metacarpals (wrist to knuckle) where the map names them (``metacarpal_<tag>``)."""
+    if hand == "bone":
+        return []
+    j = arm_joints(tag, proportions)
+    wrist, tip = j["wrist"], j["hand_tip"]
+    length = float(np.linalg.norm(tip - wrist))
+    d, a, n = hand_frame(tag, proportions)
+    top = f"hand_{tag}"
+    if hand == "mitten":
+        mid = tip + 0.45 * length * d
+        return [(f"mitten#1_{tag}", tip, mid, top), (f"mitten#2_{tag}", mid, tip + 0.9 * length * d,
+                                                     f"mitten#1_{tag}")]
+    if hand != "fingers":
+        raise ValueError(f"unknown hand {hand!r}")
+    segs = []
+    for i, (_word, share) in enumerate(FINGERS, 1):
+        if i == 1:
+            root = wrist + 0.2 * length * d + 0.3 * length * a + 0.12 * length * n
+            way = _unit(0.7 * d + 0.6 * a + 0.4 * n)
+            parent = top
+        else:
+            root = tip + (0.33 - 0.22 * (i - 2)) * length * a
+            way = _unit(d + (0.06 * (3.5 - i)) * a)
+            parent = top
+            if f"metacarpal_{tag}" in names:
+                base = wrist + 0.1 * length * d + 0.5 * (root - tip)   # nearer together
+                segs.append((f"metacarpal#{i}_{tag}", base, root, top))
+                parent = f"metacarpal#{i}_{tag}"
+        bone = share * length / 3.0
+        for k in range(1, 4):
+            segs.append((f"digit#{i}#{k}_{tag}", root + (k - 1) * bone * way, root + k * bone * way,
+                         parent))
+            parent = f"digit#{i}#{k}_{tag}"
+    return segs
+
+
 def _segments(names: dict, *, clavicle: bool, twist: bool, palms: int = 0, fingers: int = 1,
-              proportions=None) -> list:
+              proportions=None, hand: str = "bone") -> list:
     """(role key, head, tail, parent role key) for every skeleton bone, parents first. The
     palms and fingers of ``palms=N`` have keys ``palm#<i>_<tag>`` and ``finger#<i>#<k>_<tag>``."""
     segs = []
@@ -320,6 +431,7 @@ def _segments(names: dict, *, clavicle: bool, twist: bool, palms: int = 0, finge
                     above = f"finger#{i}#{k}_{tag}"
         else:
             segs.append((f"hand_{tag}", j["wrist"], j["hand_tip"], parent))
+            segs += hand_segments(tag, hand, names, proportions)
         x = s * 0.09
         segs.append((f"thigh_{tag}", (x, 0, 0.93), (x, -0.01, 0.50), "hips"))
         segs.append((f"shin_{tag}", (x, -0.01, 0.50), (x, 0.02, 0.08), f"thigh_{tag}"))
@@ -338,6 +450,16 @@ def _bone_name(names: dict, key: str) -> str:
         rest, tag = key[7:].split("_")
         i, k = rest.split("#")
         return finger_name(names, tag, int(i), int(k))
+    if key.startswith("digit#"):
+        rest, tag = key[6:].split("_")
+        i, k = rest.split("#")
+        return digit_name(names, tag, int(i), int(k))
+    if key.startswith("metacarpal#"):
+        i, tag = key[11:].split("_")
+        return names[f"metacarpal_{tag}"].format(m=int(i) - 1)
+    if key.startswith("mitten#"):
+        i, tag = key[7:].split("_")
+        return ("MiddleHand", "Fingers")[int(i) - 1] + "." + tag
     if key in names:
         return names[key]
     role, _, tag = key.rpartition("_")          # twist bones missing from the map
@@ -369,18 +491,26 @@ def to_world(p, *, facing="-Y", lying=False) -> np.ndarray:
 
 def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, decoy=None,
              clavicle=True, twist=False, name="Humanoid", skin_radius=0.04, palms=0, fingers=1,
-             proportions=None):
+             proportions=None, hand="bone", roll=None, hand_roll_deg=0.0, rigid=False):
     """Build the humanoid (see the module docstring) in the current scene; returns the
-    armature object, active and in Object Mode."""
+    armature object, active and in Object Mode.
+
+    ``hand``: a kind of :data:`HANDS` (sibling palms are ``palms``). ``roll``: a direction
+    (construction axes) every bone's Z axis is turned toward (Blender's *Recalculate Roll*
+    to an axis; None leaves Blender's default roll); ``hand_roll_deg``: the hand bones'
+    roll added to that, about their own axis (mirrored on the left), so the hand's local
+    axes are turned against the forearm's as on some VRM and game rigs. ``rigid``: instead
+    of one skinned mesh, one box object per bone parented to the bone (a robot of rigid
+    parts, no Armature modifier, no vertex groups)."""
     if decoy not in (None, "ik", "twin", "driver"):
         raise ValueError(f"unknown decoy {decoy!r}")
-    if proportions not in PROPORTIONS:
+    if not isinstance(proportions, dict) and proportions not in PROPORTIONS:
         raise ValueError(f"unknown proportions {proportions!r}")
     if palms and (palms < 2 or decoy is not None):
         raise ValueError("palms needs 2 or more palms and no decoy")
     rot = object_rotation(facing)
     segs = _segments(names, clavicle=clavicle, twist=twist, palms=palms, fingers=fingers,
-                     proportions=proportions)
+                     proportions=proportions, hand=hand)
     bone_of = {key: _bone_name(names, key) for key, *_ in segs}
 
     def local(p):   # construction metres → armature space
@@ -405,6 +535,10 @@ def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, dec
         eb.use_deform = True
         if parent is not None:
             eb.parent = ebones[bone_of[parent]]
+        if roll is not None:
+            eb.align_roll(local(np.asarray(roll, dtype=float) * scale))
+        if hand_roll_deg and key.startswith(("hand_", "palm#")):
+            eb.roll += math.radians(hand_roll_deg) * (1.0 if key.endswith("_R") else -1.0)
     decoys = {}
     if decoy is not None:
         for tag in SIDES:
@@ -426,9 +560,13 @@ def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, dec
         for deform, control in decoys.items():
             c = arm.pose.bones[deform].constraints.new("COPY_TRANSFORMS")
             c.target, c.subtarget, c.influence = arm, control, 1.0
-    if skin:
+    if skin or rigid:
         radii = {key: _skin_half_width(key, proportions, skin_radius) / scale for key, *_r in segs}
-        _add_skin(arm, [(bone_of[key], local(h), local(t), radii[key]) for key, h, t, _p in segs])
+        bones = [(bone_of[key], local(h), local(t), radii[key]) for key, h, t, _p in segs]
+        if rigid:
+            _add_rigid(arm, bones)
+        else:
+            _add_skin(arm, bones)
     bpy.context.view_layer.objects.active = arm
     bpy.context.view_layer.update()
     return arm
@@ -437,10 +575,12 @@ def humanoid(names: dict, *, facing="-Y", scale=1.0, lying=False, skin=True, dec
 def _skin_half_width(key: str, proportions, default: float) -> float:
     """Half-width of the skin box of the bone with role key ``key``: ``default`` unless the
     ``proportions`` give one for its role (the torso's bones: ``torso_skin``)."""
-    if proportions is None:
-        return default
-    p = PROPORTIONS[proportions]
+    p = _proportions(proportions)
     role = key.split("#")[0]
+    if role in ("digit", "metacarpal"):
+        return 0.25 * default            # a finger is about a quarter of the hand's thickness
+    if "skin" not in p:
+        return default
     if role in ("root", "hips", "spine", "chest", "neck", "head"):
         return p["torso_skin"]
     role = role.rsplit("_", 1)[0] if role.endswith(tuple(f"_{t}" for t in SIDES)) else role
@@ -475,6 +615,31 @@ def _add_skin(arm, bones):
     mod = ob.modifiers.new("Armature", "ARMATURE")
     mod.object = arm
     return ob
+
+
+def _add_rigid(arm, bones):
+    """One box object per bone (armature space; (name, head, tail, half-width)), each
+    parented to its bone where it stands, with no Armature modifier."""
+    quads = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
+    bpy.context.view_layer.update()
+    mw = arm.matrix_world
+    out = []
+    for name, head, tail, radius in bones:
+        axis = (tail - head).normalized()
+        side = axis.orthogonal().normalized()
+        third = axis.cross(side)
+        verts = [tuple(mw @ (end + side * a + third * b)) for end in (head, tail)
+                 for a in (-radius, radius) for b in (-radius, radius)]
+        mesh = bpy.data.meshes.new(f"{arm.name}_{name}")
+        mesh.from_pydata(verts, [], list(quads))
+        ob = bpy.data.objects.new(f"{arm.name}_{name}", mesh)
+        bpy.context.scene.collection.objects.link(ob)
+        pb = arm.pose.bones[name]
+        ob.parent, ob.parent_type, ob.parent_bone = arm, "BONE", name
+        at_tail = mw @ pb.matrix @ Matrix.Translation((0.0, pb.bone.length, 0.0))
+        ob.matrix_parent_inverse = at_tail.inverted()
+        out.append(ob)
+    return out
 
 
 def bone_chain(names, *, name="Chain"):
