@@ -17,12 +17,14 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 from .. import atomic
+from . import rig
 from .scene import VIZ_TAG
 
 
 def _skinned(armature, scene):
-    return any(ob.type == "MESH" and any(m.type == "ARMATURE" and m.object == armature
-                                         for m in ob.modifiers) for ob in scene.objects)
+    """Does the figure show: a mesh the armature deforms, or rigid parts on its bones?"""
+    return any(rig.deformed_by(ob, armature) or rig.rigid_part(ob, armature)
+               for ob in scene.objects)
 
 
 def _stand_ins(armature, scene, min_length):

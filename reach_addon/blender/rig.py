@@ -152,13 +152,31 @@ class BoneMap:
 
 # --- detection ---------------------------------------------------------------------------
 
+def deformed_by(ob, armature) -> bool:
+    """Is ``ob`` a mesh whose Armature modifier uses ``armature`` (its skin)?"""
+    return ob.type == "MESH" and any(m.type == "ARMATURE" and m.object == armature
+                                     for m in ob.modifiers)
+
+
+def rigid_part(ob, armature) -> str | None:
+    """The bone a mesh is parented to, if it is a rigid part of ``armature`` (a robot's or
+    a prop-built character's body: no skin, each part carried by one bone), else None."""
+    if ob.type == "MESH" and ob.parent == armature and ob.parent_type == "BONE" and \
+            ob.parent_bone in armature.data.bones and not deformed_by(ob, armature):
+        return ob.parent_bone
+    return None
+
+
 def skin_bones(armature) -> set:
     """Names of bones that move skin: vertex groups with weighted vertices in meshes whose
-    Armature modifier uses this armature."""
+    Armature modifier uses this armature, and bones that carry rigid parts (meshes
+    parented to them)."""
     out = set()
     for ob in _scene_objects(armature):
-        if ob.type != "MESH" or not any(m.type == "ARMATURE" and m.object == armature
-                                         for m in ob.modifiers):
+        bone = rigid_part(ob, armature)
+        if bone is not None and len(ob.data.vertices):
+            out.add(bone)
+        if not deformed_by(ob, armature):
             continue
         names = {vg.index: vg.name for vg in ob.vertex_groups}
         weighted = set()
@@ -168,6 +186,43 @@ def skin_bones(armature) -> set:
                     weighted.add(g.group)
         out |= {names[i] for i in weighted if i in names}
     return out
+
+
+def skin_points(armature, bone_names, weight: float = 0.5) -> np.ndarray:
+    """World positions (n, 3) of the skin that ``bone_names`` move, as Blender evaluates it
+    now: the vertices weighted at least ``weight`` to their vertex groups in the meshes the
+    armature deforms, and every vertex of the rigid parts parented to them. Empty (0, 3)
+    where these bones move no skin."""
+    out = []
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for ob in _scene_objects(armature):
+        rigid = rigid_part(ob, armature)
+        if rigid is None and not deformed_by(ob, armature):
+            continue
+        if rigid is not None:
+            if rigid not in bone_names:
+                continue
+            chosen = None
+        else:
+            idx = {vg.index for vg in ob.vertex_groups if vg.name in bone_names}
+            if not idx:
+                continue
+            chosen = [v.index for v in ob.data.vertices
+                      if any(g.group in idx and g.weight >= weight for g in v.groups)]
+            if not chosen:
+                continue
+        ev = ob.evaluated_get(depsgraph)
+        mesh = ev.data
+        if len(mesh.vertices) != len(ob.data.vertices) or not len(mesh.vertices):
+            continue
+        co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3).astype(float)
+        if chosen is not None:
+            co = co[chosen]
+        mw = np.array(ev.matrix_world)
+        out.append(co @ mw[:3, :3].T + mw[:3, 3])
+    return np.concatenate(out) if out else np.zeros((0, 3))
 
 
 def _scene_objects(armature):
@@ -590,34 +645,15 @@ def body_frame(armature, bmap: BoneMap) -> BodyFrame:
 
 
 def _skin_radius(armature, group_names, a, b, fallback):
-    """75th percentile distance from segment a-b (world) of the evaluated skin vertices
-    weighted ≥ 0.5 to ``group_names``; ``fallback`` if there is no such skin."""
-    dists = []
-    for ob in _scene_objects(armature):
-        if ob.type != "MESH" or not any(m.type == "ARMATURE" and m.object == armature
-                                         for m in ob.modifiers):
-            continue
-        idx = {vg.index for vg in ob.vertex_groups if vg.name in group_names}
-        if not idx:
-            continue
-        chosen = [v.index for v in ob.data.vertices
-                  if any(g.group in idx and g.weight >= 0.5 for g in v.groups)]
-        if not chosen:
-            continue
-        ev = ob.evaluated_get(bpy.context.evaluated_depsgraph_get())
-        mesh = ev.data
-        if len(mesh.vertices) != len(ob.data.vertices):
-            continue
-        co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        mesh.vertices.foreach_get("co", co)
-        mw = np.array(ev.matrix_world)
-        pts = co.reshape(-1, 3)[chosen] @ mw[:3, :3].T + mw[:3, 3]
-        ab = b - a
-        t = np.clip((pts - a) @ ab / max(ab @ ab, 1e-12), 0, 1)
-        dists.append(np.linalg.norm(pts - (a + t[:, None] * ab), axis=1))
-    if not dists:
+    """75th percentile distance from segment a-b (world) of the skin the bones
+    ``group_names`` move (:func:`skin_points`: weighted ≥ 0.5, or rigid parts parented to
+    them); ``fallback`` if there is no such skin."""
+    pts = skin_points(armature, set(group_names))
+    if not len(pts):
         return fallback
-    return float(np.percentile(np.concatenate(dists), 75))
+    ab = b - a
+    t = np.clip((pts - a) @ ab / max(ab @ ab, 1e-12), 0, 1)
+    return float(np.percentile(np.linalg.norm(pts - (a + t[:, None] * ab), axis=1), 75))
 
 
 @dataclass

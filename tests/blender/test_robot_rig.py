@@ -138,6 +138,21 @@ def test_the_robot_is_read_with_its_proportions(fresh, rig):
     assert sorted(info.hand_bones) == ["Palm1R", "Palm2R", "Palm3R"]
 
 
+def test_rigid_parts_are_read_like_a_skin(fresh, rig):
+    """The same robot built of rigid parts (one box object per bone, parented to it, no
+    Armature modifier) is read with the thickness of its parts, as the skinned one is (it
+    was read with the fallback radii, half as thick, and planned through what it hits)."""
+    skinned = rig.build(robot(), "right").arm
+    bpy.ops.wm.read_homefile(use_empty=True)
+    rigid = syn.humanoid(syn.ROBOT_NAMES, proportions="robot", palms=3, fingers=2, name="Robot",
+                         skin=False, rigid=True)
+    assert not any(m.type == "ARMATURE" for ob in bpy.data.objects for m in getattr(ob, "modifiers", ()))
+    a = rig.build(rigid, "right").arm
+    for key in ("upper_arm_radius", "forearm_radius", "hand_radius"):
+        assert getattr(a, key) == pytest.approx(getattr(skinned, key), rel=1e-3), key
+    assert "UpperArmR" in rig.skin_bones(rigid)
+
+
 def start_joints(addon, info):
     joints, _bend = addon.core.forward_kinematics(info.arm, info.start.as_array())
     return joints
