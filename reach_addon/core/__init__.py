@@ -10,14 +10,14 @@ Entry point: :func:`plan` (or a :class:`Planner`, which keeps the workspace betw
 from .arm import ArmConfig, ArmModel, Capsule, Pose, config_from_joints, forward_kinematics
 from .collision import Obstacles
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH, REASONS,
-                     START_IN_COLLISION, TARGET_IN_OBSTACLE, ReachError)
+                     START_HELD, START_IN_COLLISION, TARGET_IN_OBSTACLE, ReachError)
 from .settings import Settings
 from .tasks import TASK_KINDS, Plan, Planner, Segment, Stats, Task, plan
 
 __all__ = [
     "ArmConfig", "ArmModel", "Capsule", "Pose", "config_from_joints", "forward_kinematics",
     "Obstacles", "ReachError", "REASONS", "OUT_OF_REACH", "TARGET_IN_OBSTACLE", "NO_PATH",
-    "START_IN_COLLISION", "NEEDS_LEAN", "NEEDS_STEP", "ARM_DOES_NOT_FIT",
+    "START_IN_COLLISION", "START_HELD", "NEEDS_LEAN", "NEEDS_STEP", "ARM_DOES_NOT_FIT",
     "Settings", "TASK_KINDS", "Plan", "Planner", "Segment", "Stats",
     "Task", "plan",
 ]

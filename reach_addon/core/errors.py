@@ -22,8 +22,9 @@ TARGET_IN_OBSTACLE = "target_in_obstacle"  # inside an obstacle (or the characte
 ARM_DOES_NOT_FIT = "arm_does_not_fit"      # in free space, but the arm or hand has no room
 NO_PATH = "no_path"
 START_IN_COLLISION = "start_in_collision"
+START_HELD = "start_held"                  # clear, but no step from the start is; names what
 REASONS = (OUT_OF_REACH, NEEDS_LEAN, NEEDS_STEP, TARGET_IN_OBSTACLE, ARM_DOES_NOT_FIT, NO_PATH,
-           START_IN_COLLISION)
+           START_IN_COLLISION, START_HELD)
 
 
 class ReachError(ValueError):

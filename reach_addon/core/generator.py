@@ -47,6 +47,21 @@ class Diagnosis:
     above: bool = False
 
 
+@dataclass(frozen=True)
+class Hold:
+    """What holds an arm that cannot move from its start pose
+    (:meth:`ConfigurationGenerator.what_holds`): ``kind`` is "obstacle", "body", "hand"
+    (the arm is clear but its hand cannot turn to a clear direction without touching),
+    "limits", "smoothness" or "reach"; ``what`` the obstacle or body capsule, ``part`` the
+    arm's part it holds; ``steps`` of the ``tried`` steps from the start it refuses."""
+
+    kind: str
+    what: str
+    part: str
+    steps: int
+    tried: int
+
+
 class ConfigurationGenerator:
     """Legal, smooth, collision-free poses for wrist positions (canonical frame)."""
 
@@ -486,6 +501,62 @@ class ConfigurationGenerator:
 
     def pose_collides(self, pose: Pose) -> bool:
         return self.checker.collides(self.arm.to_world_points(pose.joints))
+
+    def what_holds(self, start: Pose, directions) -> Hold | None:
+        """Why the arm cannot move from ``start`` at all, or None if it can: some step of
+        the search from it (one ``Settings.step`` along each of ``directions``, unit rows,
+        canonical) has a legal, smooth pose clear with some hand.
+
+        Each step is put down to the first thing that refuses it, in the order the
+        generator tests them: the arm's reach (the wrist beyond it), the joint limits (no
+        legal pose there), the smoothness bound (legal poses, but none within a step's
+        change of the start's angles: the elbow or chest would jump), the body (a part
+        inside one of its capsules) or an obstacle (which one, at which part). The
+        :class:`Hold` names the most frequent one and how many of the steps it refuses."""
+        causes = []
+        for d in np.asarray(directions, dtype=float):
+            wrist = start.wrist + self.step_length * d
+            if self.solve(wrist, start) is not None:    # with any clear hand
+                return None
+            causes.append(self._refusal(start, wrist))
+        counts: dict = {}
+        for c in causes:
+            counts[c] = counts.get(c, 0) + 1
+        kind, what, part = max(counts, key=lambda c: (counts[c], c != ("limits", "", "")))
+        return Hold(kind, what, part, counts[(kind, what, part)], len(causes))
+
+    def _refusal(self, start: Pose, wrist) -> tuple:
+        """(kind, what, part) of the first test that refuses every pose at ``wrist`` for a
+        step from ``start`` (:meth:`what_holds`)."""
+        arm, st = self.arm, self.settings
+        body = self.chest(wrist) if self.chest is not None else None
+        sol = ik.solve(arm, wrist[None], st, start.config, body,
+                       self.max_change(start, wrist))
+        if not sol.reachable[0]:
+            return ("reach", "", "")
+        if not sol.valid[0].any():
+            free = ik.solve(arm, wrist[None], st, body_rotation=body)
+            legal = ik.solve(arm, wrist[None], st, start.config, body, 360.0)
+            return ("smoothness", "", "") if legal.valid[0].any() or free.legal[0].any() \
+                else ("limits", "", "")
+        caps = self._capsules(float(sol.body[0]))
+        first = None
+        for k in sol.ranked(0, st.elbow_side)[: st.max_pose_tries]:
+            joints = sol.joints(0, k)[0]
+            for hand in (False, True):
+                hit = ik.body_hit(arm, joints.tolist(), caps, include_hand=hand) if caps else None
+                if hit is not None:
+                    first = first or ("body", arm.body_capsules[hit[1]].name, hit[0])
+                    break
+                hit = self.checker.first_hit(arm.to_world_points(joints), include_hand=hand)
+                if hit is not None:
+                    first = first or ("obstacle", hit[1], hit[0])
+                    break
+            else:
+                # the arm and its straight hand are clear: the hand's turn from the start's
+                # is what no clear direction allows (it touches on the way)
+                first = first or ("hand", "", "hand")
+        return first or ("limits", "", "")
 
     def diagnose_target(self, wrist) -> Diagnosis | None:
         """Why a wrist position can never be reached, or None if some legal pose there is

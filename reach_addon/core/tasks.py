@@ -42,7 +42,7 @@ from . import ik
 from .arm import ArmConfig, ArmModel, Pose
 from .collision import Obstacles
 from .contact import depth_message, escape, start_clearance
-from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH,
+from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH, START_HELD,
                      START_IN_COLLISION, TARGET_IN_OBSTACLE, ReachError, require_finite)
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
@@ -50,7 +50,7 @@ from .keys import between
 from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
 from .orient import apply_roll, goal_for, pose_error
 from .sampling import sampling_steps
-from .search import BestFirstSearch, SearchResult, chase_step
+from .search import BestFirstSearch, SearchResult, chase_step, sphere_directions
 from .settings import Settings
 from .steps import drain, relay
 from .workspace import Workspace, build_workspace, workspace_steps
@@ -663,6 +663,11 @@ class Planner:
                 f"target '{name}' leaves it ({result.nodes_searched} tested positions, "
                 f"{closest}); pose the arm clear of the body on the start frame, or start "
                 "from a frame where it is")
+        held = self.generator.for_reach(start, result.target).what_holds(
+            start, sphere_directions(int(self.settings.directions))) \
+            if d is None and len(result.path) <= 1 else None
+        if held is not None:
+            return START_HELD, self._held_message(name, held, closest)
         if d is None:
             return NO_PATH, (
                 f"no collision-free path to target '{name}' within {result.nodes_searched} "
@@ -702,6 +707,34 @@ class Planner:
         return TARGET_IN_OBSTACLE, (
             f"target '{name}' is inside obstacle '{d.obstacle}': no pose puts the wrist there "
             f"({closest}); move the target out of it")
+
+    def _held_message(self, name: str, held, closest: str) -> str:
+        """The message of a reach whose arm cannot move from its start pose (``held``, a
+        :class:`~reach_addon.core.generator.Hold`): what holds it and what to do."""
+        share = f"{held.steps} of the {held.tried} steps the search tries from it"
+        st = self.settings
+        if held.kind == "obstacle":
+            cause = (f"'{held.what}' is in the way of the {held.part} ({share}); move "
+                     f"'{held.what}' back or pose the arm clear of it on the start frame")
+        elif held.kind == "body":
+            cause = (f"the {held.part} would pass through the character's own body (its "
+                     f"'{held.what}' capsule; {share}); pose the arm away from the body on "
+                     "the start frame")
+        elif held.kind == "hand":
+            cause = (f"the hand has no clear way to turn ({share}); pose the hand clear of "
+                     "what is near it on the start frame")
+        elif held.kind == "smoothness":
+            cause = (f"every step would turn a joint more than {st.max_joint_step:g}° at once "
+                     f"({share}): the arm starts straight at the edge of its reach or in a "
+                     "pose its joints cannot leave gradually; bend the elbow a little on the "
+                     "start frame")
+        elif held.kind == "reach":
+            cause = f"the wrist is at the edge of the arm's reach ({share})"
+        else:
+            cause = (f"no pose a step from it is within the joint limits ({share}); pose the "
+                     "arm inside its limits on the start frame or widen them (body presets)")
+        return (f"the arm cannot move from its start pose toward target '{name}': {cause} "
+                f"({closest})")
 
     def _motion_stats(self, stats: Stats, poses, motion_length: float,
                       hand: HandReport | None = None, clearances=None):

@@ -10,7 +10,7 @@ import pytest
 from geometry import (HANGING, arm_penetration, obstacles, run_steps, shelf, standard_arm,
                       table, triangles_of)
 from reach_addon.core import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH,
-                              START_IN_COLLISION, TARGET_IN_OBSTACLE,
+                              START_HELD, START_IN_COLLISION, TARGET_IN_OBSTACLE,
                               ArmConfig, Obstacles, Planner, ReachError, Settings, Task, plan)
 from reach_addon.core.motion import minimum_jerk
 
@@ -182,6 +182,28 @@ def test_a_start_inside_the_body_is_a_start_in_collision(arm):
     left = ArmConfig(0.0, -15.0, -60.0, 0.0, 90.0)         # the forearm in the pelvis's
     assert plan(Task("reach", np.array([[-0.35, -0.35, 1.2]]), left), arm, None,
                 Settings(node_budget=600)).success
+
+
+def test_what_holds_an_arm_that_cannot_move(arm):
+    """A small block half a step beyond the forearm's reach beside the wrist, out to the
+    arm's side: the step toward it is refused by the block (at the forearm), and with only
+    that step to take the arm is held by it; with the step away from it as well, the arm
+    can move. A search that gives up after leaving the start is ``no_path``, not held."""
+    start = Planner(arm, None).generator.config_pose(HANGING)
+    s = Settings()
+    side = np.array([1.0, 0.0, 0.0])                          # the arm's side, canonical
+    gap = arm.forearm_radius + (s.clearance + 0.5 * s.step) * arm.arm_length
+    centre = arm.to_world_points(start.wrist + (gap + 0.01) * side)
+    block = {"Block": [(tuple(centre - 0.01), tuple(centre + 0.01))]}
+    gen = Planner(arm, obstacles(block)).generator
+    assert gen.solve(start.wrist, hand_scale=None) is not None   # the start itself is clear
+    held = gen.what_holds(start, [side])
+    assert held is not None and (held.kind, held.what, held.steps, held.tried) == \
+        ("obstacle", "Block", 1, 1), held
+    assert gen.what_holds(start, [side, -side]) is None
+    p = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(WALL),
+             Settings(node_budget=40, guided_fallback=False, sampling_fallback=False))
+    assert not p.success and p.reason == NO_PATH
 
 
 def test_plans_are_deterministic(arm):
