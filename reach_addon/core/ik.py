@@ -303,6 +303,9 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
     gamma_prev = 0.0 if previous is None else previous.gamma
     smooth_bound = previous is not None and max_change is not None
     limits = move_limits(st, previous) if smooth_bound else _settings_limits(st)
+    e_lo, e_hi = st.elbow_min, st.elbow_max        # the elbow's, widened likewise
+    if smooth_bound:
+        e_lo, e_hi = min(e_lo, previous.elbow), max(e_hi, previous.elbow)
     require = st.elbow_side == "require"
     if require and smooth_bound and not on_elbow_side(arm, previous):
         # a move that starts with the elbow off its side (a rig's own start pose) may
@@ -326,13 +329,13 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
             body = np.asarray(body_rotation_deg(w, arm.arm_length, arm.hand_length, st), dtype=float)
         else:
             body = np.broadcast_to(np.asarray(body_rotation, dtype=float), (n_w,)).copy()
-    values, reachable, degenerate, flex = _wrist_terms(arm, wx, wy, wz, body, st, m)
+    values, reachable, degenerate, flex = _wrist_terms(arm, wx, wy, wz, body, e_hi, m)
     if m is SCALAR:
         packed = np.array(values)[None]                                  # (1, TERMS.size)
-        wrist_ok = bool(reachable and st.elbow_min <= flex <= st.elbow_max)
+        wrist_ok = bool(reachable and e_lo <= flex <= e_hi)
     else:
         packed = np.stack(values, -1)                                    # (W, TERMS.size)
-        wrist_ok = reachable & (flex >= st.elbow_min) & (flex <= st.elbow_max)
+        wrist_ok = reachable & (flex >= e_lo) & (flex <= e_hi)
     straight = values[_SIN_EPS] < _STRAIGHT
     # the layout's fields by name, in one unpacking (a NamedTuple's attributes cost a
     # descriptor lookup each, and this runs for every position the search tests)
@@ -482,7 +485,8 @@ def move_limits(st, previous: ArmConfig | None):
     limit): the limits bound where a move may go, never where it starts. A move from a
     pose outside them may stay as far out or come back in, never go farther out, so the
     arm returns toward the legal range as it moves and the target's own pose (solved with
-    no previous pose) is always inside it."""
+    no previous pose) is always inside it. :func:`solve` widens the elbow's flexion limits
+    the same way."""
     lo, hi = _settings_limits(st)
     if previous is None:
         return lo, hi
@@ -607,7 +611,7 @@ TERMS = _term_layout(sternum=3, shoulder=3, elbow_coef=9, fore_coef=9, rows=27, 
 _SIN_EPS = TERMS.eps.start + 1
 
 
-def _wrist_terms(arm: ArmModel, wx, wy, wz, body, st, m):
+def _wrist_terms(arm: ArmModel, wx, wy, wz, body, elbow_max: float, m):
     """Everything about one wrist position that does not depend on the swivel angle,
     written once for floats (``m`` = SCALAR) and for arrays of wrists (``m`` = ARRAY).
 
@@ -625,7 +629,7 @@ def _wrist_terms(arm: ArmModel, wx, wy, wz, body, st, m):
     dx, dy, dz = wx - sx, wy - sy, wz - sz
     d = m.sqrt(dx * dx + dy * dy + dz * dz)
     tol = 1e-9 * arm.arm_length
-    reachable = (d <= l1 + l2 + tol) & (d >= _min_reach(l1, l2, st.elbow_max) - tol) & (d > tol)
+    reachable = (d <= l1 + l2 + tol) & (d >= _min_reach(l1, l2, elbow_max) - tol) & (d > tol)
     d = m.maximum(d, 1e-12)
     nx, ny, nz = dx / d, dy / d, dz / d
     cos_a = m.clip((l1 * l1 + d * d - l2 * l2) / (2 * l1 * d), -1.0, 1.0)

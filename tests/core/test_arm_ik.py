@@ -205,6 +205,24 @@ def test_a_start_twisted_outside_the_limits_moves_and_comes_back(gamma, elbow):
     assert (plain.gamma[0][plain.legal[0]] <= hi + 1e-9).all()
 
 
+def test_an_elbow_bent_past_its_limit_may_unbend():
+    """A start with the elbow flexed 156°, past the 150° limit: a step that opens it a
+    little is valid (none was: every wrist that near the shoulder was out of reach), one
+    that bends it further is not."""
+    arm, s = standard_arm(), Settings()
+    start = ArmConfig(0.0, 20.0, 30.0, 0.0, 156.0)
+    joints, _ = forward_kinematics(arm, start.as_array())
+    out = (joints[3] - joints[1]) / np.linalg.norm(joints[3] - joints[1])
+    step = 0.5 * s.step * arm.arm_length
+    opened = solve(arm, (joints[3] + step * out)[None], s, start, body_rotation=0.0,
+                   max_change=s.max_joint_step)
+    assert opened.valid[0].any() and 150.0 < float(opened.flex[0]) < 156.0
+    closed = solve(arm, (joints[3] - step * out)[None], s, start, body_rotation=0.0,
+                   max_change=s.max_joint_step)
+    assert not closed.valid[0].any()
+    assert not solve(arm, (joints[3] + step * out)[None], s).legal[0].any()
+
+
 def test_an_elbow_off_its_side_may_come_back_and_the_side_leads():
     """With ``elbow_side = "require"``, a move from a pose whose elbow is off Algorithm 1's
     side has valid poses on either side, the preferred side ranked first; a move from a

@@ -206,6 +206,17 @@ def test_what_holds_an_arm_that_cannot_move(arm):
     assert not p.success and p.reason == NO_PATH
 
 
+def test_an_arm_held_by_its_smoothness_bound_is_start_held(arm):
+    """Smoothness 1° a step of 0.05 arm lengths: no step from the hanging arm is within it,
+    so the search never leaves the start. Refused as ``start_held``, naming the setting
+    (it said no_path, as a crowded scene does)."""
+    p = plan(Task("reach", np.array([[-0.3, -0.35, 1.1]]), HANGING), arm, None,
+             Settings(max_joint_step=1.0, step=0.05, sampling_fallback=False))
+    assert not p.success and p.reason == START_HELD, p.message
+    assert "cannot move from its start pose" in p.message
+    assert "more than 1° at once, the Smoothness setting" in p.message
+
+
 def test_plans_are_deterministic(arm):
     scene = {**WALL, "Table": table((-0.3, -0.7), (1.0, 0.4), 0.9)}
     a = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(scene))
