@@ -42,7 +42,8 @@ import numpy as np
 
 from ..core import Planner, ReachError, Settings, Task
 from ..core import envelope as envelope_mod
-from ..core.arm import REACH_SLACK, reach_sphere
+from ..core.arm import REACH_SLACK, frame_angle, reach_sphere
+from ..core.orient import palm_frame, wanted_axes
 from ..core.steps import drain, relay
 from ..core.tasks import chase_steps
 from . import bake as bake_mod
@@ -268,12 +269,12 @@ def steps(context, request: Request, bake: bool = True):
                 tasks = [Task("reach", positions[i:i + 1], info.start, fps, request.duration_s,
                               names=names[i:i + 1], start_hand=info.start_hand,
                               orientations=None if rotations is None else rotations[i:i + 1],
-                              start_palm=info.start_palm)
+                              start_palm=info.start_palm, start_fingers=info.start_fingers)
                          for i in range(len(targets))]
             else:
                 tasks = [Task(request.task, positions, info.start, fps, request.duration_s,
                               names=names, start_hand=info.start_hand, orientations=rotations,
-                              start_palm=info.start_palm)]
+                              start_palm=info.start_palm, start_fingers=info.start_fingers)]
 
         planner = Planner(info.arm, obstacles, settings)
         plans = []
@@ -350,6 +351,8 @@ def steps(context, request: Request, bake: bool = True):
                                    "closest approach' to bake the motion that gets closest)")
                 draw = False
         outcome.results = _results(info, plans, keyed, request, baked_result)
+        if outcome.baked:
+            measure_orientation(context, armature, info, outcome.results, settings)
         for r in outcome.results if still else ():
             r.message += f"; {still}"
         if draw:
@@ -621,6 +624,33 @@ def _results(info, plans, keyed, request, baked_result=None):
                 first + seg.frame_start, first + seg.frame_end,
                 list(keyed) if baked else [], stats, seg.method))
     return out
+
+
+def measure_orientation(context, armature, info, results, settings) -> None:
+    """Replace the planned ``orientation_error_deg`` and ``orientation_met`` of each baked
+    result that has them by what Blender's evaluated bones show at its last frame: the
+    fingers' direction (:func:`.rig.finger_axis`) and the palm (:func:`.rig.palm_normal`), read from
+    the evaluated pose as they were read from the start pose, against the target's axes
+    (:func:`~reach_addon.core.orient.wanted_axes`). A palm read wrongly, or a bake that
+    turns the hand off its plan, then shows as an error instead of a success."""
+    scene = context.scene
+    hands = info.hand_bones or (info.bones.arms[info.side].hand,)
+    to_world = info.arm.to_world[:3, :3]
+    for r in results:
+        if r.stats.get("orientation_error_deg") is None or not r.bones_keyed:
+            continue
+        target = bpy.data.objects.get(r.target)
+        if target is None:
+            continue
+        scene.frame_set(r.frame_end)
+        axis, _l, _s = rig_mod.hand_shape(armature, hands[0], info.arm.forearm_length, hands)
+        d = rig_mod.finger_axis(armature, hands, axis)
+        n, _source = rig_mod.palm_normal(armature, hands, axis, info.frame.up, to_world.T)
+        finger, palm = wanted_axes(np.array(target.matrix_world)[:3, :3], settings.finger_axis,
+                                   settings.palm_axis)
+        error = float(frame_angle(palm_frame(d, to_world @ n), palm_frame(finger, palm)))
+        r.stats["orientation_error_deg"] = error
+        r.stats["orientation_met"] = error <= settings.orientation_tolerance
 
 
 def _draw(scene, info, plans, planner, request):

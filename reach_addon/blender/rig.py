@@ -670,15 +670,109 @@ class RigInfo:
     start_hand: tuple = (0.0, 0.0)   # the wrist's two angles at the start (core.arm.hand_angles)
     hand_bones: tuple = ()   # the hand's bones (hand_group): the hand bone, then its palm siblings
     start_palm: np.ndarray | None = None   # the palm's normal at the start (canonical; palm_normal)
+    palm_source: str = "rest pose"         # what the palm was read from (palm_normal)
+    start_fingers: np.ndarray | None = None  # the fingers' direction (canonical; finger_axis)
+
+
+@dataclass
+class Digits:
+    """The fingers below a hand, read by hierarchy and position, world space: ``chains``
+    the joints (k, 3) of each finger's own bones (a root-to-leaf path below the hand, less
+    the bones it shares with another path: a metacarpal carrying two fingers), ``thumb``
+    the index of the chain that is the thumb (or None), ``thumb_bones`` its own bones'
+    names, ``joints`` every joint below the hand but the thumb's own (heads and tails),
+    ``wrist`` the hand bone's head."""
+
+    wrist: np.ndarray
+    chains: list
+    thumb: int | None
+    thumb_bones: frozenset
+    joints: np.ndarray
+
+    @property
+    def fingers(self) -> list:
+        """The chains but the thumb."""
+        return [c for i, c in enumerate(self.chains) if i != self.thumb]
+
+
+#: A chain is the thumb when its direction is at least this far (degrees) from the hand's
+#: mean finger direction and this much farther than any other chain's (:func:`digits`) ...
+THUMB_DIVERGENCE = 25.0
+THUMB_MARGIN = 10.0
+#: ... or when its tip reaches along the hand at most this share of the other chains'
+#: median reach.
+THUMB_REACH = 0.75
+
+
+def digits(armature, group) -> Digits:
+    """The fingers below the hand bones ``group`` (:func:`hand_group`) in the pose on
+    screen (:class:`Digits`), helper bones (FBX "_end" leaves, tweaks) left out.
+
+    The thumb is the chain whose own bones are named so (``thumb``, on either side: a
+    Quaternius thumb named for the wrong side counts); failing a name (MakeHuman's
+    ``finger1``), the digit that stands apart from the others by position (with three
+    chains or more): its direction (first own joint to tip) at least
+    :data:`THUMB_DIVERGENCE` from the mean of all of them and :data:`THUMB_MARGIN` farther
+    than any other's, or else its tip the nearest the wrist along the hand and within
+    :data:`THUMB_REACH` of the others' median (a thumb lying along the hand, as Rigify's
+    metarig has it). A mitten (one chain) or fingers all alike have none."""
+    mw = np.array(armature.matrix_world)
+    bones = armature.pose.bones
+    wrist = mw[:3, :3] @ np.array(bones[group[0]].head) + mw[:3, 3]
+    paths = []
+
+    def walk(bone, path):
+        kids = [c for c in bone.children if not set(tokens(c.name)) & _HELPER]
+        if not kids:
+            paths.append(path)
+        for c in kids:
+            walk(c, path + [c])
+
+    for name in group:
+        for c in bones[name].children:
+            if c.name not in group and not set(tokens(c.name)) & _HELPER:
+                walk(c, [c])
+    uses: dict = {}
+    for path in paths:
+        for b in path:
+            uses[b.name] = uses.get(b.name, 0) + 1
+    owns = [[b for b in path if uses[b.name] == 1] or path[-1:] for path in paths]
+    chains = [np.array([own[0].head] + [b.tail for b in own]) @ mw[:3, :3].T + mw[:3, 3]
+              for own in owns]
+    thumb = next((i for i, own in enumerate(owns)
+                  if any("thumb" in tokens(b.name) for b in own)), None)
+    if thumb is None and len(chains) >= 3:
+        ways = [c[-1] - c[0] for c in chains]
+        ways = [w / max(float(np.linalg.norm(w)), 1e-12) for w in ways]
+        mean = np.mean(ways, axis=0)
+        mean /= max(float(np.linalg.norm(mean)), 1e-12)
+        off = np.degrees(np.arccos(np.clip([w @ mean for w in ways], -1.0, 1.0)))
+        order = np.argsort(off)[::-1]
+        if off[order[0]] >= THUMB_DIVERGENCE and off[order[0]] >= off[order[1]] + THUMB_MARGIN:
+            thumb = int(order[0])
+        else:
+            reach = np.array([(c[-1] - wrist) @ mean for c in chains])
+            k = int(np.argmin(reach))
+            if reach[k] <= THUMB_REACH * float(np.median(np.delete(reach, k))):
+                thumb = k
+    thumb_bones = frozenset(b.name for b in owns[thumb]) if thumb is not None else frozenset()
+    kids = {b.name: b for path in paths for b in path if b.name not in thumb_bones}
+    joints = np.array([p for b in kids.values() for p in (b.head, b.tail)]).reshape(-1, 3)
+    return Digits(wrist, chains, thumb, thumb_bones, joints @ mw[:3, :3].T + mw[:3, 3])
 
 
 def hand_shape(armature, hand_name, forearm_len, group=None):
     """The hand as the planner models it, read from the pose on screen: (axis, length,
     spread) in world space — the unit direction from the wrist to the mean of the finger
-    joints (bone heads and tails below the hand, without helper bones such as FBX "_end"
-    leaves or Rigify tweaks), the farthest joint along it (between 0.4 and 1.0 forearm),
-    and the farthest joint from the axis. A hand with no fingers points along its bone and
-    is 0.74 forearm long (Drillis & Contini), its spread 0.
+    joints but the thumb's (:func:`digits`: the fingers' own bones below the hand, without
+    helper bones such as FBX "_end" leaves or Rigify tweaks), the farthest joint along it
+    (between 0.4 and 1.0 forearm), thumb included, and the farthest joint from the axis.
+    A hand with no fingers points along its bone and is 0.74 forearm long (Drillis &
+    Contini), its spread 0.
+
+    The axis leaves the thumb out because it is what the hand points with: the direction
+    of the fingers, that a target's orientation names (a thumb standing out to the side
+    turned the mean of every joint 5–10° toward it).
 
     ``group``: the hand's bones (:func:`hand_group`; default the hand bone alone). A hand
     of several palm bones is measured the same way from the wrist they share over the
@@ -693,16 +787,15 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     mw = np.array(armature.matrix_world)
     pb = armature.pose.bones[hand_name]
     group = group or (hand_name,)
-    kids = [b for n in group for b in armature.pose.bones[n].children_recursive
-            if not set(tokens(b.name)) & _HELPER]
+    found = digits(armature, group)
     wrist = mw[:3, :3] @ np.array(pb.head) + mw[:3, 3]
-    if not kids:
+    if not found.chains:
         tails = np.mean([np.array(armature.pose.bones[n].tail) for n in group], axis=0)
         axis = mw[:3, :3] @ (tails - np.array(pb.head))
         return axis / max(float(np.linalg.norm(axis)), 1e-12), 0.74 * forearm_len, 0.0
-    pts = np.array([p for b in kids for p in (b.head, b.tail)]) @ mw[:3, :3].T + mw[:3, 3]
-    rel = pts - wrist
-    axis = rel.mean(0)
+    rel = np.concatenate(found.chains + [found.joints]) - wrist
+    axis = (found.joints.mean(0) if len(found.joints) else np.concatenate(found.chains).mean(0)) \
+        - wrist
     if np.linalg.norm(axis) < 1e-9:
         axis = mw[:3, :3] @ (np.array(pb.tail) - np.array(pb.head))
     axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
@@ -712,53 +805,87 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     return axis, length, spread
 
 
-#: Name tokens of the finger on the thumb's side of the palm, of the one on the other side,
-#: and of the thumb (:func:`palm_normal`).
-_INDEX = {"index", "pointer"}
-_LITTLE = {"pinky", "little", "small"}
-_THUMB = {"thumb"}
+def _knuckle(chain, wrist, axis) -> np.ndarray:
+    """Where a finger chain (joints, world) leaves the palm: its first joint, or its second
+    where its first bone is a metacarpal (the chain has four bones or more and starts within
+    a quarter of its reach from the wrist along the hand's ``axis``)."""
+    reach = float((chain[-1] - wrist) @ axis)
+    if len(chain) >= 5 and float((chain[0] - wrist) @ axis) <= 0.25 * reach:
+        return chain[1]
+    return chain[0]
+
+
+def finger_axis(armature, group, hand_axis) -> np.ndarray:
+    """The direction the fingers point in the pose on screen (world, unit): the wrist to the
+    middle finger's knuckle (:func:`_knuckle`), read by position (:func:`digits`): the
+    fingers but the thumb, in their order across the hand from the thumb's side, the second
+    (index, *middle*, ring, little; a three-fingered hand's middle one); of two fingers
+    beside a thumb the one nearer it; of two without one, or an even count without a thumb,
+    the middle of the central two; a mitten's one chain. A hand without fingers points
+    along ``hand_axis`` (:func:`hand_shape`)."""
+    axis = np.asarray(hand_axis, dtype=float)
+    found = digits(armature, group)
+    fingers = found.fingers
+    if not fingers:
+        return axis
+    knuckles = [_knuckle(c, found.wrist, axis) for c in fingers]
+    rel = [k - found.wrist for k in knuckles]
+    lateral = [r - (r @ axis) * axis for r in rel]
+    if found.thumb is not None:
+        t = found.chains[found.thumb].mean(0) - found.wrist
+        t = t - (t @ axis) * axis
+        order = sorted(range(len(fingers)), key=lambda i: -float(lateral[i] @ t))
+        pick = [order[1]] if len(order) >= 3 else [order[0]]
+    else:
+        spread = max(((float(np.linalg.norm(a - b)), a - b) for a in lateral for b in lateral),
+                     key=lambda x: x[0])[1]
+        order = sorted(range(len(fingers)), key=lambda i: float(lateral[i] @ spread))
+        m = len(order)
+        pick = [order[m // 2]] if m % 2 else [order[m // 2 - 1], order[m // 2]]
+    v = np.mean([rel[i] for i in pick], axis=0)
+    n = float(np.linalg.norm(v))
+    return v / n if n > 1e-9 else axis
 
 
 def palm_normal(armature, group, hand_axis, up, to_canonical):
     """The direction the palm faces in the pose on screen, canonical arm frame (unit,
-    perpendicular to the hand's axis), for :mod:`reach_addon.core.orient`.
+    perpendicular to the hand's axis), for :mod:`reach_addon.core.orient`; and where it was
+    read from. Returns (normal, source).
 
     In the canonical frame every arm is a right arm (x toward its side, y forward, z up;
     a left arm's frame is mirrored), so one rule serves both sides: n = a × d, with d the
-    hand's axis (``hand_axis``, world, :func:`hand_shape`) and a the direction across the
-    palm toward the thumb, made perpendicular to d. (A right hand hanging palm forward:
-    d down, a outward, a × d forward.) a is read from the fingers below the hand's bones
-    (``group``, :func:`hand_group`), by name: from the little finger's joints to the index
-    finger's (the knuckles lie in the palm's plane); failing those, from the wrist to the
-    thumb's joints (the thumb also stands a little toward the palm, so this tilts n by that
-    much). A hand without named fingers is assumed to face down in the rest pose, as in a T
-    or A pose (``up``: the body's up, world): that normal is carried by the hand bone from
-    rest to the pose on screen. ``to_canonical``: the 3 × 3 map of world vectors into the
-    canonical frame."""
+    fingers' direction (:func:`finger_axis`; ``hand_axis``, world, :func:`hand_shape`,
+    where there are no fingers) and a the direction across the palm toward the thumb, made
+    perpendicular to d. (A right hand hanging palm forward:
+    d down, a outward, a × d forward.) Read by hierarchy and position (:func:`digits`),
+    never by name:
+
+    * ``"fingers"``: the knuckle line, across the two fingers whose knuckles
+      (:func:`_knuckle`) lie farthest apart across the hand, signed toward the thumb;
+    * ``"thumb"``: with one finger chain besides the thumb (a mitten with a thumb), from
+      that chain's joints on average to the thumb's (the thumb stands a little toward the
+      palm, which tilts n by that much: about 9° on Quaternius' hands);
+    * ``"fingers, rest pose"``: fingers but no thumb (a three-fingered or thumbless hand):
+      the knuckle line, its sign from the rest-pose rule below;
+    * ``"skin"``: no knuckle line (a mitten, a hand bone alone) but a skin: the hand skin's
+      thinnest direction (the least principal axis of its vertices, made perpendicular to
+      d), its sign from the rest-pose rule;
+    * ``"rest pose"``: nothing else to go by: the palm faces down in the rest pose, as in a
+      T or A pose (``up``: the body's up, world), carried by the hand bone from rest to the
+      pose on screen.
+
+    ``to_canonical``: the 3 × 3 map of world vectors into the canonical frame."""
     mw = np.array(armature.matrix_world)
     m3 = mw[:3, :3]
-    kids = [b for n in group for b in armature.pose.bones[n].children_recursive
-            if not set(tokens(b.name)) & _HELPER]
+    d = to_canonical @ finger_axis(armature, group, hand_axis)
 
-    def centre(words):
-        pts = [p for b in kids if set(tokens(b.name)) & words for p in (b.head, b.tail)]
-        return m3 @ np.mean(pts, axis=0) + mw[:3, 3] if pts else None
+    def unit(v):
+        v = np.asarray(v, dtype=float)
+        v = v - (v @ d) * d
+        n = float(np.linalg.norm(v))
+        return v / n if n > 1e-9 else None
 
-    d = to_canonical @ np.asarray(hand_axis, dtype=float)
-    index, little, thumb = centre(_INDEX), centre(_LITTLE), centre(_THUMB)
-    across = None
-    if index is not None and little is not None:
-        across = index - little
-    elif thumb is not None:
-        wrist = m3 @ np.array(armature.pose.bones[group[0]].head) + mw[:3, 3]
-        across = thumb - wrist
-    if across is not None:
-        a = to_canonical @ across
-        a = a - (a @ d) * d
-        if np.linalg.norm(a) > 1e-9:
-            n = np.cross(a, d)
-            return n / np.linalg.norm(n)
-    # no named fingers: palm down at rest, carried to the pose on screen
+    # the rest-pose rule: palm down at rest, carried to the pose on screen
     bone, pose_bone = armature.data.bones[group[0]], armature.pose.bones[group[0]]
     rest = np.array(bone.matrix_local)[:3, :3]
     down = -np.linalg.solve(m3, np.asarray(up, dtype=float))          # armature space
@@ -767,9 +894,65 @@ def palm_normal(armature, group, hand_axis, up, to_canonical):
     if np.linalg.norm(down) < 1e-9:
         down = rest[:, 2]
     now = np.array(pose_bone.matrix)[:3, :3] @ np.linalg.solve(rest, down)
-    n = to_canonical @ (m3 @ now)
-    n = n - (n @ d) * d
-    return n / max(float(np.linalg.norm(n)), 1e-12)
+    assumed = unit(to_canonical @ (m3 @ now))
+    if assumed is None:
+        assumed = unit(np.cross(d, [0.0, 0.0, 1.0])) if abs(d[2]) < 0.99 else np.array([1.0, 0, 0])
+
+    found = digits(armature, group)
+    # each chain's knuckle (the thumb: its joints on average; its root may sit with the
+    # others' at the wrist) as an offset across the fingers' direction (canonical)
+    axis = np.asarray(hand_axis, dtype=float)
+    lateral = [to_canonical @ ((c.mean(0) if i == found.thumb else _knuckle(c, found.wrist, axis))
+                               - found.wrist) for i, c in enumerate(found.chains)]
+    lateral = [v - (v @ d) * d for v in lateral]
+    fingers = [v for i, v in enumerate(lateral) if i != found.thumb]
+    thumb = lateral[found.thumb] if found.thumb is not None else None
+    across, source = None, None
+    if len(fingers) >= 2:
+        pairs = [(float(np.linalg.norm(p - q)), k, j) for k, p in enumerate(fingers)
+                 for j, q in enumerate(fingers) if k < j]
+        _gap, k, j = max(pairs)
+        across = fingers[k] - fingers[j]
+        if thumb is not None:
+            if across @ (thumb - np.mean(fingers, axis=0)) < 0:
+                across = -across
+            source = "fingers"
+        else:
+            source = "fingers, rest pose"
+    elif len(fingers) == 1 and thumb is not None:
+        # the finger's joints on average (a mitten's knuckle lies on the hand's axis)
+        finger = to_canonical @ (found.fingers[0].mean(0) - found.wrist)
+        across, source = thumb - (finger - (finger @ d) * d), "thumb"
+    elif len(found.chains) <= 1:
+        thin = _skin_thin_axis(armature, group, d, to_canonical)
+        if thin is not None:
+            across, source = np.cross(d, thin), "skin"        # a × d = thin, up to sign
+    a = None if across is None else unit(across)
+    if a is None:
+        return assumed, "rest pose"
+    n = np.cross(a, d)
+    n /= np.linalg.norm(n)
+    if source != "fingers" and source != "thumb" and n @ assumed < 0:
+        n = -n
+    return n, source
+
+
+def _skin_thin_axis(armature, group, d, to_canonical):
+    """The thinnest direction (canonical, unit, perpendicular to d) of the skin that the
+    hand's bones and the bones below them move, or None without such skin."""
+    names = set(group) | {b.name for n in group for b in armature.pose.bones[n].children_recursive}
+    pts = skin_points(armature, names)
+    if len(pts) < 4:
+        return None
+    c = (pts - pts.mean(0)) @ np.asarray(to_canonical, dtype=float).T
+    c = c - np.outer(c @ d, d)                         # across the hand's axis only
+    _w, vecs = np.linalg.eigh(c.T @ c)
+    for k in range(3):                                 # the least, other than along d
+        v = vecs[:, k]
+        if abs(v @ d) < 0.5:
+            v = v - (v @ d) * d
+            return v / np.linalg.norm(v)
+    return None
 
 
 #: Room (arm lengths) left between the arm in its start pose and a body capsule that had to
@@ -881,10 +1064,11 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     joints, bend = forward_kinematics(arm, start.as_array())
     start_hand = hand_angles(joints[2] - joints[1], bend, joints[3] - joints[2],
                              inv[:3, :3] @ hand_axis)
-    palm = palm_normal(armature, hands, hand_axis, frame.up, inv[:3, :3])
+    palm, palm_source = palm_normal(armature, hands, hand_axis, frame.up, inv[:3, :3])
+    fingers = inv[:3, :3] @ finger_axis(armature, hands, hand_axis)
     return RigInfo(armature.name, bmap, frame, arm, side, start,
                    {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}, start_hand, hands,
-                   palm)
+                   palm, palm_source, fingers)
 
 
 def _metres_per_unit(armature) -> float:

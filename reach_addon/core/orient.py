@@ -14,13 +14,15 @@ the palm, so an Empty drawn as a single arrow points where the fingers go.
 
 The hand's frame on the rig
 ---------------------------
-The finger direction is the planner's hand direction d (wrist → the mean of the finger
-joints, :func:`~reach_addon.blender.rig.hand_shape`). The palm normal n is read from the
-rig by the Blender layer (:func:`~reach_addon.blender.rig.palm_normal`) and given to the
-core in the canonical arm frame as ``Task.start_palm``; carried by the hand from the start
-pose, it has constant coordinates in the hand's frame (d, g, d × g) of
-:func:`~reach_addon.core.arm.hand_frame` (g: the elbow's hinge made perpendicular to d).
-Without one (the core alone) the palm is taken at forearm neutral, facing −g.
+The finger direction (the wrist to the middle finger's knuckle,
+:func:`~reach_addon.blender.rig.finger_axis`) and the palm normal n
+(:func:`~reach_addon.blender.rig.palm_normal`) are read from the rig by the Blender layer
+and given to the core in the canonical arm frame as ``Task.start_fingers`` and
+``Task.start_palm``; carried by the hand from the start pose, they have constant
+coordinates in the hand's frame (d, g, d × g) of :func:`~reach_addon.core.arm.hand_frame`
+(d: the planner's hand direction, the axis of its capsule; g: the elbow's hinge made
+perpendicular to d), :func:`hand_locals`. Without them (the core alone) the fingers point
+along d and the palm is taken at forearm neutral, facing −g.
 
 How it is met
 -------------
@@ -53,7 +55,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -143,8 +145,9 @@ def roll_window(start_twist: float, settings) -> tuple:
 @dataclass(frozen=True)
 class OrientGoal:
     """What one reach should arrive with (canonical arm frame): the wanted finger direction
-    and palm normal, the palm's coordinates in the hand's frame (constant as the hand is
-    carried, :func:`palm_in_hand`) and the window of rolls (:func:`roll_window`)."""
+    and palm normal, the fingers' and the palm's coordinates in the hand's frame (constant
+    as the hand is carried, :func:`hand_locals`) and the window of rolls
+    (:func:`roll_window`)."""
 
     finger: np.ndarray
     palm: np.ndarray
@@ -153,59 +156,116 @@ class OrientGoal:
     hi: float
     tolerance: float
     weight: float
+    finger_local: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+
+
+def hand_locals(start_pose, start_palm=None, start_fingers=None) -> tuple:
+    """(fingers, palm): the finger direction's and the palm normal's coordinates in the
+    start pose's hand frame F = (d, g, d × g), Fᵀ v, the palm made perpendicular to the
+    fingers. The fingers default to the hand's own direction d, (1, 0, 0); the palm to
+    forearm neutral, (0, −1, 0). The fingers (the wrist to the middle finger's knuckle, as
+    the rig adapter reads them) may point a few degrees off d, the axis of the hand's
+    capsule (the mean of its finger joints)."""
+    frame = hand_frame(start_pose)
+    finger = np.array([1.0, 0.0, 0.0])
+    if start_fingers is not None:
+        f = frame.T @ np.asarray(start_fingers, dtype=float)
+        if float(np.linalg.norm(f)) > 1e-9:
+            finger = f / np.linalg.norm(f)
+    palm = np.array([0.0, -1.0, 0.0])
+    if start_palm is not None:
+        palm = frame.T @ np.asarray(start_palm, dtype=float)
+    palm = palm - (palm @ finger) * finger
+    norm = float(np.linalg.norm(palm))
+    if norm < 1e-9:
+        palm = np.array([0.0, -1.0, 0.0]) - finger[1] * finger
+        norm = float(np.linalg.norm(palm))
+    return finger, palm / norm
 
 
 def palm_in_hand(start_pose, start_palm=None) -> np.ndarray:
     """The palm normal's coordinates in the start pose's hand frame (d, g, d × g): Fᵀ n,
     with n made perpendicular to d; (0, −1, 0) (forearm neutral) without ``start_palm``."""
-    frame = hand_frame(start_pose)
-    if start_palm is None:
-        return np.array([0.0, -1.0, 0.0])
-    local = frame.T @ np.asarray(start_palm, dtype=float)
-    local[0] = 0.0
-    norm = float(np.linalg.norm(local))
-    return local / norm if norm > 1e-9 else np.array([0.0, -1.0, 0.0])
+    return hand_locals(start_pose, start_palm)[1]
 
 
-def goal_for(arm, settings, start_pose, rotation, start_palm=None) -> OrientGoal:
+def goal_for(arm, settings, start_pose, rotation, start_palm=None,
+             start_fingers=None) -> OrientGoal:
     """The :class:`OrientGoal` of a target whose world rotation is ``rotation`` (3 × 3), for
-    a motion that starts at ``start_pose`` (whose hand carries ``start_palm``, canonical)."""
+    a motion that starts at ``start_pose`` (whose hand carries ``start_palm`` and points
+    its fingers along ``start_fingers``, canonical)."""
     finger, palm = wanted_axes(rotation, settings.finger_axis, settings.palm_axis)
     inverse = arm.to_world[:3, :3].T                     # rigid: a reflection allowed
     finger, palm = inverse @ finger, inverse @ palm
-    local = palm_in_hand(start_pose, start_palm)
+    finger_local, local = hand_locals(start_pose, start_palm, start_fingers)
     twist = twist_of(np.eye(3), local)
     lo, hi = roll_window(twist, settings)
     return OrientGoal(finger, palm, local, lo, hi, settings.orientation_tolerance,
-                      settings.orientation_weight)
+                      settings.orientation_weight, finger_local)
+
+
+def roll_about(d, m):
+    """The roll ψ (degrees) about unit d (..., 3) that maximises tr(R_d(ψ) M) for M
+    (..., 3, 3): with K = [d]×, R_d(ψ) = I + sin ψ K + (1 − cos ψ) K², so
+    tr(R M) = tr M + tr K²M + a sin ψ − b cos ψ with a = tr(K M), b = tr(K² M), greatest at
+    ψ* = atan2(a, −b). (:func:`best_roll` is the case of fingers along d.)"""
+    d = np.asarray(d, dtype=float)
+    m = np.asarray(m, dtype=float)
+    z = np.zeros(d.shape[:-1])
+    k = np.stack([np.stack([z, -d[..., 2], d[..., 1]], -1),
+                  np.stack([d[..., 2], z, -d[..., 0]], -1),
+                  np.stack([-d[..., 1], d[..., 0], z], -1)], -2)
+    a = np.einsum("...ij,...ji->...", k, m)
+    b = np.einsum("...ij,...ji->...", k @ k, m)
+    return np.degrees(np.arctan2(a, -b))
+
+
+def _achieved(frames, goal: OrientGoal):
+    """The palm frames (..., 3, 3) of hand frames (columns d, g, c, any roll applied)."""
+    return palm_frame(frames @ goal.finger_local, frames @ goal.palm_local)
 
 
 def best_roll_error(frames, goal: OrientGoal):
     """For hand frames (..., 3, 3) of columns (d, g, c) (no roll): (ψ, error) — the best
-    roll within the goal's window (:func:`best_roll`, :func:`clamp_roll`) and the angle
-    (degrees) left between the rolled palm frame and the wanted one."""
+    roll about d within the goal's window (:func:`roll_about`, :func:`clamp_roll`) and the
+    angle (degrees) left between the rolled palm frame and the wanted one."""
     f = np.asarray(frames, dtype=float)
     d = f[..., :, 0]
-    n = f @ goal.palm_local
-    psi = clamp_roll(best_roll(d, n, goal.finger, goal.palm), goal.lo, goal.hi)
-    rolled = roll_frames(f, psi)
-    achieved = palm_frame(d, rolled @ goal.palm_local)
     wanted = palm_frame(goal.finger, goal.palm)
-    return psi, frame_angle(achieved, wanted)
+    psi = clamp_roll(roll_about(d, _achieved(f, goal) @ np.swapaxes(wanted, -1, -2)),
+                     goal.lo, goal.hi)
+    return psi, frame_angle(_achieved(roll_frames(f, psi), goal), wanted)
 
 
 def pose_error(pose, goal: OrientGoal) -> float:
     """The orientation error (degrees) of a pose, its roll included."""
     f = roll_frames(hand_frame(pose), pose.roll)
-    achieved = palm_frame(f[:, 0], f @ goal.palm_local)
-    return float(frame_angle(achieved, palm_frame(goal.finger, goal.palm)))
+    return float(frame_angle(_achieved(f, goal), palm_frame(goal.finger, goal.palm)))
 
 
 def wanted_hand_angles(axes, goal: OrientGoal, settings) -> tuple:
     """The wrist's two angles (degrees, :func:`~reach_addon.core.arm.hand_coefficients`)
     of the wanted finger direction at a pose whose hand frame rows are ``axes`` (f, p, h):
-    β_w = atan2(d·p, d·f), σ_w = asin(d·h), each limited to the wrist's range."""
-    c = np.asarray(axes, dtype=float) @ goal.finger
+    β_w = atan2(d·p, d·f), σ_w = asin(d·h), each limited to the wrist's range. The hand's
+    direction d is aimed so that its fingers (``goal.finger_local``, a few degrees off d)
+    point along the wanted direction: d is the wanted direction turned back by the
+    fingers' own angle from d, in the plane of the two."""
+    want = np.asarray(goal.finger, dtype=float)
+    fl = goal.finger_local
+    off = math.degrees(math.acos(max(-1.0, min(1.0, float(fl[0])))))
+    if off > 1e-6:
+        # the fingers lean off d by `off` toward the hand frame's (0, fl_y, fl_z): lean the
+        # wanted direction back the other way, about the axis the lean is about
+        rows = np.asarray(axes, dtype=float)
+        lean = rows[1] * fl[1] + rows[2] * fl[2]
+        axis = cross(rows[0], lean)
+        n = float(np.linalg.norm(axis))
+        if n > 1e-9:
+            axis = axis / n
+            t = -math.radians(off)
+            want = (want * math.cos(t) + cross(axis, want) * math.sin(t)
+                    + axis * float(axis @ want) * (1.0 - math.cos(t)))
+    c = np.asarray(axes, dtype=float) @ want
     bend = math.degrees(math.atan2(c[1], c[0]))
     side = math.degrees(math.asin(max(-1.0, min(1.0, float(c[2])))))
     return (max(-settings.wrist_bend_max, min(settings.wrist_bend_max, bend)),

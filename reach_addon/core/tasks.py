@@ -83,7 +83,9 @@ class Task:
     (k, 3, 3), for ``Settings.match_orientation`` (:mod:`~reach_addon.core.orient`; None:
     positions only). ``start_palm``: the palm's normal at the first frame (canonical; the
     rig's, :func:`~reach_addon.blender.rig.palm_normal`), None for the palm at forearm
-    neutral."""
+    neutral; ``start_fingers``: the fingers' direction then (canonical; the wrist to the
+    middle finger's knuckle, :func:`~reach_addon.blender.rig.finger_axis`), None for the
+    hand's own direction."""
 
     kind: str
     targets: np.ndarray
@@ -94,6 +96,7 @@ class Task:
     start_hand: tuple = (0.0, 0.0)
     orientations: np.ndarray | None = None
     start_palm: np.ndarray | None = None
+    start_fingers: np.ndarray | None = None
 
     def __post_init__(self):
         if self.kind not in TASK_KINDS:
@@ -119,6 +122,9 @@ class Task:
             object.__setattr__(self, "orientations", rot)
         if self.start_palm is not None:
             object.__setattr__(self, "start_palm", require_finite("palm normal", self.start_palm))
+        if self.start_fingers is not None:
+            object.__setattr__(self, "start_fingers",
+                               require_finite("finger direction", self.start_fingers))
 
     def name(self, i: int) -> str:
         return self.names[i] if i < len(self.names) else f"target {i + 1}"
@@ -496,7 +502,8 @@ class Planner:
         n = len(task.targets)
         goals = [None] * n
         if self.settings.match_orientation and task.orientations is not None:
-            goals = [goal_for(self.arm, self.settings, start, r, task.start_palm)
+            goals = [goal_for(self.arm, self.settings, start, r, task.start_palm,
+                              task.start_fingers)
                      for r in task.orientations]
         for i, target in enumerate(task.targets):
             steps = self._reach_segment(task, i, poses[-1], target, guided,
@@ -724,10 +731,10 @@ class Planner:
             cause = (f"the hand has no clear way to turn ({share}); pose the hand clear of "
                      "what is near it on the start frame")
         elif held.kind == "smoothness":
-            cause = (f"every step would turn a joint more than {st.max_joint_step:g}° at once "
-                     f"({share}): the arm starts straight at the edge of its reach or in a "
-                     "pose its joints cannot leave gradually; bend the elbow a little on the "
-                     "start frame")
+            cause = (f"every step would turn a joint more than {st.max_joint_step:g}° at once, "
+                     f"the Smoothness setting ({share}): raise it, or, if the arm starts "
+                     "straight at the edge of its reach, bend the elbow a little on the start "
+                     "frame")
         elif held.kind == "reach":
             cause = f"the wrist is at the edge of the arm's reach ({share})"
         else:

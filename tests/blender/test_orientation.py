@@ -1,14 +1,17 @@
-"""Match orientation on real rigs: a reach baked to a rotated Empty, the palm measured from
-Blender's evaluated bones at the last frame.
+"""Match orientation on real and synthetic rigs: a reach baked to a rotated Empty, the palm
+measured from Blender's evaluated bones at the last frame.
 
-The measurement shares nothing with the planner: the fingers' direction is the wrist (the
-hand bone's head) to the mean of every joint below the hand, and the palm's normal is
-a × d with a the direction across the knuckles from the little finger to the index finger
-(or from the wrist to the thumb, on a hand with one bone for its four fingers), made
-perpendicular to d, for a right hand; d × a for a left one (the world frame is right-handed
-and a left hand is a mirrored right one). The wanted frame is the Empty's +Y (fingers) and
-−Z (palm), the default convention. The target sits in front of the reaching shoulder in the
-rig's own arm lengths and body axes, turned 60° about two of them.
+The measurement shares nothing with Reach's reading of the hand (``rig.finger_axis``,
+``rig.palm_normal``, which go by hierarchy and position): it goes by the names of each
+rig's finger bones, picked by hand here (:data:`KNUCKLES`). The fingers' direction d is
+the wrist (the hand bone's head) to the middle finger's first joint; the palm's normal is
+a × d with a the direction from the little finger's first joint to the index finger's
+(made perpendicular to d), for a right hand; d × a for a left one (the world frame is
+right-handed and a left hand is a mirrored right one). A hand without index and little
+fingers (a mitten) faces down in its T-posed rest pose: its normal is −up carried by the
+hand bone's turn from rest. The wanted frame is the Empty's +Y (fingers) and −Z (palm),
+the default convention. The target sits in front of the reaching shoulder in the rig's own
+arm lengths and body axes, turned three ways (:data:`TURNS`).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import bpy
 import numpy as np
 import pytest
 import rigs
+import synthetic as syn
 from mathutils import Matrix
 from test_cli import reach
 
@@ -33,7 +37,34 @@ def _rot(axis, deg):
 
 #: Turns of the target from "fingers forward, palm down", about the body's (out, forward, up)
 #: axes, mirrored for a left arm so that both arms meet the same problem.
-TURNS = {"x60z60": _rot("z", 60) @ _rot("x", 60), "y-60x30": _rot("x", 30) @ _rot("y", -60)}
+TURNS = {"down": np.eye(3), "x60z60": _rot("z", 60) @ _rot("x", 60),
+         "y-60x30": _rot("x", 30) @ _rot("y", -60)}
+
+#: Per rig: the first joints (bone heads) of the middle, index and little fingers, "{s}"
+#: standing for the side's letter; None: a mitten, palm down at rest.
+KNUCKLES = {
+    "metarig": ("f_middle.01.{s}", "f_index.01.{s}", "f_pinky.01.{s}"),
+    "gomakehuman": ("f_middle.01.{s}", "f_index.01.{s}", "f_pinky.01.{s}"),
+    "quaternius": None,
+    "mixamo": ("mixamorig:{S}HandMiddle1", "mixamorig:{S}HandIndex1", "mixamorig:{S}HandPinky1"),
+    "makehuman": ("finger3-1.{s}", "finger2-1.{s}", "finger5-1.{s}"),
+}
+
+
+def load(kind):
+    """A rig at rest: a real one (``rigs.load``), or a synthetic hand of five fingers named
+    as Mixamo names them (T-posed, the hand rolled 40° against the forearm) or as MakeHuman
+    does (metacarpals, ``finger1`` the thumb; A-posed)."""
+    if kind == "mixamo":
+        rigs.empty_file()
+        return syn.humanoid(syn.MIXAMO, hand="fingers", proportions=syn.shape(pose="T"),
+                            hand_roll_deg=40.0, name="Mixamo")
+    if kind == "makehuman":
+        rigs.empty_file()
+        return syn.humanoid(syn.MAKEHUMAN, hand="fingers", name="MakeHuman")
+    armature = rigs.load(kind)
+    rigs.rest_still(armature)
+    return armature
 
 
 def place_target(info, side, turn):
@@ -53,27 +84,34 @@ def place_target(info, side, turn):
     return ob
 
 
-def measured_palm(armature, hand, side):
+def measured_palm(armature, kind, hand, side, up=(0.0, 0.0, 1.0)):
     """(fingers, palm normal) of the evaluated hand, world space (see the module doc)."""
     ev = armature.evaluated_get(bpy.context.evaluated_depsgraph_get())
     mw = np.array(ev.matrix_world)
 
-    def world(p):
-        return mw[:3, :3] @ np.array(p) + mw[:3, 3]
+    def head(name):
+        return mw[:3, :3] @ np.array(ev.pose.bones[name].head) + mw[:3, 3]
 
-    below = [b for b in ev.pose.bones[hand].children_recursive
-             if not b.name.lower().endswith("_end")]
-    wrist = world(ev.pose.bones[hand].head)
-
-    def joints(*words):
-        pts = [world(p) for b in below if any(w in b.name.lower() for w in words)
-               for p in (b.head, b.tail)]
-        return np.mean(pts, axis=0) if pts else None
-
-    d = np.mean([world(p) for b in below for p in (b.head, b.tail)], axis=0) - wrist
+    wrist = head(hand)
+    names = KNUCKLES[kind]
+    tag = {"right": ("R", "Right"), "left": ("L", "Left")}[side]
+    if names is None:
+        # a mitten: d along the bones below the hand to their farthest joint; palm down at rest
+        below = [b for b in ev.pose.bones[hand].children_recursive if "_end" not in b.name]
+        tip = max((mw[:3, :3] @ np.array(b.tail) + mw[:3, 3] for b in below),
+                  key=lambda p: np.linalg.norm(p - wrist))
+        d = tip - wrist
+        d /= np.linalg.norm(d)
+        rest = np.array(armature.data.bones[hand].matrix_local)[:3, :3]
+        now = np.array(ev.pose.bones[hand].matrix)[:3, :3]
+        down = -np.linalg.solve(mw[:3, :3], np.asarray(up, dtype=float))
+        n = mw[:3, :3] @ (now @ rest.T @ down)
+        n = n - (n @ d) * d
+        return d, n / np.linalg.norm(n)
+    middle, index, little = (head(n.format(s=tag[0], S=tag[1])) for n in names)
+    d = middle - wrist
     d /= np.linalg.norm(d)
-    index, little = joints("index"), joints("pinky", "little")
-    across = index - little if index is not None and little is not None else joints("thumb") - wrist
+    across = index - little
     a = across - (across @ d) * d
     n = np.cross(a, d) if side == "right" else np.cross(d, a)
     return d, n / np.linalg.norm(n)
@@ -113,13 +151,18 @@ def hand_turns(armature, hand, frames):
     return out
 
 
-@pytest.mark.parametrize("kind, side, turn", [("metarig", "right", "x60z60"),
-                                              ("metarig", "left", "x60z60"),
-                                              ("quaternius", "right", "x60z60"),
-                                              ("metarig", "right", "y-60x30")])
+@pytest.mark.parametrize("kind, side, turn", [
+    ("metarig", "right", "x60z60"), ("metarig", "left", "x60z60"), ("metarig", "right", "y-60x30"),
+    ("metarig", "right", "down"), ("quaternius", "right", "x60z60"),
+    ("quaternius", "right", "down"), ("gomakehuman", "right", "x60z60"),
+    ("gomakehuman", "left", "down"), ("mixamo", "right", "down"), ("mixamo", "right", "x60z60"),
+    ("mixamo", "left", "y-60x30"), ("makehuman", "right", "down"),
+    ("makehuman", "right", "x60z60"), ("makehuman", "left", "y-60x30")])
 def test_the_palm_arrives_as_the_target_says(fresh, addon, kind, side, turn):
-    armature = rigs.load(kind)
-    rigs.rest_still(armature)
+    """The error reported is what the bones show (within 3°; a mitten's within 10°), and
+    where it says met the palm and the fingers are within 10° of the target's. Turned only 60° two ways, the
+    metarig's hand meets it."""
+    armature = load(kind)
     info = addon.blender.rig.build(armature, side)
     hand = info.bones.arms[side].hand
     target = place_target(info, side, TURNS[turn])
@@ -127,25 +170,28 @@ def test_the_palm_arrives_as_the_target_says(fresh, addon, kind, side, turn):
     outcome, res = bake(addon, armature, target, side, on=True)
     st = res.stats
     bpy.context.scene.frame_set(res.frame_end)
-    error = frame_error(*measured_palm(armature, hand, side), target)
-    # the report says what the evaluated bones show, and within the tolerance where met
-    assert st["orientation_error_deg"] == pytest.approx(error, abs=0.5)
+    error = frame_error(*measured_palm(armature, kind, hand, side), target)
+    # the report says what the evaluated bones show (a mitten's palm, read from its thumb
+    # or its skin, may tilt some 10° from palm-down), and within the tolerance where met
+    agree = 3.0 if KNUCKLES[kind] is not None else 10.0
+    assert st["orientation_error_deg"] == pytest.approx(error, abs=agree)
     if st["orientation_met"]:
         assert error <= 10.0
-    if turn == "x60z60":
+    if kind == "metarig" and turn == "x60z60":
         assert st["orientation_met"], st["orientation_error_deg"]
     # no pops: the hand, its roll included, turns no faster than its bound in space
     bound = outcome.plans[0][0].settings.hand_space_turn_speed / 24.0
     turns = hand_turns(armature, hand, range(res.frame_start, res.frame_end + 1))
     assert max(turns) <= bound + 0.5, max(turns)
-
+    if turn != "x60z60" or side != "right":
+        return
     # the same reach without Match orientation leaves the palm where the arm brings it
     armature.animation_data.action = None
     rigs.rest_still(armature)
     _outcome, plain = bake(addon, armature, target, side, on=False)
     assert plain.stats["orientation_error_deg"] is None
     bpy.context.scene.frame_set(plain.frame_end)
-    assert frame_error(*measured_palm(armature, hand, side), target) > error + 10.0
+    assert frame_error(*measured_palm(armature, kind, hand, side), target) > error + 10.0
 
 
 def test_the_cli_flag_and_the_single_arrow_preset(fresh, addon, tmp_path):
