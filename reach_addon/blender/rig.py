@@ -679,15 +679,11 @@ class Digits:
     """The fingers below a hand, read by hierarchy and position, world space: ``chains``
     the joints (k, 3) of each finger's own bones (a root-to-leaf path below the hand, less
     the bones it shares with another path: a metacarpal carrying two fingers), ``thumb``
-    the index of the chain that is the thumb (or None), ``thumb_bones`` its own bones'
-    names, ``joints`` every joint below the hand but the thumb's own (heads and tails),
-    ``wrist`` the hand bone's head."""
+    the index of the chain that is the thumb (or None), ``wrist`` the hand bone's head."""
 
     wrist: np.ndarray
     chains: list
     thumb: int | None
-    thumb_bones: frozenset
-    joints: np.ndarray
 
     @property
     def fingers(self) -> list:
@@ -755,24 +751,19 @@ def digits(armature, group) -> Digits:
             k = int(np.argmin(reach))
             if reach[k] <= THUMB_REACH * float(np.median(np.delete(reach, k))):
                 thumb = k
-    thumb_bones = frozenset(b.name for b in owns[thumb]) if thumb is not None else frozenset()
-    kids = {b.name: b for path in paths for b in path if b.name not in thumb_bones}
-    joints = np.array([p for b in kids.values() for p in (b.head, b.tail)]).reshape(-1, 3)
-    return Digits(wrist, chains, thumb, thumb_bones, joints @ mw[:3, :3].T + mw[:3, 3])
+    return Digits(wrist, chains, thumb)
 
 
 def hand_shape(armature, hand_name, forearm_len, group=None):
     """The hand as the planner models it, read from the pose on screen: (axis, length,
     spread) in world space — the unit direction from the wrist to the mean of the finger
-    joints but the thumb's (:func:`digits`: the fingers' own bones below the hand, without
-    helper bones such as FBX "_end" leaves or Rigify tweaks), the farthest joint along it
-    (between 0.4 and 1.0 forearm), thumb included, and the farthest joint from the axis.
-    A hand with no fingers points along its bone and is 0.74 forearm long (Drillis &
-    Contini), its spread 0.
-
-    The axis leaves the thumb out because it is what the hand points with: the direction
-    of the fingers, that a target's orientation names (a thumb standing out to the side
-    turned the mean of every joint 5–10° toward it).
+    joints (bone heads and tails below the hand, without helper bones such as FBX "_end"
+    leaves or Rigify tweaks), the farthest joint along it (between 0.4 and 1.0 forearm),
+    and the farthest joint from the axis. A hand with no fingers points along its bone and
+    is 0.74 forearm long (Drillis & Contini), its spread 0. It is the axis of the hand's
+    capsule, the middle of its mass; the direction the fingers point, which a target's
+    orientation names, is :func:`finger_axis` (a thumb standing out to the side turns the
+    mean of every joint 5–13° from it).
 
     ``group``: the hand's bones (:func:`hand_group`; default the hand bone alone). A hand
     of several palm bones is measured the same way from the wrist they share over the
@@ -787,15 +778,15 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     mw = np.array(armature.matrix_world)
     pb = armature.pose.bones[hand_name]
     group = group or (hand_name,)
-    found = digits(armature, group)
+    kids = [b for n in group for b in armature.pose.bones[n].children_recursive
+            if not set(tokens(b.name)) & _HELPER]
     wrist = mw[:3, :3] @ np.array(pb.head) + mw[:3, 3]
-    if not found.chains:
+    if not kids:
         tails = np.mean([np.array(armature.pose.bones[n].tail) for n in group], axis=0)
         axis = mw[:3, :3] @ (tails - np.array(pb.head))
         return axis / max(float(np.linalg.norm(axis)), 1e-12), 0.74 * forearm_len, 0.0
-    rel = np.concatenate(found.chains + [found.joints]) - wrist
-    axis = (found.joints.mean(0) if len(found.joints) else np.concatenate(found.chains).mean(0)) \
-        - wrist
+    rel = np.array([p for b in kids for p in (b.head, b.tail)]) @ mw[:3, :3].T + mw[:3, 3] - wrist
+    axis = rel.mean(0)
     if np.linalg.norm(axis) < 1e-9:
         axis = mw[:3, :3] @ (np.array(pb.tail) - np.array(pb.head))
     axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
