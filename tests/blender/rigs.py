@@ -1,8 +1,13 @@
 """Real rigs for the Blender tests, and scenes built around them.
 
-The three files in ``tests/data/rigs`` (see their licences) plus Rigify's human metarig and
-the rig Rigify generates from it. Every loader starts from an empty file and returns the
-armature object.
+The seven files in ``tests/data/rigs`` (see their licences and ``README.md`` there) plus
+Rigify's human metarig and the rig Rigify generates from it. Every loader starts from an
+empty file and returns the character's body armature.
+
+:data:`RIGS` are the five kinds most tests run on (their bones and joints are pinned in
+``test_rig_detection``); :data:`SHARED_RIGS` the four files added later, kept apart so that
+the tests parametrised by :data:`RIGS` keep their size; :data:`FILE_RIGS` every rig read
+from a file.
 """
 
 from __future__ import annotations
@@ -17,6 +22,14 @@ import numpy as np
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "rigs"
 RIGS = ("cesium", "quaternius", "gomakehuman", "metarig", "rigify")
+#: Quaternius' Goblin, Alien and Knight (FBX) and orange-juice-games' Male Base Mesh (glTF).
+SHARED_RIGS = ("goblin", "alien", "knight", "malebase")
+#: Every rig read from a file in ``tests/data/rigs``.
+FILE_RIGS = ("cesium", "quaternius", "gomakehuman") + SHARED_RIGS
+#: The file of each kind read by an importer.
+FILES = {"cesium": "CesiumMan.glb", "quaternius": "Quaternius_Female_Casual.fbx",
+         "goblin": "Quaternius_Goblin.fbx", "alien": "Quaternius_Alien.fbx",
+         "knight": "Quaternius_Knight.fbx", "malebase": "MaleBaseMesh_metarig.glb"}
 
 
 def fcurves(action) -> list:
@@ -39,15 +52,32 @@ def _only_armature():
     return arms[0]
 
 
+def body_armature():
+    """The character's body armature among the scene's armatures: the one with the most
+    bones (a file may hold small armatures of its own beside it, such as the Goblin's
+    2-bone ``FaceArmature`` that moves its face mesh). Asserts there is one, and that no
+    other comes near it (half its bones), so the rule never picks by a hair."""
+    arms = sorted((o for o in bpy.context.scene.objects if o.type == "ARMATURE"),
+                  key=lambda o: len(o.data.bones), reverse=True)
+    assert arms, "no armature in the file"
+    assert len(arms) == 1 or len(arms[1].data.bones) < 0.5 * len(arms[0].data.bones), \
+        [(o.name, len(o.data.bones)) for o in arms]
+    return arms[0]
+
+
 def load(kind: str):
-    """Load one test rig into an empty file; returns its armature."""
+    """Load one test rig into an empty file; returns its body armature. Importers leave
+    the file's first clip playing: :func:`rest_still` stops it."""
     empty_file()
-    if kind == "cesium":
-        bpy.ops.import_scene.gltf(filepath=str(DATA / "CesiumMan.glb"), disable_bone_shape=True)
-        return _only_armature()
-    if kind == "quaternius":
-        bpy.ops.import_scene.fbx(filepath=str(DATA / "Quaternius_Female_Casual.fbx"))
-        return _only_armature()
+    path = DATA / FILES.get(kind, "")
+    if kind in ("cesium", "malebase"):
+        # without the icosphere the glTF importer adds as the bones' custom shape: it is
+        # a mesh of faces, which Reach would take for an obstacle
+        bpy.ops.import_scene.gltf(filepath=str(path), disable_bone_shape=True)
+        return body_armature()
+    if kind in ("quaternius", "goblin", "alien", "knight"):
+        bpy.ops.import_scene.fbx(filepath=str(path))
+        return body_armature()
     if kind == "gomakehuman":
         _append(DATA / "GoMakeHuman_simple_IK_rig.blend")
         return _only_armature()
@@ -89,8 +119,8 @@ def _generated_rig_file() -> Path:
 
 
 def rest_still(armature):
-    """Stop the clip an importer left playing (CesiumMan walks, Quaternius claps) so the
-    body holds still while the arm is baked: unassign the action and return every pose
+    """Stop the clip an importer left playing (CesiumMan walks, the Quaternius figures clap,
+    attack or die) so the body holds still while the arm is baked: unassign the action and return every pose
     bone to rest."""
     from mathutils import Matrix
 
