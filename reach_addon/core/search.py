@@ -66,7 +66,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .arm import Pose, frame_turn
+from .arm import ArmConfig, Pose, frame_turn
 from .errors import NO_PATH
 from .generator import ConfigurationGenerator
 
@@ -349,8 +349,48 @@ class BestFirstSearch:
                             self.closest_distance, self.target, self.guides)
 
 
+#: Degrees a turn may exceed its bound by round-off alone (the search's own hand-turn
+#: bound leaves poses right at it).
+TURN_ROUND_OFF = 0.01
+
+
+def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
+             halvings: int = 10) -> Pose | None:
+    """A pose part of the way from ``a`` to ``b`` whose hand turns at most ``bound`` degrees
+    from ``a``'s (roll included, :func:`~reach_addon.core.arm.frame_turn`),
+    and that is clear as a key and as the keys from ``a`` interpolate
+    (:meth:`ConfigurationGenerator.key_clear`, ``transition_problem``): the angles of the
+    two poses, the wrist's two and the roll included, blended at the largest share found by
+    ``halvings`` bisections; None if no share is clear. A chase cannot slow down its frames:
+    where one step of its search turns the hand faster than the bound (a twist of the upper
+    arm near its bound turns the forearm 15° and more), the frame takes only part of it."""
+    qa, qb = a.config.as_array(), b.config.as_array()
+    delta = qb - qa
+    delta[3] = (delta[3] + 180.0) % 360.0 - 180.0            # the twist the short way
+    ha, hb = np.asarray(a.hand, dtype=float), np.asarray(b.hand, dtype=float)
+
+    def at(t):
+        config = ArmConfig.from_array(qa + t * delta)
+        pose = generator.config_pose(config, tuple((ha + t * (hb - ha)).tolist()))
+        return replace(pose, roll=a.roll + t * (b.roll - a.roll))
+
+    lo, hi = 0.0, 1.0
+    for _ in range(halvings):
+        mid = 0.5 * (lo + hi)
+        if frame_turn(a, at(mid)) <= bound:
+            lo = mid
+        else:
+            hi = mid
+    while lo > 1e-3:
+        pose = at(lo)
+        if generator.key_clear(pose) and generator.transition_problem(a, pose) is None:
+            return pose
+        lo *= 0.5
+    return None
+
+
 def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int,
-               fps: float = 24.0):
+               fps: float = 24.0, strict: bool = False):
     """One frame of a chase: a best-first search from ``previous`` toward ``target``
     (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
     along. The hand is kept continuous; where that does not reach the target and a search
@@ -368,7 +408,15 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
     along the path touches something as the keys interpolate, the arm holds its pose for
     the frame if that pose is clear (a chase may fall behind; it does not pass through
     anything to keep up), and the search with the hand free is tried as where the kept one
-    is stuck; an obstacle that moved into the pose itself is left by the first step."""
+    is stuck; an obstacle that moved into the pose itself is left by the first step.
+
+    ``strict`` (where the hand pass found it could not keep the hand within its bound,
+    :func:`~reach_addon.core.tasks.chase_steps`): the turn is bounded on the target too,
+    and where even the first pose along the path turns the hand (with the search's own
+    wrist angles) faster than the bound, the frame takes part of the way to it
+    (:func:`part_way`); the chase then falls behind rather than turn the hand faster than
+    the bound (the wrist's angles alone could not make up for an arm turning too fast over
+    several frames in a row)."""
     s = generator.settings
     view = generator.for_reach(previous, target)
     turn = s.hand_space_turn_speed / fps       # the hand's whole turn in a frame, roll too
@@ -391,13 +439,18 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
             k = 0                                  # the arm holds for the frame
             result.held = True
         on_target = result.success and k == len(result.path) - 1
-        if not on_target:
-            # while catching up, the hand turns (roll included) no faster than the limit;
-            # on the target, keeping to it wins (a chase follows its target)
+        if not on_target or strict:
+            # while catching up, the hand turns (roll included) no faster than the limit:
+            # the farthest pose along the path that keeps to it; on the target, keeping to
+            # it wins (unless strict)
             while k > 1 and frame_turn(previous, result.path[k]) > turn:
                 k -= 1
         pose = result.path[k]
-        if k == 0:
+        if strict and k > 0 and frame_turn(previous, pose) > turn + TURN_ROUND_OFF:
+            pose = part_way(view, previous, pose, turn)
+            if pose is None:
+                k, pose, result.held = 0, previous, True
+        if pose is result.path[0]:
             # a pose of its own (the frames' caches are kept by the poses' identities)
             pose = replace(pose)
         results.append((math.dist(pose.wrist.tolist(), result.target.tolist()), pose, result))

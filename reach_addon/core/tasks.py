@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import ik
-from .arm import ArmConfig, ArmModel, Pose
+from .arm import ArmConfig, ArmModel, Pose, frame_turn
 from .collision import Obstacles
 from .contact import depth_message, escape, start_clearance
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH, START_HELD,
@@ -50,7 +50,8 @@ from .keys import between
 from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
 from .orient import apply_roll, goal_for, pose_error
 from .sampling import sampling_steps
-from .search import BestFirstSearch, SearchResult, chase_step, sphere_directions
+from .search import (TURN_ROUND_OFF, BestFirstSearch, SearchResult, chase_step,
+                     sphere_directions)
 from .settings import Settings
 from .steps import drain, relay
 from .workspace import Workspace, build_workspace, workspace_steps
@@ -780,35 +781,45 @@ def chase_steps(planners, task: Task, chunk: int = 1):
     length = arm.arm_length
     steps = chase_steps_per_frame(s, task.fps)
     trajectory = arm.to_canonical_points(task.targets)
-    poses = [start] + escape_frames(way_out, steps, len(trajectory))
+    poses = [start] + escape_frames(way_out, steps, len(trajectory),
+                                    s.hand_space_turn_speed / task.fps)
+    lead = len(poses)
+    frames: list = []       # per chased frame: (its search result, its pose's contact)
+    strict_from = len(trajectory)
+    while True:
+        for f in range(lead + len(frames), len(trajectory)):
+            if chunk and f % chunk == 0:
+                yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
+            gen = planners[f].generator
+            nxt, res = chase_step(gen, poses[-1], trajectory[f], steps, task.fps,
+                                  strict=f >= strict_from)
+            poses.append(nxt)
+            contact = gen.checker.first_hit(arm.to_world_points(nxt.joints)) \
+                if planners[f] is not planners[f - 1] else None
+            frames.append((res, contact))
+        hand = plan_hand([p.generator for p in planners], poses, task.fps, may_insert=False,
+                         arcs=range(len(poses)), escape=escape_of(way_out, poses))
+        # where the hand pass could not keep the hand within its bound (the forearm itself
+        # turned too fast), the chase is planned again from that frame on, strictly
+        bound = s.hand_space_turn_speed / task.fps + TURN_ROUND_OFF
+        late = next((k + 1 for k in range(lead - 1, len(poses) - 1)
+                     if frame_turn(hand.poses[k], hand.poses[k + 1]) > bound), None)
+        if late is None or late >= strict_from:
+            break
+        strict_from = late
+        del poses[late:], frames[late - lead:]
+    poses = hand.poses
     path = [p.wrist for p in poses]
     stats = Stats()
-    on_target = 0
-    held = 0
-    hit = None
-    for f in range(len(poses), len(trajectory)):
-        if chunk and f % chunk == 0:
-            yield f / len(trajectory), f"chasing '{task.name(0)}': frame {f}"
-        gen = planners[f].generator
-        nxt, res = chase_step(gen, poses[-1], trajectory[f], steps, task.fps)
-        held += res.held
-        stats.nodes_searched += res.nodes_searched
-        stats.search_time_s += res.search_time_s
-        stats.nodes_in_solution += min(steps, len(res.path) - 1)
-        poses.append(nxt)
-        path.append(nxt.wrist)
-        if np.linalg.norm(nxt.wrist - trajectory[f]) <= s.goal_tolerance * length:
-            on_target += 1
-        if hit is None and planners[f] is not planners[f - 1]:
-            contact = gen.checker.first_hit(arm.to_world_points(nxt.joints))
-            if contact is not None:
-                hit = (f, contact)
-    stats.nodes_in_solution += 1  # the start, as in the reach tasks
+    held = sum(res.held for res, _c in frames)
+    stats.nodes_searched = sum(res.nodes_searched for res, _c in frames)
+    stats.search_time_s = sum(res.search_time_s for res, _c in frames)
+    stats.nodes_in_solution = sum(min(steps, len(res.path) - 1) for res, _c in frames) + 1
+    on_target = sum(float(np.linalg.norm(p.wrist - trajectory[f])) <= s.goal_tolerance * length
+                    for f, p in enumerate(poses) if f >= lead)
+    hit = next(((lead + i, c) for i, (_r, c) in enumerate(frames) if c is not None), None)
     stats.path_length_arm_lengths = float(
         np.linalg.norm(np.diff(np.array(path), axis=0), axis=1).sum()) / length
-    hand = plan_hand([p.generator for p in planners], poses, task.fps, may_insert=False,
-                     arcs=range(len(poses)), escape=escape_of(way_out, poses))
-    poses = hand.poses
     motion_stats(stats, arm, poses, [p.generator.checker for p in planners],
                  stats.path_length_arm_lengths, hand=hand)
     gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
@@ -895,17 +906,23 @@ def _between_hit(generator, a: Pose, b: Pose):
     return (generator.transition_problem(a, b) or "hand", "the character's own body")
 
 
-def escape_frames(way_out, steps_per_frame: int, frames: int) -> list:
+def escape_frames(way_out, steps_per_frame: int, frames: int, turn: float = math.inf) -> list:
     """The frames of a chase that leave a start in contact (:mod:`~reach_addon.core.contact`):
-    every ``steps_per_frame``-th pose of the escape (its last included), at most
-    ``frames`` - 1 of them; none without one."""
+    from each frame's pose, the farthest pose of the escape at most ``steps_per_frame``
+    steps on to which the hand turns (roll included) no more than ``turn`` degrees, at
+    least the next one (its last included), at most ``frames`` - 1 of them; none without
+    one. (Taking every ``steps_per_frame``-th pose turned the hand 24° in a frame.)"""
     if way_out is None:
         return []
-    lead = way_out.poses[1:]
-    picked = lead[steps_per_frame - 1::steps_per_frame]
-    if lead and (not picked or picked[-1] is not lead[-1]):
-        picked.append(lead[-1])
-    return picked[:max(0, frames - 1)]
+    poses = way_out.poses
+    picked, at = [], 0
+    while at < len(poses) - 1 and len(picked) < frames - 1:
+        nxt = min(at + steps_per_frame, len(poses) - 1)
+        while nxt > at + 1 and frame_turn(poses[at], poses[nxt]) > turn:
+            nxt -= 1
+        picked.append(poses[nxt])
+        at = nxt
+    return picked
 
 
 def escape_of(way_out, poses):

@@ -23,12 +23,11 @@ planner:
   24 fps (the Goblin's FBX sets 25 fps: 14.4°).
 
 A pair the planner cannot do yet is an ``xfail(strict=True)`` in :data:`XFAIL`, with the
-cause found for it, so the suite records it and says when it is fixed. The four found
-are all chases, and all the hand's turn: a chase's frames are tied to the clock, so where
-one frame's motion turns the hand faster than the bound the hand pass cannot slow it down
-and lifts the bound (``unbounded_hand_turns`` in the task's statistics), and the chase's
-own step (``core.search.chase_step``) bounds the turn only down to one search step while
-catching up, and not at all on the target.
+cause found for it, so the suite records it and says when it is fixed. There is none now.
+The last four were chases turning the hand 15.2–49° in a frame: a chase's frames are tied
+to the clock, and its step (``core.search.chase_step``) bounded the turn only down to one
+search step while catching up, and not at all on the target; it now takes part of a step
+(``core.search.part_way``) where one turns the hand faster than the bound.
 
 Each rig is made once per module (imported, its clip stopped, saved to a .blend in a
 temporary folder) and the file opened again for each scene.
@@ -57,25 +56,8 @@ ON_TARGET = 0.01
 #: evaluated hand is the keyed one (the turns measured by these tests came to 14.99° of 15°).
 TURN_ROUNDING = 0.01
 
-_CATCHING_UP = ("the hand turns faster than the bound while the chase catches up: "
-                "core.search.chase_step cuts a frame back for the hand's turn only down to "
-                "one search step, and that step alone turns it over the bound; a chase "
-                "cannot be slowed, so the hand pass lifts the bound (unbounded_hand_turns)")
-#: (rig, scene) pairs the planner does not do yet: the cause found for each.
-XFAIL = {
-    ("knight", "chase"): f"{_CATCHING_UP}: 15.4° into frame 3, the forearm's own turn "
-                         "(one step: gamma -12°, elbow +7.5°)",
-    ("goblin", "chase"): f"{_CATCHING_UP}: one step turns the forearm 15.3° into frame 3 "
-                         "(gamma +15°) against 14.4° at the file's 25 fps, and the lifted "
-                         "hand pass adds a 19.5° wrist turn there: 29.0°",
-    ("alien", "chase"): f"{_CATCHING_UP}: single steps of 15.2-15.6° into frames 3-5 "
-                        "(gamma -10 to -14°), 18.0° into frame 4 after the hand pass",
-    ("gomakehuman", "chase"): f"{_CATCHING_UP}: 15.3-15.8° steps into frames 3-5 (24.1° "
-                              "into frame 4 after the hand pass); and on the target "
-                              "chase_step does not bound the turn at all: frame 20 re-poses "
-                              "the arm in one frame (alpha -38.5°, gamma -27.5°, strength "
-                              "category 1 to 0), a 49.1° turn",
-}
+#: (rig, scene) pairs the planner does not do yet, with the cause found for each (none now).
+XFAIL: dict = {}
 
 
 def cases():
