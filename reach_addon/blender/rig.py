@@ -754,11 +754,17 @@ def digits(armature, group) -> Digits:
     return Digits(wrist, chains, thumb)
 
 
+#: The longest hand (wrist to its farthest finger joint along its axis) the rig adapter
+#: reads, in forearm lengths: an alien's fingers reach nearly two forearms past its wrist
+#: (Quaternius' Alien, 1.9), and a hand capped shorter leaves its fingertips unchecked.
+HAND_REACH_MAX = 2.0
+
+
 def hand_shape(armature, hand_name, forearm_len, group=None):
     """The hand as the planner models it, read from the pose on screen: (axis, length,
     spread) in world space — the unit direction from the wrist to the mean of the finger
     joints (bone heads and tails below the hand, without helper bones such as FBX "_end"
-    leaves or Rigify tweaks), the farthest joint along it (between 0.4 and 1.0 forearm),
+    leaves or Rigify tweaks), the farthest joint along it (between 0.4 and :data:`HAND_REACH_MAX` forearm),
     and the farthest joint from the axis. A hand with no fingers points along its bone and
     is 0.74 forearm long (Drillis & Contini), its spread 0. It is the axis of the hand's
     capsule, the middle of its mass; the direction the fingers point, which a target's
@@ -791,7 +797,7 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
         axis = mw[:3, :3] @ (np.array(pb.tail) - np.array(pb.head))
     axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
     along = rel @ axis
-    length = float(np.clip(along.max(), 0.4 * forearm_len, 1.0 * forearm_len))
+    length = float(np.clip(along.max(), 0.4 * forearm_len, HAND_REACH_MAX * forearm_len))
     spread = float(np.linalg.norm(rel - along[:, None] * axis, axis=1).max())
     return axis, length, spread
 

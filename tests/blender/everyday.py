@@ -9,8 +9,9 @@ facing any way. :data:`SCENES` names them; :func:`build` makes one.
 Where a scene has something in front of the body, its near face is 0.04 arm lengths beyond
 the farthest point of the hand's skin and of the arm's capsules as the planner models them
 at the start (:func:`near`; a capsule can be fuller than the skin: GoMakeHuman's hanging
-hand's reached 0.01 into a wall placed by the skin alone) — the wall's over the whole arm,
-the others' over what lies within their cross-section and 0.04 round it — or a least
+hand's reached 0.01 into a wall placed by the skin alone), over what lies within the
+thing's cross-section and 0.04 round it (a T-posed hand at shoulder height does not push
+the wall, whose top is 0.35 below the shoulder, out of the arm's reach) — or a least
 distance given by the scene, if that is farther. So no rest pose, T, A or hanging, starts
 inside the margin, and a hand that hangs far forward beside a shelf does not push the
 shelf away.
@@ -167,7 +168,7 @@ def build(name, info, armature):
     target(s), in order (several for a sequence). A chase sets the scene's end frame to
     :data:`CHASE_FRAMES` and goes back to frame 1."""
     if name == "wall":
-        f0 = near(armature, info, 0.62)
+        f0 = near(armature, info, 0.62, ((-0.9, 0.9), (-1.6, -0.35)))
         box(info, "Wall", (f0, -0.9, -1.6), (f0 + 0.04, 0.9, -0.35))
         return [rigs.add_target("Target", at(info, f0 + 0.18, 0.10, -0.15))]
     if name == "shelf":
