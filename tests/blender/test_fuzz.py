@@ -12,6 +12,8 @@ feature of the campaign occurs in it (checked below)."""
 import collections
 import os
 
+import numpy as np
+
 from bench import fuzz
 
 SEEDS = range(200)
@@ -46,9 +48,10 @@ def test_the_campaigns_grazes_between_keys_are_clear_now():
     Blender's (``core.keys``), and its hand pass, which found no clear hand at some frame
     of the way out of the start's contact, checks every transition of the motion's own
     hand instead of none. The independent check finds every instant clear, at the
-    campaign's own three instants between frames."""
+    campaign's own three instants between frames. The scenes are that campaign's own:
+    its synthetic rigs as they were before rig shapes varied (``shapes=False``)."""
     seeds = [799, 849, 901, 3777]
-    results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
+    results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300, shapes=False)
     assert [(r["seed"], r["category"]) for r in results] == [
         (s, "success_verified") for s in seeds], [r["detail"] for r in results]
 
@@ -63,9 +66,10 @@ def test_the_campaigns_chases_keep_the_hand_clear_between_keys():
     keys, lifting the turn's bound about them where the hand cannot otherwise get to and
     from them (and where even the first pose along a frame's path touches, the arm holds
     for the frame). Seeds 4456 and 8867 were the harness's: a mesh of bare edges is no
-    obstacle, so its NaN vertex is nothing to refuse."""
+    obstacle, so its NaN vertex is nothing to refuse. The scenes are that campaign's own
+    (``shapes=False``: its synthetic rigs)."""
     seeds = [3820, 4217, 4716, 4456, 8867]
-    results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
+    results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300, shapes=False)
     assert [(r["seed"], r["category"]) for r in results] == [
         (3820, "success_verified"), (4217, "success_verified"), (4716, "success_verified"),
         (4456, "failure_with_reason"), (8867, "failure_with_reason")], \
@@ -83,3 +87,66 @@ def test_refusals_are_counted_by_their_words_whatever_the_names_hold():
     assert key("bad_input: armature 'A' is linked from '//lib.blend' and cannot be keyed; x") == (
         "bad_input: armature '…' is linked from '…' and cannot be keyed")
     assert key("no_path: the wrist did not catch 'a: b'") == "no_path"
+
+
+def _first_seeds(kinds, quick=True, limit=600) -> dict:
+    """The first seed (quick scenes) whose synthetic rig has each shape of ``kinds``
+    ("fingers", "palms", "mitten" hands; "rigid" parts), among scenes the bake reads (no
+    linked, non-uniformly scaled or NaN armature)."""
+    found = {}
+    for seed in range(limit):
+        spec = fuzz.generate(seed, quick=quick)
+        shape = spec["rig"].get("shape")
+        if not shape or spec["linked_armature"] or spec["non_uniform"] or spec["armature_nan"]:
+            continue
+        kind = "rigid" if shape["rigid"] else shape["hand"]
+        if kind in kinds and kind not in found:
+            found[kind] = seed
+    return found
+
+
+def test_the_independent_check_reads_the_new_rigs_right(tmp_path):
+    """On generated rigs with fingers, a mitten, sibling palms and rigid parts: the
+    independent check's hand (``fuzz.ArmReader``) ends at least as far along the hand as its
+    farthest finger joint, which lies within a forearm of the wrist; rigid parts parented
+    to bones are the character's (Reach leaves them out of the obstacles, so does the
+    cross-check) and never among the harness's obstacles."""
+    import bpy
+
+    from reach_addon.blender import rig as rig_mod
+    from reach_addon.blender.scene import character_objects
+    from verification import refusal
+
+    seeds = _first_seeds({"fingers", "mitten", "palms", "rigid"})
+    assert set(seeds) == {"fingers", "mitten", "palms", "rigid"}, seeds
+    library = tmp_path / "library.blend"
+    fuzz._make_library(library)
+    cache = fuzz.RigCache(tmp_path)
+    for kind, seed in sorted(seeds.items()):
+        spec = fuzz.generate(seed, quick=True)
+        manifest = fuzz.build(spec, cache, tmp_path, library)
+        arm = bpy.data.objects[manifest["armature"]]
+        info = rig_mod.build(arm, spec["side"])
+        joints = fuzz.ArmReader(arm, info).joints(arm)
+        wrist, tip = joints[3], joints[4]
+        axis = (tip - wrist) / np.linalg.norm(tip - wrist)
+        mw = np.array(arm.matrix_world)
+        below = [b for n in info.hand_bones for b in arm.pose.bones[n].children_recursive]
+        length = info.arm.arm_length
+        if kind == "rigid":
+            parts = [ob.name for ob in bpy.data.objects
+                     if ob.parent == arm and ob.parent_type == "BONE"]
+            assert len(parts) > 10, parts
+            assert not set(parts) & set(manifest["solids"])
+            assert set(parts) <= character_objects(arm, bpy.context.scene)
+            assert set(parts) <= refusal.character_objects_of(arm, bpy.context.scene)
+            labels = {label.split("/")[0] for label, _t, _c in refusal.scene_obstacles(
+                bpy.context, refusal.character_objects_of(arm, bpy.context.scene))}
+            assert not set(parts) & labels
+            continue
+        assert below, (kind, seed, info.hand_bones)
+        pts = np.array([mw[:3, :3] @ np.array(p) + mw[:3, 3] for b in below
+                        for p in (b.head, b.tail)])
+        along = (pts - wrist) @ axis
+        assert float(np.linalg.norm(tip - wrist)) >= along.max() - 1e-6 * length, (kind, seed)
+        assert along.max() <= info.arm.forearm_length * (1 + 1e-6), (kind, seed)
