@@ -18,8 +18,24 @@ or a bug: ``escaped_exception`` (an exception left ``cli.main``, or the worker p
 died), ``timeout``, ``success_but_collides``, ``success_off_target``, ``input_changed`` (the
 input file or a library it links changed), ``nondeterministic`` (two bakes of the same file
 keyed different values, compared byte for byte, or ended differently), ``unclear_failure``
-(a failure without a known reason, or a refusal that does not name the object at fault);
-and ``generator_error`` for a fault of this harness, not of Reach.
+(a failure without a known reason, or a refusal that does not name the object at fault),
+``false_refusal`` (a failure whose reason the cross-check below contradicts); and
+``generator_error`` for a fault of this harness, not of Reach.
+
+The refusal cross-check
+-----------------------
+A failure with a reason is a claim, so it is checked too (:func:`cross_check`,
+:mod:`verification.refusal`): for ``no_path``, ``arm_does_not_fit``, ``needs_lean``,
+``needs_step`` and ``out_of_reach`` OMPL's RRTConnect searches the planner's own problem
+(its joint space, state test and obstacles, rebuilt by the pipeline's readers) toward a
+goal region of valid IK states at the target — none at all confirms the refusal at once,
+otherwise it searches for ``--cross-check-budget`` seconds (10) and a path found is a
+false refusal; ``start_in_collision`` is checked on Blender's evaluated skin of the arm
+and hand against the obstacles' triangles. fuzz.json counts the refusals decided
+(``refusals_cross_checked``), the ``false_refusals`` (each listed with its seed) and, per
+reason, every verdict with the check's median and largest time. The quick scenes of the
+tests' subset starve the planner on purpose (``QUICK_SETTINGS``), so there the search
+also stops after the scene's own sampling budget of states.
 
 The independent check
 ---------------------
@@ -95,6 +111,9 @@ CATEGORIES = {
                        "name the object at fault",
     "generator_error": "the fuzz harness itself failed to build or check the scene (not "
                        "Reach)",
+    "false_refusal": "a task failed with a reason that the independent cross-check "
+                     "contradicts (a clear path exists, or the start's arm and hand skin are "
+                     "clear)",
 }
 GOOD = ("success_verified", "failure_with_reason")
 
@@ -138,6 +157,9 @@ EULER_BONES_SHARE = 0.05
 BONE_ROLLS = (None, (0.0, 0.0, 1.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0), (1.0, 0.0, 0.0))
 #: Sub-frame instants checked between two frames (besides the frames themselves).
 SUBFRAMES = 3
+#: Seconds the cross-check's OMPL search may take per refusal where a goal region exists
+#: (``verification.refusal``; ``--cross-check-budget``).
+CROSS_CHECK_BUDGET_S = 10.0
 #: Planner settings of the quick scenes (the tests' subset): smaller search budgets.
 QUICK_SETTINGS = {"node_budget": 1500, "stall_budget": 400, "sampling_budget": 3000,
                   "hand_grid_step": 10.0}
@@ -1451,10 +1473,29 @@ def classify(spec: dict, manifest: dict, runs: list, changed: list, keys: list,
     return "success_verified", f"{len(report['tasks'])} task(s) reached and verified"
 
 
+def cross_check(spec: dict, manifest: dict, report: dict, budget_s: float) -> list:
+    """Every refusal of ``report`` (the first bake's) cross-checked on the scene's input
+    file by :func:`verification.refusal.check_report`: OMPL's search where a goal region
+    exists (``budget_s`` seconds; on a quick scene also at most the scene's own sampling
+    budget of states, the budget its starved planner had), the skin for a start in
+    collision. Returns the verdicts as plain data (one per failed task)."""
+    bpy = _bpy()
+    from verification import refusal
+
+    bpy.ops.wm.open_mainfile(filepath=manifest["input"], load_ui=False)
+    max_states = spec["settings"].get("sampling_budget") if spec.get("quick") else None
+    verdicts = refusal.check_report(
+        bpy.context, report, spec["task"], "FzObstacles" if spec["obstacle_collection"] else None,
+        budget_s=budget_s, max_states=max_states, seed=spec["seed"])
+    return [v.to_dict() for v in verdicts]
+
+
 def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
-              subframes: int = SUBFRAMES, quick: bool = False, shapes: bool = True) -> dict:
-    """Generate, build, bake twice and check one scene; returns its result (JSON).
-    ``quick``, ``shapes``: as :func:`generate` takes them."""
+              subframes: int = SUBFRAMES, quick: bool = False,
+              cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> dict:
+    """Generate, build, bake twice and check one scene, its refusals cross-checked
+    (:func:`cross_check`, OMPL given ``cross_check_s`` seconds each; 0 skips it); returns
+    its result (JSON). ``quick``, ``shapes``: as :func:`generate` takes them."""
     bpy = _bpy()
     t0 = time.perf_counter()
     spec = generate(seed, quick, shapes)
@@ -1493,13 +1534,22 @@ def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
             if runs[1]["report"] is not None and runs[1]["rc"] in (0, 1):
                 problems = verify(manifest, runs[1]["report"], runs[1]["output"], subframes)
         category, detail = classify(spec, manifest, runs, changed, keys, problems)
+        timings["check"] = time.perf_counter() - t0 - sum(timings.values())
+        if category == "failure_with_reason" and runs[0]["rc"] == 1 and cross_check_s > 0:
+            checks = cross_check(spec, manifest, runs[0]["report"], cross_check_s)
+            result["cross_check"] = checks
+            false = [c for c in checks if c["status"] == "false_refusal"]
+            if false:
+                c = false[0]
+                category, detail = "false_refusal", f"'{c['target']}' {c['reason']}: {c['detail']}"
+            timings["cross_check"] = time.perf_counter() - t0 - sum(timings.values())
     except Exception:   # noqa: BLE001
         tb = traceback.format_exc()
         category, detail = "generator_error", "checking: " + tb.strip().splitlines()[-1]
         result["traceback"] = tb
     if category == "escaped_exception":
         result["traceback"] = next(r["exception"] for r in runs if r["exception"])
-    timings["check"] = time.perf_counter() - t0 - sum(timings.values())
+    timings.setdefault("check", time.perf_counter() - t0 - sum(timings.values()))
     result["timings"] = {k: round(v, 3) for k, v in timings.items()}
     if runs[0]["warnings"]:
         result["warnings"] = runs[0]["warnings"]
@@ -1513,7 +1563,8 @@ def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
 # --- workers and the campaign ---------------------------------------------------------------
 
 def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
-           quick: bool = False, shapes: bool = True) -> None:
+           quick: bool = False, cross_check_s: float = CROSS_CHECK_BUDGET_S,
+           shapes: bool = True) -> None:
     """Run ``seeds`` one after another in this process, appending to ``results`` a line
     ``{"seed": s, "event": "start"}`` before each scene and its result after it."""
     os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp(prefix="reach-fuzz-user-")
@@ -1534,7 +1585,8 @@ def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
             for seed in seeds:
                 out.write(json.dumps({"seed": int(seed), "event": "start"}) + "\n")
                 out.flush()
-                result = run_scene(int(seed), scene_dir, cache, library, subframes, quick, shapes)
+                result = run_scene(int(seed), scene_dir, cache, library, subframes, quick,
+                                   cross_check_s, shapes)
                 out.write(json.dumps(result) + "\n")
                 out.flush()
     finally:
@@ -1543,9 +1595,10 @@ def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
 
 
 def _worker_command(seeds: list, results: Path, subframes: int, quick: bool,
-                    shapes: bool = True) -> list:
+                    cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> list:
     return [sys.executable, str(Path(__file__).resolve()), "--worker", "--results", str(results),
-            "--subframes", str(subframes), "--seeds", ",".join(str(s) for s in seeds)] + \
+            "--subframes", str(subframes), "--seeds", ",".join(str(s) for s in seeds),
+            "--cross-check-budget", repr(float(cross_check_s))] + \
         (["--quick"] if quick else []) + ([] if shapes else ["--standard-rigs"])
 
 
@@ -1566,11 +1619,13 @@ def _read_results(path: Path) -> tuple:
 
 
 def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: float = 600.0,
-                 progress=None, quick: bool = False, shapes: bool = True) -> list:
+                 progress=None, quick: bool = False,
+                 cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> list:
     """Run ``seeds`` on ``jobs`` worker processes, each taking a contiguous range; returns
     the results in seed order. A worker that dies or stalls past ``timeout_s`` on one
     scene gives that seed ``escaped_exception`` or ``timeout`` and is restarted on the
-    seeds after it. ``quick``, ``shapes``: as :func:`generate` takes them."""
+    seeds after it. ``cross_check_s``: OMPL's seconds per refusal of the cross-check (0:
+    none); ``quick``, ``shapes``: as :func:`generate` takes them."""
     seeds = [int(s) for s in seeds]
     jobs = max(1, min(jobs, len(seeds)))
     bounds = np.linspace(0, len(seeds), jobs + 1).round().astype(int)
@@ -1583,7 +1638,9 @@ def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: fl
     def launch(k, queue):
         path = tmp / f"worker-{k}-{len(queue)}-{queue[0]}.jsonl"
         log = open(tmp / f"worker-{k}.log", "ab")
-        proc = subprocess.Popen(_worker_command(queue, path, subframes, quick, shapes), cwd=ROOT,
+        proc = subprocess.Popen(_worker_command(queue, path, subframes, quick, cross_check_s,
+                                                shapes),
+                                cwd=ROOT,
                                 stdout=subprocess.DEVNULL, stderr=log, start_new_session=True)
         workers[k] = {"proc": proc, "path": path, "queue": queue, "log": log,
                       "seen": 0, "last": time.monotonic(), "started": None}
@@ -1648,6 +1705,48 @@ def _reason_key(result: dict) -> str:
     return detail.split(":")[0]
 
 
+def cross_check_summary(results: list) -> dict:
+    """The cross-check's part of fuzz.json: ``refusals_cross_checked`` (refused targets the
+    cross-check decided: confirmed or contradicted), ``false_refusals`` (contradicted),
+    ``refusals_not_decided`` (inconclusive or unchecked), ``cross_check_seconds`` (the
+    cross-check's wall time over every scene, rebuilding the problem included), and per
+    reason the counts of each
+    verdict with the check's median and largest time (seconds), what decided them
+    (``by_method``: ``ik`` no valid goal state, ``ompl``, ``skin``, ``bones``) and an
+    example seed of each verdict;
+    ``false_refusal_list`` gives each contradicted refusal (seed, target, reason, why)."""
+    from verification.refusal import CONFIRMED, FALSE_REFUSAL, STATUSES
+
+    per: dict = {}
+    false = []
+    for r in results:
+        for c in r.get("cross_check", ()):
+            entry = per.setdefault(c["reason"], {"refusals": 0, **{k: 0 for k in STATUSES},
+                                                 "by_method": {}, "examples": {},
+                                                 "seconds": []})
+            entry["refusals"] += 1
+            entry[c["status"]] += 1
+            entry["examples"].setdefault(c["status"], {"seed": r["seed"], "target": c["target"],
+                                                       "detail": c["detail"]})
+            if c["status"] in (CONFIRMED, FALSE_REFUSAL):
+                entry["by_method"][c["method"]] = entry["by_method"].get(c["method"], 0) + 1
+            entry["seconds"].append(c["seconds"])
+            if c["status"] == FALSE_REFUSAL:
+                false.append({"seed": r["seed"], "target": c["target"], "reason": c["reason"],
+                              "detail": c["detail"]})
+    for entry in per.values():
+        t = entry.pop("seconds")
+        entry["seconds_median"] = round(float(np.median(t)), 3)
+        entry["seconds_max"] = round(float(np.max(t)), 3)
+    decided = sum(e[CONFIRMED] + e[FALSE_REFUSAL] for e in per.values())
+    spent = [r["timings"]["cross_check"] for r in results if "cross_check" in r.get("timings", {})]
+    return {"refusals_cross_checked": decided, "false_refusals": len(false),
+            "refusals_not_decided": sum(e["refusals"] for e in per.values()) - decided,
+            "cross_check_seconds": round(float(np.sum(spent)), 1) if spent else 0.0,
+            "cross_check": dict(sorted(per.items(), key=lambda kv: -kv[1]["refusals"])),
+            "false_refusal_list": false}
+
+
 def summarize(results: list, meta: dict) -> dict:
     """The contents of fuzz.json: counts per category (each with an example seed and its
     one-line description), per failure reason, per feature; every non-passing seed."""
@@ -1679,12 +1778,13 @@ def summarize(results: list, meta: dict) -> dict:
             entry["scenes"] += 1
     slowest = sorted((r for r in results if r.get("time_s") is not None),
                      key=lambda r: -r["time_s"])[:5]
+    cross = cross_check_summary(results)
     return {**meta, "scenes": len(results),
             "passed": sum(r["category"] in GOOD for r in results),
             "seconds_per_scene_median": round(float(np.median(times)), 3) if times else None,
             "categories": categories,
             "failure_reasons": dict(sorted(reasons.items(), key=lambda kv: -kv[1]["count"])),
-            "features": features, "not_passing": bad,
+            "features": features, "not_passing": bad, **cross,
             "python_warnings": dict(sorted(warned.items(), key=lambda kv: -kv[1]["scenes"])),
             "slowest": [{"seed": r["seed"], "time_s": r["time_s"], "category": r["category"],
                          "rig": r["rig"], "task": r["task"]} for r in slowest]}
@@ -1702,6 +1802,11 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds per scene at most")
     parser.add_argument("--keep", metavar="DIR",
                         help="run in this process and keep each scene's files in DIR (for one seed)")
+    parser.add_argument("--cross-check-budget", type=float, default=CROSS_CHECK_BUDGET_S,
+                        metavar="SECONDS",
+                        help="OMPL's seconds per refusal in the cross-check where a goal "
+                             f"region exists (default {CROSS_CHECK_BUDGET_S:g}; 0: no "
+                             "cross-check)")
     parser.add_argument("--standard-rigs", action="store_true",
                         help="synthetic rigs as before their shapes varied (A pose, one hand "
                              "bone): replays a seed of an older campaign")
@@ -1714,7 +1819,8 @@ def main(argv=None) -> int:
 
     if args.worker:
         worker([int(s) for s in args.seeds.split(",")], Path(args.results), args.subframes,
-               quick=args.quick, shapes=not args.standard_rigs)
+               quick=args.quick, cross_check_s=args.cross_check_budget,
+               shapes=not args.standard_rigs)
         return 0
     seeds = list(range(args.seed0, args.seed0 + args.count))
     if args.keep:
@@ -1723,7 +1829,7 @@ def main(argv=None) -> int:
         results_path = keep / "results.jsonl"
         results_path.unlink(missing_ok=True)
         worker(seeds, results_path, args.subframes, keep=keep, quick=args.quick,
-               shapes=not args.standard_rigs)
+               cross_check_s=args.cross_check_budget, shapes=not args.standard_rigs)
         for seed in seeds:
             print(json.dumps(generate(seed, args.quick, not args.standard_rigs), indent=1))
         for line in results_path.read_text().splitlines():
@@ -1732,6 +1838,9 @@ def main(argv=None) -> int:
                 print(f"seed {rec['seed']}: {rec['category']}: {rec['detail']}")
                 if rec.get("traceback"):
                     print(rec["traceback"])
+                for c in rec.get("cross_check", ()):
+                    print(f"  cross-check '{c['target']}' {c['reason']}: {c['status']} "
+                          f"({c['seconds']:.2f} s): {c['detail']}")
         return 0
 
     def progress(done, total, elapsed, state={"last": 0.0}):   # noqa: B006
@@ -1744,7 +1853,7 @@ def main(argv=None) -> int:
     commit = git_commit()       # before the run: what the workers import from disk
     t0 = time.perf_counter()
     results = run_campaign(seeds, args.jobs, args.subframes, args.timeout, progress, args.quick,
-                           not args.standard_rigs)
+                           args.cross_check_budget, not args.standard_rigs)
     import bpy  # noqa: F401  (the versions below)
 
     from reach_addon import __version__
@@ -1753,14 +1862,17 @@ def main(argv=None) -> int:
             "reach_commit": commit,
             "blender_version": bpy.app.version_string, "seed0": args.seed0, "count": args.count,
             "jobs": args.jobs, "subframes": args.subframes, "quick": args.quick,
-            "rig_shapes": not args.standard_rigs,
+            "cross_check_budget_s": args.cross_check_budget, "rig_shapes": not args.standard_rigs,
             "wall_time_s": round(time.perf_counter() - t0, 1)}
     summary = summarize(results, meta)
     from reach_addon import atomic
 
     atomic.write_text(Path(args.out), json.dumps(summary, indent=1, ensure_ascii=False) + "\n")
     cats = ", ".join(f"{k} {v['count']}" for k, v in summary["categories"].items() if v["count"])
-    print(f"fuzz: {summary['passed']}/{len(results)} passed ({cats}); wrote {args.out}")
+    print(f"fuzz: {summary['passed']}/{len(results)} passed ({cats}); refusals cross-checked "
+          f"{summary['refusals_cross_checked']}, false refusals {summary['false_refusals']}, "
+          f"undecided {summary['refusals_not_decided']} ({summary['cross_check_seconds']:.0f} s "
+          f"of cross-check); wrote {args.out}")
     return 0 if summary["passed"] == len(results) else 1
 
 

@@ -2,8 +2,9 @@
 generated scenes, each built in Blender, baked twice by the command line and checked
 independently, on worker processes (one per core). Every outcome must be a success that
 the independent check finds clear at every frame and sub-frame instant with the wrist on
-the target, or a failure with a reason; no escaped exception, the input unchanged, the
-keys the same on both bakes.
+the target, or a failure with a reason that the refusal cross-check
+(``verification.refusal``) does not contradict (a ``false_refusal`` fails); no escaped
+exception, the input unchanged, the keys the same on both bakes.
 
 The scenes are the campaign's own with ``quick`` on: smaller search budgets and Rigify's
 metarig for the generated Rigify rig, so the subset takes a few minutes; every scene
@@ -25,14 +26,39 @@ def test_the_subset_has_every_feature_of_the_campaign():
     assert fuzz.generate(7, quick=True) == fuzz.generate(7, quick=True)
 
 
+#: False refusals the cross-check finds among the subset's scenes: findings about the
+#: planner, reported to be fixed there, not in this harness. Listed (seed: the refused
+#: reason) so that every other failure, and any new false refusal, still fails the test,
+#: and a listed seed that stops being one fails it too (the list stays true).
+#: - 91, 144, 189 (``needs_lean``) and 134 (``out_of_reach``): the diagnosis looks at Table
+#:   1's chest rotation only; a legal, clear pose with the chest where it stands (91: 0°,
+#:   Table 1 turns it 10.9° and the shoulder away) or turned within its range (134: 45°,
+#:   144: -40°, 189: -60°, the wrist 0.0047 arm lengths off, within the goal tolerance)
+#:   puts the wrist on the target, and OMPL reaches it from the start.
+#: - 118 and 198 (``start_in_collision`` on CesiumMan): "the start pose already touches"
+#:   an obstacle at the upper arm, while its evaluated skin is 0.049 and 0.005 arm lengths
+#:   clear: the capsule (with the clearance) stands out of the skin, and the start's
+#:   escape found no way out.
+KNOWN_FALSE_REFUSALS = {91: "needs_lean", 118: "start_in_collision", 134: "out_of_reach",
+                        144: "needs_lean", 189: "needs_lean", 198: "start_in_collision"}
+
+
+def _false_reason(result):
+    return next((c["reason"] for c in result.get("cross_check", ())
+                 if c["status"] == "false_refusal"), None)
+
+
 def test_every_generated_scene_is_a_verified_success_or_a_failure_with_a_reason():
     results = fuzz.run_campaign(SEEDS, jobs=max(2, os.cpu_count() or 2), subframes=1,
                                 timeout_s=300, quick=True)
     assert [r["seed"] for r in results] == list(SEEDS)
-    bad = [r for r in results if r["category"] not in fuzz.GOOD]
+    false = {r["seed"]: _false_reason(r) for r in results if r["category"] == "false_refusal"}
+    bad = [r for r in results if r["category"] not in fuzz.GOOD + ("false_refusal",)]
     assert not bad, "\n".join(
         f"seed {r['seed']}: {r['category']}: {r['detail']} (rerun: python bench/fuzz.py "
         f"--quick --seed0 {r['seed']} --count 1 --keep DIR)" for r in bad)
+    assert false == KNOWN_FALSE_REFUSALS, "\n".join(
+        f"seed {r['seed']}: {r['detail']}" for r in results if r["category"] == "false_refusal")
     kinds = collections.Counter(r["category"] for r in results)
     assert kinds["success_verified"] >= 40 and kinds["failure_with_reason"] >= 40, kinds
 
@@ -150,3 +176,36 @@ def test_the_independent_check_reads_the_new_rigs_right(tmp_path):
         along = (pts - wrist) @ axis
         assert float(np.linalg.norm(tip - wrist)) >= along.max() - 1e-6 * length, (kind, seed)
         assert along.max() <= info.arm.forearm_length * (1 + 1e-6), (kind, seed)
+
+
+def test_a_contradicted_refusal_is_counted_as_a_false_refusal():
+    """``false_refusal`` is a category that does not pass; fuzz.json counts the cross-check's
+    verdicts per reason and lists every false refusal with its seed, and the README's
+    block says how many (bench/readme.py)."""
+    import sys
+
+    assert "false_refusal" in fuzz.CATEGORIES and "false_refusal" not in fuzz.GOOD
+    base = {"features": [], "task": "reach", "rig": "synthetic/mixamo", "time_s": 1.0}
+    results = [
+        {**base, "seed": 1, "category": "failure_with_reason", "detail": "out_of_reach: x",
+         "cross_check": [{"target": "A", "reason": "out_of_reach", "status": "confirmed",
+                          "method": "ik", "seconds": 0.01, "detail": "no valid goal state"}]},
+        {**base, "seed": 2, "category": "false_refusal", "detail": "'B' no_path: found",
+         "cross_check": [{"target": "B", "reason": "no_path", "status": "false_refusal",
+                          "method": "ompl", "seconds": 0.5, "detail": "found a path"},
+                         {"target": "C", "reason": "no_path", "status": "unchecked",
+                          "method": "ik", "seconds": 0.0, "detail": "later leg"}]}]
+    summary = fuzz.summarize(results, {"seed0": 1, "count": 2})
+    assert summary["passed"] == 1 and summary["categories"]["false_refusal"]["count"] == 1
+    assert (summary["refusals_cross_checked"], summary["false_refusals"],
+            summary["refusals_not_decided"]) == (2, 1, 1)
+    assert summary["cross_check"]["no_path"]["false_refusal"] == 1
+    assert summary["false_refusal_list"] == [
+        {"seed": 2, "target": "B", "reason": "no_path", "detail": "found a path"}]
+    sys.path.insert(0, str(fuzz.ROOT / "bench"))
+    try:
+        import readme
+    finally:
+        sys.path.remove(str(fuzz.ROOT / "bench"))
+    line = readme.cross_check_counts(summary)
+    assert "**2 decided**" in line and "**1 false refusals**; seed 2 `no_path` ('B')" in line
