@@ -312,12 +312,19 @@ def _seed_ompl(seed: int) -> None:
         ou.setLogLevel(level)
 
 
+#: Seconds OMPL's path simplifier may shorten a path found (its length is then the one
+#: reported; validity is checked again after it).
+SIMPLIFY_S = 1.0
+
+
 def ompl_search(validity: StateValidity, start_row, target_c, goals, *, budget_s: float,
                 max_states: int | None = None, seed: int = 0):
     """RRTConnect from ``start_row`` (degrees) to the :class:`WristGoal` region of
     ``target_c`` sampled by ``goals`` (N, 7) in ``validity``'s space, for at most
-    ``budget_s`` seconds (and ``max_states`` validity tests, if given). Returns (path (K, 7)
-    in degrees or None, its length in the metric, states tested)."""
+    ``budget_s`` seconds (and ``max_states`` validity tests, if given); a path found is
+    then shortened by OMPL's simplifier for at most :data:`SIMPLIFY_S` seconds. Returns
+    (path (K, 7) in degrees or None, its length in the metric, states tested by the
+    search)."""
     from ompl import base as ob
     from ompl import geometric as og
     from ompl import util as ou
@@ -354,6 +361,7 @@ def ompl_search(validity: StateValidity, start_row, target_c, goals, *, budget_s
     tested = validity.calls - calls0
     if not setup.haveExactSolutionPath():
         return None, None, tested
+    setup.simplifySolution(SIMPLIFY_S)
     path = setup.getSolutionPath()
     states = path.getStates()
     coords = np.array([[s[i] for i in range(len(JOINT_NAMES))] for s in states])
@@ -409,7 +417,7 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
     region = goal_region(planner, validity, target_c)
     v = Verdict(target, reason, CONFIRMED, "", "ik", goal_states=len(region.rows),
                 table1_chest_deg=round(table1, 3))
-    chest = f"chest {space.lo[0]:.0f}..{space.hi[0]:.0f}°"
+    chest = f"chest {round(space.lo[0]) + 0}..{round(space.hi[0]) + 0}°"
     if not len(region.rows):
         v.detail = (f"no valid goal state: the IK over the swivel circle ({SWIVEL_STEP_DEG:g}° "
                     f"steps), the chest range ({chest}, {CHEST_STEP_DEG:g}° steps) and "
@@ -435,10 +443,12 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
         if path is None:
             v.detail = (f"OMPL RRTConnect found no path in {budget} ({tested} states tested) "
                         f"to a goal region of {len(region.rows)} valid states ({chest})")
-        elif not _path_valid(validity, path):
+        elif not _path_valid(validity, path) or math.dist(
+                joints_of_one(arm, path[-1])[3], target_c.tolist()) > \
+                s.goal_tolerance * arm.arm_length * (1 + 1e-6):
             v.status = INCONCLUSIVE
             v.detail = ("OMPL RRTConnect returned a path that the core's test refuses "
-                        "between its states (not counted)")
+                        "between its states, or that ends off the target (not counted)")
         else:
             goal = path[-1]
             gap = math.dist(joints_of_one(arm, goal)[3], target_c.tolist()) / arm.arm_length
