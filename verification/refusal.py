@@ -757,16 +757,18 @@ def rebuild(context, report: dict, task: str = "reach", obstacles: str | None = 
     (``report['armature']``) read by ``reach_addon.blender.rig.build`` on the reported arm
     at the first task's start frame, the settings of the report (``Settings.from_dict``),
     the pipeline's handling of targets carried by the character's bones, and the
-    pipeline's obstacle gathering (the character and the targets left out; ``obstacles``:
-    the collection name of ``--obstacles``). Where obstacles move after the start frame,
-    every place they take until their animation ends is added (sampled twice a frame),
-    so a path clear of these is clear whenever it runs. ``task``: the bake's ``--task``;
+    pipeline's obstacle gathering (the character and the targets left out, objects beyond
+    the arm's reach sphere unread; ``obstacles``: the collection name of ``--obstacles``).
+    Where obstacles move after the start frame, every place they take until their
+    animation ends is added (sampled twice a frame), so a path clear of these is clear
+    whenever it runs. ``task``: the bake's ``--task``;
     ``overrides``: its ``--bone`` pairs. Leaves the scene at the start frame."""
     import bpy
 
     from reach_addon.blender import pipeline
     from reach_addon.blender import rig as rig_mod
-    from reach_addon.blender.scene import character_objects, gather_pieces, obstacles_from_pieces
+    from reach_addon.blender.scene import (KEPT, character_objects, gather_pieces,
+                                           obstacles_from_pieces)
     from reach_addon.core import Planner, Settings
     from reach_addon.core.sampling import pose_row
 
@@ -786,7 +788,10 @@ def rebuild(context, report: dict, task: str = "reach", obstacles: str | None = 
     info, settings, _note = pipeline._carried_targets(armature, targets, info, request, first)
     collection = bpy.data.collections.get(obstacles) if obstacles else None
     exclude = character_objects(armature, scene) | set(names)
-    pieces = list(gather_pieces(context, exclude, collection))
+    # as the pipeline reads them: objects wholly beyond the arm's reach sphere are not read
+    pieces, _obstacles, _built = KEPT.get(context, exclude, collection,
+                                          within=pipeline.reach_bounds(info.arm, settings, targets))
+    pieces = list(pieces)
     moving = pipeline._moving_owners(context, exclude, collection, frame)
     if moving:
         ends = [pipeline._animation_end(bpy.data.objects.get(n)) for n in moving]
