@@ -18,8 +18,24 @@ or a bug: ``escaped_exception`` (an exception left ``cli.main``, or the worker p
 died), ``timeout``, ``success_but_collides``, ``success_off_target``, ``input_changed`` (the
 input file or a library it links changed), ``nondeterministic`` (two bakes of the same file
 keyed different values, compared byte for byte, or ended differently), ``unclear_failure``
-(a failure without a known reason, or a refusal that does not name the object at fault);
-and ``generator_error`` for a fault of this harness, not of Reach.
+(a failure without a known reason, or a refusal that does not name the object at fault),
+``false_refusal`` (a failure whose reason the cross-check below contradicts); and
+``generator_error`` for a fault of this harness, not of Reach.
+
+The refusal cross-check
+-----------------------
+A failure with a reason is a claim, so it is checked too (:func:`cross_check`,
+:mod:`verification.refusal`): for ``no_path``, ``arm_does_not_fit``, ``needs_lean``,
+``needs_step`` and ``out_of_reach`` OMPL's RRTConnect searches the planner's own problem
+(its joint space, state test and obstacles, rebuilt by the pipeline's readers) toward a
+goal region of valid IK states at the target — none at all confirms the refusal at once,
+otherwise it searches for ``--cross-check-budget`` seconds (10) and a path found is a
+false refusal; ``start_in_collision`` is checked on Blender's evaluated skin of the arm
+and hand against the obstacles' triangles. fuzz.json counts the refusals decided
+(``refusals_cross_checked``), the ``false_refusals`` (each listed with its seed) and, per
+reason, every verdict with the check's median and largest time. The quick scenes of the
+tests' subset starve the planner on purpose (``QUICK_SETTINGS``), so there the search
+also stops after the scene's own sampling budget of states.
 
 The independent check
 ---------------------
@@ -41,7 +57,11 @@ clear. Triangles without area are left out: they have no surface to touch.
 Scenes are placed in the rig's own body frame and sized by its own arm length, so they
 mean the same at any scale and orientation: boxes, planes, thin walls, open and
 non-manifold meshes, meshes of no size, a room round the character, a floor; armatures
-scaled 0.01–100, rotated, mirrored, scaled non-uniformly (refused, by design); targets on
+scaled 0.01–100, rotated, mirrored, scaled non-uniformly (refused, by design); synthetic
+rigs in T, A or arms-down rest poses, their elbows straight or bent up to 25° any way, the
+forearm 0.6–2.5 times the upper arm, hands of one bone, a mitten, five fingers or sibling
+palms, rolled against the forearm up to 90°, any bone roll convention, rigid parts
+parented to bones instead of a skin (a stream of their own, :func:`_rig_shape`); targets on
 moving objects and on the character's own bones, on or inside its body, out of reach;
 animated, hidden and disabled obstacles, linked library data, NaN and infinite
 locations. :data:`FEATURES` lists them; ``bench/fuzz.json`` counts outcomes per feature.
@@ -91,6 +111,9 @@ CATEGORIES = {
                        "name the object at fault",
     "generator_error": "the fuzz harness itself failed to build or check the scene (not "
                        "Reach)",
+    "false_refusal": "a task failed with a reason that the independent cross-check "
+                     "contradicts (a clear path exists, or the start's arm and hand skin are "
+                     "clear)",
 }
 GOOD = ("success_verified", "failure_with_reason")
 
@@ -113,6 +136,9 @@ FEATURES = (
     "hidden_collection", "render_hidden", "linked_instance", "linked_mesh",
     "linked_armature", "obstacle_nan", "obstacle_inf", "armature_nan", "vertex_nan",
     "no_obstacles", "body_moves", "euler_bones",
+    "rig_t_pose", "rig_arms_down", "rig_straight_elbow", "rig_elbow_turned", "rig_hand_roll",
+    "rig_bone_roll", "rig_mitten", "rig_fingers", "rig_palms", "rig_rigid", "rig_long_forearm",
+    "rig_short_forearm",
 )
 
 SYNTH_MAPS = ("mixamo", "vrm", "unity", "spaced", "makehuman", "unreal", "plain", "numbered")
@@ -126,8 +152,14 @@ MESH_WEIGHTS = (24, 8, 8, 6, 4, 5, 3, 2, 2, 2, 2, 2, 3, 4, 4, 3)
 NO_SURFACE = {"edges_only", "empty_mesh", "zero_scale", "collapsed_mesh"}
 #: Share of scenes whose bones all rotate in an Euler order (feature ``euler_bones``).
 EULER_BONES_SHARE = 0.05
+#: Bone roll conventions of the synthetic rigs (``synthetic.humanoid(roll=...)``: every
+#: bone's Z axis turned toward this construction axis; None keeps Blender's default).
+BONE_ROLLS = (None, (0.0, 0.0, 1.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0), (1.0, 0.0, 0.0))
 #: Sub-frame instants checked between two frames (besides the frames themselves).
 SUBFRAMES = 3
+#: Seconds the cross-check's OMPL search may take per refusal where a goal region exists
+#: (``verification.refusal``; ``--cross-check-budget``).
+CROSS_CHECK_BUDGET_S = 10.0
 #: Planner settings of the quick scenes (the tests' subset): smaller search budgets.
 QUICK_SETTINGS = {"node_budget": 1500, "stall_budget": 400, "sampling_budget": 3000,
                   "hand_grid_step": 10.0}
@@ -280,14 +312,18 @@ def _obstacle(rng, features: set, index: int) -> dict:
     return o
 
 
-def generate(seed: int, quick: bool = False) -> dict:
+def generate(seed: int, quick: bool = False, shapes: bool = True) -> dict:
     """The scene of ``seed``: plain data (JSON), the same for the same seed on every
     machine. Positions are in the reaching shoulder's body frame (side, forward, up), in
     the rig's arm lengths; :func:`build` makes them world positions.
 
     ``quick``: the same scene made cheaper to run (the fixed-seed subset of the tests):
     smaller search budgets, Rigify's metarig instead of the generated rig (which takes
-    seconds to generate and to evaluate); every feature stays."""
+    seconds to generate and to evaluate); every feature stays.
+
+    ``shapes`` False: the synthetic rigs of the campaigns before their shapes varied (A
+    pose, the elbow bent 30° forward, one hand bone, the standard proportions), so that a
+    seed those campaigns found replays its own scene; every other draw is the same."""
     rng = np.random.default_rng(seed)
     features: set = set()
     spec: dict = {"seed": int(seed)}
@@ -456,9 +492,68 @@ def generate(seed: int, quick: bool = False) -> dict:
     if euler.random() < EULER_BONES_SHARE and not spec["linked_armature"]:
         spec["euler_bones"] = _pick(euler, ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"))
         features.add("euler_bones")
+    # the synthetic rig's shape — rest pose, elbow, proportions, hand, bone rolls, rigid
+    # parts — from a stream of its own, so every other draw keeps its scene
+    if rig["kind"] == "synthetic" and shapes:
+        rig["shape"] = _rig_shape(np.random.default_rng([seed, 3]), rig, features)
     spec["quick"] = quick
     spec["features"] = sorted(features)
     return spec
+
+
+def _rig_shape(rng, rig: dict, features: set) -> dict:
+    """A synthetic rig's shape (the keyword arguments of ``synthetic.humanoid`` and
+    ``synthetic.shape``, plain data): the arm's rest pose (T, A, arms down), its elbow bend
+    (0-25°, or the standard 30°) and the way it bends, the forearm over the upper arm
+    (0.6-2.5, or the standard 0.86), the hand (one bone, a mitten, five fingers, or 2-4
+    sibling palms with 1-3 finger bones each), its roll against the forearm (-90° to 90°),
+    a bone roll convention, and rigid parts parented to bones instead of a skin. Every
+    value is drawn whatever is kept, so the stream stays aligned."""
+    pose = _pick(rng, ("A", "T", "down"), (5, 3, 2))
+    bent = rng.random() < 0.6
+    bend = float(rng.uniform(0.0, 25.0))
+    turned = rng.random() < 0.35
+    way = _unit(rng.normal(size=3)).tolist()
+    proportioned = rng.random() < 0.4
+    ratio = float(np.exp(rng.uniform(math.log(0.6), math.log(2.5))))
+    hand = _pick(rng, ("bone", "mitten", "fingers", "palms"), (55, 15, 15, 15))
+    palms, fingers = int(rng.integers(2, 5)), int(rng.integers(1, 4))
+    rolled = rng.random() < 0.4
+    hand_roll = float(rng.uniform(-90.0, 90.0))
+    roll = _pick(rng, BONE_ROLLS, (2, 1, 1, 1, 1))
+    rigid = rng.random() < 0.12
+    if hand == "palms" and rig["decoy"] is not None:
+        hand = "fingers"            # sibling palms take no decoy chain (synthetic.humanoid)
+    rigid = rigid and rig["skin"] and rig["decoy"] is None   # a decoy is told by the skin
+    shape = {"pose": pose, "elbow_bend_deg": bend if bent else None,
+             "elbow_bend_dir": way if bent and turned else None,
+             "forearm_ratio": ratio if proportioned else None,
+             "hand": hand, "palms": palms if hand == "palms" else 0,
+             "fingers": fingers if hand == "palms" else 1,
+             "hand_roll_deg": hand_roll if rolled else 0.0,
+             "roll": None if roll is None else list(roll), "rigid": bool(rigid)}
+    features |= {f for f, on in (
+        ("rig_t_pose", pose == "T"), ("rig_arms_down", pose == "down"),
+        ("rig_straight_elbow", bent and bend < 5.0), ("rig_elbow_turned", bent and turned),
+        ("rig_hand_roll", rolled), ("rig_bone_roll", roll is not None),
+        ("rig_mitten", hand == "mitten"), ("rig_fingers", hand == "fingers"),
+        ("rig_palms", hand == "palms"), ("rig_rigid", rigid),
+        ("rig_long_forearm", proportioned and ratio > 1.5),
+        ("rig_short_forearm", proportioned and ratio < 0.8)) if on}
+    return shape
+
+
+def rig_proportions(rig: dict):
+    """The ``proportions`` dict of a synthetic rig's shape (``synthetic.shape``), or None
+    for the standard one (a spec without a shape: the campaigns before it)."""
+    import synthetic
+
+    shape = rig.get("shape")
+    if shape is None:
+        return None
+    return synthetic.shape(pose=shape["pose"], elbow_bend_deg=shape["elbow_bend_deg"],
+                           elbow_bend_dir=shape["elbow_bend_dir"],
+                           forearm_ratio=shape["forearm_ratio"])
 
 
 # --- building the scene in Blender ---------------------------------------------------------
@@ -607,16 +702,23 @@ class Placement:
             return synthetic.to_world(p, facing=rig["facing"], lying=rig["lying"])
 
         tag, other = ("R", "L") if side == "right" else ("L", "R")
-        joints = {k: world(v) for k, v in synthetic.arm_joints(tag).items()}
+        proportions = rig_proportions(rig)
+        joints = {k: world(v) for k, v in synthetic.arm_joints(tag, proportions).items()}
         names = synthetic.MAPS[rig["map"]]
-        hand_length = 0.74 * synthetic.ARM_LENGTHS[1]
+        lengths = synthetic._proportions(proportions)["arm_lengths"]
+        hand_length = 0.74 * lengths[1]
+        palms = (rig.get("shape") or {}).get("palms", 0)
+
+        def hand(t):    # sibling palms have no hand bone: the first palm carries a target
+            return synthetic.palm_name(names, t, 1) if palms else names[f"hand_{t}"]
+
         bones = {"chest": names["chest"], "neck": names["neck"], "hips": names["hips"],
-                 "other_hand": names[f"hand_{other}"], "own_hand": names[f"hand_{tag}"],
+                 "other_hand": hand(other), "own_hand": hand(tag),
                  "own_forearm": names[f"forearm_{tag}"]}
         origin = world((0.0, 0.0, synthetic.SHOULDER_Z))
         return cls(armature, side, world((-1.0, 0, 0)), world((0, -1.0, 0)), world((0, 0, 1.0)),
-                   origin, synthetic.SHOULDER_HALF_WIDTH, sum(synthetic.ARM_LENGTHS),
-                   joints, world(synthetic.arm_joints(other)["shoulder"]), hand_length,
+                   origin, synthetic.SHOULDER_HALF_WIDTH, sum(lengths),
+                   joints, world(synthetic.arm_joints(other, proportions)["shoulder"]), hand_length,
                    0.18 * hand_length, bones)
 
     def vector(self, v) -> np.ndarray:
@@ -681,10 +783,19 @@ def _load_rig(spec, cache: RigCache, workdir: Path):
     rig = spec["rig"]
     if rig["kind"] == "synthetic":
         bpy.ops.wm.read_homefile(use_empty=True)
+        shape = rig.get("shape") or {}
+        hand = shape.get("hand", "bone")
         arm = synthetic.humanoid(synthetic.MAPS[rig["map"]], facing=rig["facing"],
-                                 scale=rig["own_scale"], lying=rig["lying"], skin=rig["skin"],
+                                 scale=rig["own_scale"], lying=rig["lying"],
+                                 skin=rig["skin"] and not shape.get("rigid", False),
                                  decoy=rig["decoy"], clavicle=rig["clavicle"], twist=rig["twist"],
-                                 name="FzRig", skin_radius=rig["skin_radius"])
+                                 name="FzRig", skin_radius=rig["skin_radius"],
+                                 proportions=rig_proportions(rig),
+                                 hand="bone" if hand == "palms" else hand,
+                                 palms=shape.get("palms", 0), fingers=shape.get("fingers", 1),
+                                 roll=shape.get("roll"),
+                                 hand_roll_deg=shape.get("hand_roll_deg", 0.0),
+                                 rigid=shape.get("rigid", False))
     else:
         arm = cache.open(rig["kind"])
     if spec["linked_armature"]:
@@ -1362,12 +1473,32 @@ def classify(spec: dict, manifest: dict, runs: list, changed: list, keys: list,
     return "success_verified", f"{len(report['tasks'])} task(s) reached and verified"
 
 
+def cross_check(spec: dict, manifest: dict, report: dict, budget_s: float) -> list:
+    """Every refusal of ``report`` (the first bake's) cross-checked on the scene's input
+    file by :func:`verification.refusal.check_report`: OMPL's search where a goal region
+    exists (``budget_s`` seconds; on a quick scene also at most the scene's own sampling
+    budget of states, the budget its starved planner had), the skin for a start in
+    collision. Returns the verdicts as plain data (one per failed task)."""
+    bpy = _bpy()
+    from verification import refusal
+
+    bpy.ops.wm.open_mainfile(filepath=manifest["input"], load_ui=False)
+    max_states = spec["settings"].get("sampling_budget") if spec.get("quick") else None
+    verdicts = refusal.check_report(
+        bpy.context, report, spec["task"], "FzObstacles" if spec["obstacle_collection"] else None,
+        budget_s=budget_s, max_states=max_states, seed=spec["seed"])
+    return [v.to_dict() for v in verdicts]
+
+
 def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
-              subframes: int = SUBFRAMES, quick: bool = False) -> dict:
-    """Generate, build, bake twice and check one scene; returns its result (JSON)."""
+              subframes: int = SUBFRAMES, quick: bool = False,
+              cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> dict:
+    """Generate, build, bake twice and check one scene, its refusals cross-checked
+    (:func:`cross_check`, OMPL given ``cross_check_s`` seconds each; 0 skips it); returns
+    its result (JSON). ``quick``, ``shapes``: as :func:`generate` takes them."""
     bpy = _bpy()
     t0 = time.perf_counter()
-    spec = generate(seed, quick)
+    spec = generate(seed, quick, shapes)
     result = {"seed": int(seed), "features": spec["features"], "task": spec["task"],
               "rig": spec["rig"]["kind"] if spec["rig"]["kind"] != "synthetic"
               else f"synthetic/{spec['rig']['map']}"}
@@ -1403,13 +1534,22 @@ def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
             if runs[1]["report"] is not None and runs[1]["rc"] in (0, 1):
                 problems = verify(manifest, runs[1]["report"], runs[1]["output"], subframes)
         category, detail = classify(spec, manifest, runs, changed, keys, problems)
+        timings["check"] = time.perf_counter() - t0 - sum(timings.values())
+        if category == "failure_with_reason" and runs[0]["rc"] == 1 and cross_check_s > 0:
+            checks = cross_check(spec, manifest, runs[0]["report"], cross_check_s)
+            result["cross_check"] = checks
+            false = [c for c in checks if c["status"] == "false_refusal"]
+            if false:
+                c = false[0]
+                category, detail = "false_refusal", f"'{c['target']}' {c['reason']}: {c['detail']}"
+            timings["cross_check"] = time.perf_counter() - t0 - sum(timings.values())
     except Exception:   # noqa: BLE001
         tb = traceback.format_exc()
         category, detail = "generator_error", "checking: " + tb.strip().splitlines()[-1]
         result["traceback"] = tb
     if category == "escaped_exception":
         result["traceback"] = next(r["exception"] for r in runs if r["exception"])
-    timings["check"] = time.perf_counter() - t0 - sum(timings.values())
+    timings.setdefault("check", time.perf_counter() - t0 - sum(timings.values()))
     result["timings"] = {k: round(v, 3) for k, v in timings.items()}
     if runs[0]["warnings"]:
         result["warnings"] = runs[0]["warnings"]
@@ -1423,7 +1563,8 @@ def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
 # --- workers and the campaign ---------------------------------------------------------------
 
 def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
-           quick: bool = False) -> None:
+           quick: bool = False, cross_check_s: float = CROSS_CHECK_BUDGET_S,
+           shapes: bool = True) -> None:
     """Run ``seeds`` one after another in this process, appending to ``results`` a line
     ``{"seed": s, "event": "start"}`` before each scene and its result after it."""
     os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp(prefix="reach-fuzz-user-")
@@ -1444,7 +1585,8 @@ def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
             for seed in seeds:
                 out.write(json.dumps({"seed": int(seed), "event": "start"}) + "\n")
                 out.flush()
-                result = run_scene(int(seed), scene_dir, cache, library, subframes, quick)
+                result = run_scene(int(seed), scene_dir, cache, library, subframes, quick,
+                                   cross_check_s, shapes)
                 out.write(json.dumps(result) + "\n")
                 out.flush()
     finally:
@@ -1452,10 +1594,12 @@ def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
             shutil.rmtree(work, ignore_errors=True)
 
 
-def _worker_command(seeds: list, results: Path, subframes: int, quick: bool) -> list:
+def _worker_command(seeds: list, results: Path, subframes: int, quick: bool,
+                    cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> list:
     return [sys.executable, str(Path(__file__).resolve()), "--worker", "--results", str(results),
-            "--subframes", str(subframes), "--seeds", ",".join(str(s) for s in seeds)] + \
-        (["--quick"] if quick else [])
+            "--subframes", str(subframes), "--seeds", ",".join(str(s) for s in seeds),
+            "--cross-check-budget", repr(float(cross_check_s))] + \
+        (["--quick"] if quick else []) + ([] if shapes else ["--standard-rigs"])
 
 
 def _read_results(path: Path) -> tuple:
@@ -1475,11 +1619,13 @@ def _read_results(path: Path) -> tuple:
 
 
 def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: float = 600.0,
-                 progress=None, quick: bool = False) -> list:
+                 progress=None, quick: bool = False,
+                 cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> list:
     """Run ``seeds`` on ``jobs`` worker processes, each taking a contiguous range; returns
     the results in seed order. A worker that dies or stalls past ``timeout_s`` on one
     scene gives that seed ``escaped_exception`` or ``timeout`` and is restarted on the
-    seeds after it."""
+    seeds after it. ``cross_check_s``: OMPL's seconds per refusal of the cross-check (0:
+    none); ``quick``, ``shapes``: as :func:`generate` takes them."""
     seeds = [int(s) for s in seeds]
     jobs = max(1, min(jobs, len(seeds)))
     bounds = np.linspace(0, len(seeds), jobs + 1).round().astype(int)
@@ -1492,7 +1638,9 @@ def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: fl
     def launch(k, queue):
         path = tmp / f"worker-{k}-{len(queue)}-{queue[0]}.jsonl"
         log = open(tmp / f"worker-{k}.log", "ab")
-        proc = subprocess.Popen(_worker_command(queue, path, subframes, quick), cwd=ROOT,
+        proc = subprocess.Popen(_worker_command(queue, path, subframes, quick, cross_check_s,
+                                                shapes),
+                                cwd=ROOT,
                                 stdout=subprocess.DEVNULL, stderr=log, start_new_session=True)
         workers[k] = {"proc": proc, "path": path, "queue": queue, "log": log,
                       "seen": 0, "last": time.monotonic(), "started": None}
@@ -1524,7 +1672,7 @@ def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: fl
                     tail = (tmp / f"worker-{k}.log").read_text(errors="replace").strip().splitlines()
                     why = (f"no result within {timeout_s:.0f} s" if stalled else
                            f"the process died (status {rc}): " + (tail[-1] if tail else ""))
-                    spec = generate(lost, quick)
+                    spec = generate(lost, quick, shapes)
                     results[lost] = {"seed": lost, "features": spec["features"], "task": spec["task"],
                                      "rig": spec["rig"]["kind"],
                                      "category": "timeout" if stalled else "escaped_exception",
@@ -1555,6 +1703,48 @@ def _reason_key(result: dict) -> str:
         words = re.sub(r"-?\d+(\.\d+)?(e-?\d+)?", "#", words)
         return "bad_input: " + words.split(";")[0]
     return detail.split(":")[0]
+
+
+def cross_check_summary(results: list) -> dict:
+    """The cross-check's part of fuzz.json: ``refusals_cross_checked`` (refused targets the
+    cross-check decided: confirmed or contradicted), ``false_refusals`` (contradicted),
+    ``refusals_not_decided`` (inconclusive or unchecked), ``cross_check_seconds`` (the
+    cross-check's wall time over every scene, rebuilding the problem included), and per
+    reason the counts of each
+    verdict with the check's median and largest time (seconds), what decided them
+    (``by_method``: ``ik`` no valid goal state, ``ompl``, ``skin``, ``bones``) and an
+    example seed of each verdict;
+    ``false_refusal_list`` gives each contradicted refusal (seed, target, reason, why)."""
+    from verification.refusal import CONFIRMED, FALSE_REFUSAL, STATUSES
+
+    per: dict = {}
+    false = []
+    for r in results:
+        for c in r.get("cross_check", ()):
+            entry = per.setdefault(c["reason"], {"refusals": 0, **{k: 0 for k in STATUSES},
+                                                 "by_method": {}, "examples": {},
+                                                 "seconds": []})
+            entry["refusals"] += 1
+            entry[c["status"]] += 1
+            entry["examples"].setdefault(c["status"], {"seed": r["seed"], "target": c["target"],
+                                                       "detail": c["detail"]})
+            if c["status"] in (CONFIRMED, FALSE_REFUSAL):
+                entry["by_method"][c["method"]] = entry["by_method"].get(c["method"], 0) + 1
+            entry["seconds"].append(c["seconds"])
+            if c["status"] == FALSE_REFUSAL:
+                false.append({"seed": r["seed"], "target": c["target"], "reason": c["reason"],
+                              "detail": c["detail"]})
+    for entry in per.values():
+        t = entry.pop("seconds")
+        entry["seconds_median"] = round(float(np.median(t)), 3)
+        entry["seconds_max"] = round(float(np.max(t)), 3)
+    decided = sum(e[CONFIRMED] + e[FALSE_REFUSAL] for e in per.values())
+    spent = [r["timings"]["cross_check"] for r in results if "cross_check" in r.get("timings", {})]
+    return {"refusals_cross_checked": decided, "false_refusals": len(false),
+            "refusals_not_decided": sum(e["refusals"] for e in per.values()) - decided,
+            "cross_check_seconds": round(float(np.sum(spent)), 1) if spent else 0.0,
+            "cross_check": dict(sorted(per.items(), key=lambda kv: -kv[1]["refusals"])),
+            "false_refusal_list": false}
 
 
 def summarize(results: list, meta: dict) -> dict:
@@ -1588,12 +1778,13 @@ def summarize(results: list, meta: dict) -> dict:
             entry["scenes"] += 1
     slowest = sorted((r for r in results if r.get("time_s") is not None),
                      key=lambda r: -r["time_s"])[:5]
+    cross = cross_check_summary(results)
     return {**meta, "scenes": len(results),
             "passed": sum(r["category"] in GOOD for r in results),
             "seconds_per_scene_median": round(float(np.median(times)), 3) if times else None,
             "categories": categories,
             "failure_reasons": dict(sorted(reasons.items(), key=lambda kv: -kv[1]["count"])),
-            "features": features, "not_passing": bad,
+            "features": features, "not_passing": bad, **cross,
             "python_warnings": dict(sorted(warned.items(), key=lambda kv: -kv[1]["scenes"])),
             "slowest": [{"seed": r["seed"], "time_s": r["time_s"], "category": r["category"],
                          "rig": r["rig"], "task": r["task"]} for r in slowest]}
@@ -1611,6 +1802,14 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds per scene at most")
     parser.add_argument("--keep", metavar="DIR",
                         help="run in this process and keep each scene's files in DIR (for one seed)")
+    parser.add_argument("--cross-check-budget", type=float, default=CROSS_CHECK_BUDGET_S,
+                        metavar="SECONDS",
+                        help="OMPL's seconds per refusal in the cross-check where a goal "
+                             f"region exists (default {CROSS_CHECK_BUDGET_S:g}; 0: no "
+                             "cross-check)")
+    parser.add_argument("--standard-rigs", action="store_true",
+                        help="synthetic rigs as before their shapes varied (A pose, one hand "
+                             "bone): replays a seed of an older campaign")
     parser.add_argument("--quick", action="store_true",
                         help="the cheaper scenes of the tests' subset (smaller search budgets)")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
@@ -1620,7 +1819,8 @@ def main(argv=None) -> int:
 
     if args.worker:
         worker([int(s) for s in args.seeds.split(",")], Path(args.results), args.subframes,
-               quick=args.quick)
+               quick=args.quick, cross_check_s=args.cross_check_budget,
+               shapes=not args.standard_rigs)
         return 0
     seeds = list(range(args.seed0, args.seed0 + args.count))
     if args.keep:
@@ -1628,15 +1828,19 @@ def main(argv=None) -> int:
         keep.mkdir(parents=True, exist_ok=True)
         results_path = keep / "results.jsonl"
         results_path.unlink(missing_ok=True)
-        worker(seeds, results_path, args.subframes, keep=keep, quick=args.quick)
+        worker(seeds, results_path, args.subframes, keep=keep, quick=args.quick,
+               cross_check_s=args.cross_check_budget, shapes=not args.standard_rigs)
         for seed in seeds:
-            print(json.dumps(generate(seed, args.quick), indent=1))
+            print(json.dumps(generate(seed, args.quick, not args.standard_rigs), indent=1))
         for line in results_path.read_text().splitlines():
             rec = json.loads(line)
             if "category" in rec:
                 print(f"seed {rec['seed']}: {rec['category']}: {rec['detail']}")
                 if rec.get("traceback"):
                     print(rec["traceback"])
+                for c in rec.get("cross_check", ()):
+                    print(f"  cross-check '{c['target']}' {c['reason']}: {c['status']} "
+                          f"({c['seconds']:.2f} s): {c['detail']}")
         return 0
 
     def progress(done, total, elapsed, state={"last": 0.0}):   # noqa: B006
@@ -1648,7 +1852,8 @@ def main(argv=None) -> int:
 
     commit = git_commit()       # before the run: what the workers import from disk
     t0 = time.perf_counter()
-    results = run_campaign(seeds, args.jobs, args.subframes, args.timeout, progress, args.quick)
+    results = run_campaign(seeds, args.jobs, args.subframes, args.timeout, progress, args.quick,
+                           args.cross_check_budget, not args.standard_rigs)
     import bpy  # noqa: F401  (the versions below)
 
     from reach_addon import __version__
@@ -1657,13 +1862,17 @@ def main(argv=None) -> int:
             "reach_commit": commit,
             "blender_version": bpy.app.version_string, "seed0": args.seed0, "count": args.count,
             "jobs": args.jobs, "subframes": args.subframes, "quick": args.quick,
+            "cross_check_budget_s": args.cross_check_budget, "rig_shapes": not args.standard_rigs,
             "wall_time_s": round(time.perf_counter() - t0, 1)}
     summary = summarize(results, meta)
     from reach_addon import atomic
 
     atomic.write_text(Path(args.out), json.dumps(summary, indent=1, ensure_ascii=False) + "\n")
     cats = ", ".join(f"{k} {v['count']}" for k, v in summary["categories"].items() if v["count"])
-    print(f"fuzz: {summary['passed']}/{len(results)} passed ({cats}); wrote {args.out}")
+    print(f"fuzz: {summary['passed']}/{len(results)} passed ({cats}); refusals cross-checked "
+          f"{summary['refusals_cross_checked']}, false refusals {summary['false_refusals']}, "
+          f"undecided {summary['refusals_not_decided']} ({summary['cross_check_seconds']:.0f} s "
+          f"of cross-check); wrote {args.out}")
     return 0 if summary["passed"] == len(results) else 1
 
 

@@ -174,7 +174,8 @@ def table(r: dict) -> str:
 
 def fuzz_counts(f: dict) -> str:
     """The campaign's outcomes from ``bench/fuzz.json``: every category (a bug category
-    too, at 0), the seeds that did not pass, the most frequent failure reasons."""
+    too, at 0), the seeds that did not pass, the most frequent failure reasons, and the
+    refusal cross-check's counts (:func:`cross_check_counts`)."""
     last = f["seed0"] + f["scenes"] - 1
     lines = [f"From `bench/fuzz.json`: {f['scenes']:,} scenes (seeds {f['seed0']}–{last}; Reach "
              f"{f['reach_version']}" + (f" at {f['reach_commit']}" if f.get("reach_commit") else "")
@@ -192,7 +193,33 @@ def fuzz_counts(f: dict) -> str:
     reasons = sorted(f["failure_reasons"].items(), key=lambda kv: (-kv[1]["count"], kv[0]))
     lines += ["", "The most frequent failure reasons: " + "; ".join(
         f"`{k}` {v['count']:,} (seed {v['example_seed']})" for k, v in reasons[:8]) + "."]
+    lines += ["", cross_check_counts(f)]
     return "\n".join(lines)
+
+
+def cross_check_counts(f: dict) -> str:
+    """The refusal cross-check's counts from ``bench/fuzz.json``: refusals decided
+    (confirmed or contradicted) and false refusals, per reason with the check's median and
+    largest time; a campaign from before the cross-check says so."""
+    if "refusals_cross_checked" not in f:
+        return ("Refusals cross-checked: none — this campaign predates the cross-check "
+                "(`verification/refusal.py`), so its failures with a reason are unchecked "
+                "claims; `false_refusals` not counted.")
+    per = f.get("cross_check", {})
+    parts = [f"`{reason}` {e['confirmed']:,} confirmed, {e['false_refusal']:,} false, "
+             f"{e['inconclusive'] + e['unchecked']:,} undecided "
+             f"({e['seconds_median']:.2f}/{e['seconds_max']:.2f} s)"
+             for reason, e in per.items()]
+    seeds = "".join(f"; seed {x['seed']} `{x['reason']}` ('{x['target']}')"
+                    for x in f.get("false_refusal_list", [])[:10])
+    return (f"Refusals cross-checked (`verification/refusal.py`, OMPL "
+            f"{f.get('cross_check_budget_s', 10):g} s where a goal region exists): "
+            f"**{f['refusals_cross_checked']:,} decided**, **{f['false_refusals']:,} false "
+            f"refusals**{seeds}, {f.get('refusals_not_decided', 0):,} undecided (a chase's "
+            "pursuit, a later leg of a sequence, a target in the body, a start the core's "
+            f"test refuses); {f.get('cross_check_seconds', 0):,.0f} s of cross-check in all. "
+            "Per refused target and reason (median/largest seconds of the check): "
+            + "; ".join(parts) + ".")
 
 
 def _between(text: str, start: str, end: str, body: str) -> str | None:

@@ -26,9 +26,25 @@ def test_core_never_imports_bpy():
             assert not any(n.split(".")[0] == "bpy" for n in names), f"{path.name} imports bpy"
 
 
+def test_the_extension_never_imports_the_verification():
+    """``verification/`` (the refusal cross-check) serves the tests and the benchmarks: no
+    module of ``reach_addon`` imports it, so the extension (``reach_addon/`` alone in the
+    zip) never needs it."""
+    for path in (ROOT / "reach_addon").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            else:
+                continue
+            assert not any(n.split(".")[0] == "verification" for n in names), path
+    assert (ROOT / "verification" / "__init__.py").exists()
+
+
 def test_lint_is_clean():
     ruff = Path(sys.executable).with_name("ruff")
-    result = subprocess.run([str(ruff), "check", "reach_addon", "tests"], cwd=ROOT,
+    result = subprocess.run([str(ruff), "check", "reach_addon", "tests", "verification", "bench"], cwd=ROOT,
                             capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stdout + result.stderr
 

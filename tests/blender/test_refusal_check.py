@@ -1,0 +1,203 @@
+"""The refusal cross-check (``verification.refusal``) on small scenes baked by the command
+line: it confirms true refusals of each kind it handles and catches false ones.
+
+Each scene is built round a synthetic humanoid in its own body frame (``everyday.at``:
+forward, outward, up from the reaching shoulder, in arm lengths), saved, and baked by
+``python -m reach_addon bake ... --report`` in a subprocess, as a user bakes it; the
+cross-check then reads the report and the input file. Nothing here mocks Blender.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import bpy
+import everyday
+import numpy as np
+import pytest
+import rigs
+import synthetic
+
+from reach_addon.blender import rig as rig_mod
+from reach_addon.core.sampling import joints_of_one
+from verification import geometry, refusal
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def bake(tmp_path, targets, *flags, name="scene"):
+    """Save the open file as ``name``.blend, bake it for ``targets`` with the right arm
+    and ``flags`` by the command line, open the input again; returns (exit status, report)."""
+    path = tmp_path / f"{name}.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    argv = ["bake", path, "--armature", "Rig", "--arm", "right", "--output",
+            tmp_path / f"{name}-out.blend", "--report", tmp_path / f"{name}.json", *flags]
+    for t in targets:
+        argv += ["--target", t]
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    done = subprocess.run([sys.executable, "-m", "reach_addon", *map(str, argv)],
+                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
+    assert done.returncode in (0, 1), done.stderr
+    bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
+    return done.returncode, json.loads((tmp_path / f"{name}.json").read_text())
+
+
+def humanoid(**kw):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    arm = synthetic.humanoid(synthetic.MIXAMO, name="Rig", **kw)
+    return arm, rig_mod.build(arm, "right")
+
+
+def reasons(report):
+    return {t["target"]: t["reason"] for t in report["tasks"]}
+
+
+def test_targets_out_of_reach_are_confirmed_without_a_search(tmp_path):
+    """Beyond the arm (two arm lengths ahead) and far overhead: no legal pose at the
+    target at any chest rotation, so the refusal is confirmed by the IK alone."""
+    _arm, info = humanoid()
+    rigs.add_target("Ahead", everyday.at(info, 2.0, 0.1, 0.0))
+    rigs.add_target("Overhead", everyday.at(info, 0.2, 0.1, 1.6))
+    rc, report = bake(tmp_path, ["Ahead", "Overhead"])
+    assert rc == 1
+    got = reasons(report)
+    assert got["Ahead"] in ("needs_lean", "needs_step") and got["Overhead"] == "out_of_reach", got
+    verdicts = refusal.check_report(bpy.context, report)
+    assert [(v.target, v.status, v.method, v.goal_states) for v in verdicts] == [
+        ("Ahead", "confirmed", "ik", 0), ("Overhead", "confirmed", "ik", 0)]
+    assert all(v.states_checked == 0 for v in verdicts)     # no pose was even legal
+
+
+def test_a_target_behind_a_closed_wall_is_confirmed(tmp_path):
+    """A closed slab six arm lengths wide and tall stands between the body and the target:
+    every pose at the target passes through it, and the cross-check agrees with whatever
+    Reach says (no fit, or no path)."""
+    _arm, info = humanoid()
+    everyday.box(info, "Wall", (0.42, -3.0, -3.0), (0.5, 3.0, 3.0))
+    rigs.add_target("Behind", everyday.at(info, 0.7, 0.1, 0.0))
+    rc, report = bake(tmp_path, ["Behind"])
+    assert rc == 1 and reasons(report)["Behind"] in ("arm_does_not_fit", "no_path"), report
+    (v,) = refusal.check_report(bpy.context, report)
+    assert (v.status, v.goal_states) == ("confirmed", 0), v.detail
+
+
+def ring(info, name, centre_share=0.5, hole=0.08, bar=0.03):
+    """Four closed bars round the upper arm at ``centre_share`` of its length, in the plane
+    across it: a square hole of half-size ``hole`` (metres) the arm passes through."""
+    sh, el = info.joints_world["shoulder"], info.joints_world["elbow"]
+    u = (el - sh) / np.linalg.norm(el - sh)
+    e1 = np.cross(u, info.frame.up)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(u, e1)
+    centre = sh + centre_share * (el - sh)
+    span = 2 * (hole + bar)
+    bars = []
+    for k, (a, b) in enumerate(((e1, e2), (e2, e1))):
+        for sign in (1, -1):
+            rot = np.column_stack([a, b, u])
+            bars.append(rigs.add_box(f"{name}{2 * k + (sign > 0)}",
+                                     centre + sign * (hole + bar / 2) * a, (bar, span, bar), rot))
+    return bars
+
+
+def test_an_arm_threaded_through_a_ring_has_no_path_and_the_search_confirms_it(tmp_path):
+    """A closed ring round the upper arm, the chest kept still: the elbow is always farther
+    from the shoulder than any point of the ring's hole, so the arm can never leave it;
+    the target ahead has clear poses (a goal region) but no path reaches them. Reach says
+    no_path; OMPL finds none either (confirmed by the search, not by the IK)."""
+    _arm, info = humanoid()
+    ring(info, "Ring")
+    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.05, -0.1))
+    rc, report = bake(tmp_path, ["Ahead"], "--no-chest-rotation", "--sampling-budget", "5000")
+    assert rc == 1 and reasons(report)["Ahead"] == "no_path", report["tasks"][0]["message"]
+    (v,) = refusal.check_report(bpy.context, report, budget_s=3.0)
+    assert (v.status, v.method) == ("confirmed", "ompl"), v.detail
+    assert v.goal_states > 0 and v.states_checked > 1000
+
+
+def test_a_start_with_the_hand_inside_a_box_is_confirmed_by_the_skin(tmp_path):
+    """The hand (and the wrist) inside a closed box: Reach refuses the start, and the
+    evaluated skin of the hand meets the box."""
+    arm, info = humanoid()
+    wrist = info.joints_world["wrist"]
+    tip = np.array(arm.matrix_world @ arm.pose.bones["mixamorig:RightHand"].tail)
+    rigs.add_box("Crate", 0.5 * (wrist + tip), (0.16, 0.16, 0.16))
+    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
+    rc, report = bake(tmp_path, ["Ahead"])
+    assert rc == 1 and reasons(report)["Ahead"] == "start_in_collision", report
+    (v,) = refusal.check_report(bpy.context, report)
+    assert (v.status, v.method, v.clearance) == ("confirmed", "skin", 0.0), v.detail
+    assert "Crate" in v.detail
+
+
+def test_a_starved_planner_s_no_path_is_a_false_refusal(tmp_path):
+    """The plate scene is solvable (Reach reaches it with its default settings); with ten
+    search positions and no fallback Reach says no_path, and the cross-check finds a
+    clear path: a false refusal, with the path's length and a goal state on the target."""
+    arm, info = humanoid()
+    rigs.plate_scene(info, arm)
+    rc, report = bake(tmp_path, ["Cup"], name="solved")
+    assert rc == 0, report["tasks"][0]["message"]
+    rc, report = bake(tmp_path, ["Cup"], "--node-budget", "10", "--no-sampling-fallback",
+                      "--no-guided-fallback", name="starved")
+    assert rc == 1 and reasons(report)["Cup"] == "no_path", report
+    (v,) = refusal.check_report(bpy.context, report, budget_s=10.0)
+    assert (v.status, v.method) == ("false_refusal", "ompl"), v.detail
+    assert v.path_length > 0.1 and len(v.goal_state) == 7
+    target = info.arm.to_canonical_points(np.array(bpy.data.objects["Cup"].matrix_world.translation))
+    wrist = joints_of_one(info.arm, v.goal_state)[3]
+    assert np.linalg.norm(np.array(wrist) - target) <= 0.006 * info.arm.arm_length
+
+
+def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_a_false_start_in_collision(tmp_path):
+    """A square sleeve of four closed bars round the hand, 15 % wider than the hand's skin
+    box: the skin is clear (its faces 6 mm from the walls), but the hand's round capsule
+    (the box's corners) stands into all four walls, and no step out of the sleeve takes
+    it farther from them, so Reach refuses the start. The skin says otherwise."""
+    arm, info = humanoid(skin_radius=0.04)
+    hand = arm.pose.bones["mixamorig:RightHand"]
+    mw = arm.matrix_world
+    wrist, tip = np.array(mw @ hand.head), np.array(mw @ hand.tail)
+    axis = (tip - wrist) / np.linalg.norm(tip - wrist)
+    from mathutils import Vector
+
+    side = np.array(Vector(axis.tolist()).orthogonal().normalized())
+    third = np.cross(axis, side)
+    half, bar, long = 1.15 * 0.04, 0.02, np.linalg.norm(tip - wrist) + 0.06
+    centre = wrist + axis * (0.01 + long / 2)
+    for k, (a, b) in enumerate(((side, third), (third, side))):
+        for sign in (1, -1):
+            rigs.add_box(f"Sleeve{2 * k + (sign > 0)}", centre + sign * (half + bar / 2) * a,
+                         (bar, 2 * (half + bar), long), np.column_stack([a, b, axis]))
+    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
+    rc, report = bake(tmp_path, ["Ahead"])
+    if reasons(report)["Ahead"] != "start_in_collision":
+        pytest.skip(f"Reach did not refuse this start: {report['tasks'][0]['message']}")
+    (v,) = refusal.check_report(bpy.context, report)
+    assert (v.status, v.method) == ("false_refusal", "skin"), v.detail
+    assert 0.0 < v.clearance < 0.03
+
+
+def test_the_geometry_finds_touching_crossing_and_inside():
+    """The numpy geometry on hand-made cases: crossing and touching triangles, parallel
+    ones apart, a point inside a closed box and outside it, a box's closedness."""
+    t = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=float)
+    up = np.array([[0.2, 0.2, -0.5], [0.2, 0.2, 0.5], [0.2, 0.6, 0.5]])
+    apart = t + [0, 0, 0.01]
+    touching = np.array([[0.3, 0.3, 0.0], [0.3, 0.3, 1.0], [0.3, 0.5, 1.0]])
+    assert geometry.triangles_intersect(np.array([t, t, t]), np.array([up, apart, touching])).tolist() \
+        == [True, False, True]
+    corners = np.array([(x, y, z) for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    tris = np.array([(q[0], q[i], q[i + 1]) for q in quads for i in (1, 2)])
+    assert geometry.closed(tris) and not geometry.closed(tris[:-1])
+    inside = geometry.points_inside([[0.5, 0.5, 0.5], [0.5, 0.5, 1.5], [0.0, 0.5, 0.5]],
+                                    corners[tris])
+    assert inside[:2].tolist() == [True, False]
+    d = geometry.point_triangle_distance(np.array([[0.2, 0.2, 2.0], [2.0, 0.0, 0.0]]),
+                                         *np.repeat(t[None], 2, 0).transpose(1, 0, 2))
+    assert np.allclose(d, [2.0, 1.0])

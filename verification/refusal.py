@@ -1,0 +1,860 @@
+"""Is a refusal true? An independent cross-check of a failed reach's reason.
+
+A failed reach is a claim: "no clear motion takes this arm from its pose to that target".
+This module checks the claim by other means than the planner's search and answers, per
+refused target, with a :class:`Verdict` whose ``status`` is
+
+``confirmed``
+    the check agrees (no path within its budget, no valid pose at the target at all, the
+    start's skin meets an obstacle, the target lies inside a closed obstacle);
+``false_refusal``
+    the check contradicts it: a clear path exists (its length and goal state are given),
+    or the start's arm and hand skin are clear of every obstacle;
+``inconclusive``
+    the check ran but cannot decide (the start pose is not valid by the core's own test,
+    so no search can leave it; an arm without skin and with its bones clear);
+``unchecked``
+    the reason is not one this module checks (``target_in_obstacle`` not inside a closed
+    mesh, a chase's pursuit, a later leg of a sequence whose start only the planner
+    knows, a start inside the character's own body capsules, bad input).
+
+The path claim (``no_path``, ``arm_does_not_fit``, ``needs_lean``, ``needs_step``,
+``out_of_reach``): :func:`check_path_claim`
+------------------------------------------------------------------------------------
+The problem is the planner's own, rebuilt by the pipeline's readers (:func:`rebuild`):
+the rig model of ``reach_addon.blender.rig.build`` at the start frame, the obstacles of
+the pipeline's gathering (every place a moving obstacle takes over its animation, swept
+twice a frame, where any moves), the settings of the report. On it, OMPL's RRTConnect
+searches the seven joints the core animates — chest rotation, α, β, γ, elbow flexion and
+the wrist's two angles — in :class:`reach_addon.core.sampling.JointSpace` widened to take
+in the rig's start pose, with the core's own state test
+(:class:`reach_addon.core.sampling.StateValidity`: joint and elevation limits, Algorithm
+1's elbow side, the body's capsules, the obstacles with the clearance through the
+planner's ``CollisionChecker``), motions checked every ``Settings.step`` of the lever-arm
+metric (the core's search step), as ``bench/ompl_race.py`` races it.
+
+**The goal region** is an OMPL ``GoalSampleableRegion`` subclassed in Python
+(:class:`WristGoal`; the bindings allow it): a state is in it when its wrist is within
+``Settings.goal_tolerance`` arm lengths of the target (``distanceGoal`` is that distance in
+arm lengths, the threshold the tolerance). Its samples are valid states found densely by
+the core's analytic IK (:func:`goal_region`): at the target, at every chest rotation of
+the space's range in :data:`CHEST_STEP_DEG` steps (with Table 1's value and the start's),
+over the whole swivel circle in :data:`SWIVEL_STEP_DEG` steps, each legal arm pose (joint
+limits; the elevation limit and elbow side by the state test) whose arm is clear given
+the first of the generator's hand samples, most relaxed first, that makes the state
+valid; at most :data:`GOAL_STATES`, spread over the chest rotations and the swivel
+circle. Where the target itself gives none, the same is tried at seven points of the
+tolerance ball (its six axis ends and its point nearest the shoulder). If no valid goal
+state exists at all, the refusal is confirmed without searching (milliseconds for a
+target out of reach: the IK has no legal pose). Otherwise RRTConnect runs for
+``budget_s`` seconds (default :data:`OMPL_BUDGET_S`; ``max_states``, if given, also
+stops it after that many states tested, the planner's own count): a path found is a
+false refusal, with its length (the wrist's travel along it, arm lengths) and its goal
+state (degrees, :data:`reach_addon.core.sampling.JOINT_NAMES`); the path is re-checked
+outside OMPL, every step of the metric, before it counts.
+
+The start claim (``start_in_collision``): :func:`check_start`
+--------------------------------------------------------------
+Blender's evaluated skin against the obstacles' triangles, geometry in numpy
+(:mod:`verification.geometry`, no code shared with the planner's checker): the character's
+meshes — deformed by the armature through an Armature modifier, or parented to the
+armature or its bones — as Blender evaluates them at the start frame; of them the
+triangles of the reaching arm and hand (a vertex whose weights are mostly the arm's bones
+— the clavicle and every bone below it — makes its triangles the arm's; a mesh parented
+to such a bone is the arm's whole); and the obstacles' evaluated triangles by the README's
+rules (visible objects with faces, not the character, not a target, or the obstacle
+collection's), read by this module's own walk of the depsgraph (:func:`scene_obstacles`).
+Confirmed when an arm skin triangle intersects an obstacle triangle (exact
+triangle–triangle test) or a skin vertex lies inside a closed obstacle (ray parity), or a
+bone of the arm passes through an obstacle triangle or has a joint inside a closed one;
+false when the arm and hand skin and bones are clear; inconclusive when the arm has no
+skin and its bones are clear. A start inside the character's own body capsules and an
+obstacle moving into a chase are other claims (unchecked).
+
+``target_in_obstacle``: confirmed when the target lies inside a closed obstacle (ray
+parity), else unchecked (Reach also counts the character's body and treats meshes its
+own way). Bad input (exit status 2) is never a refusal of a target and is not checked.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from reach_addon.core import ik
+from reach_addon.core.errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH,
+                                     OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE)
+from reach_addon.core.sampling import (JOINT_NAMES, JointSpace, StateValidity, joints_of,
+                                       joints_of_one)
+from reach_addon.core.settings import Settings
+
+from . import geometry
+
+#: The reasons whose claim is "no clear path": checked by OMPL (:func:`check_path_claim`).
+PATH_REASONS = (NO_PATH, ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH)
+#: Every reason this module answers for (the others are ``unchecked``).
+CHECKED_REASONS = PATH_REASONS + (START_IN_COLLISION, TARGET_IN_OBSTACLE)
+CONFIRMED, FALSE_REFUSAL = "confirmed", "false_refusal"
+INCONCLUSIVE, UNCHECKED = "inconclusive", "unchecked"
+STATUSES = (CONFIRMED, FALSE_REFUSAL, INCONCLUSIVE, UNCHECKED)
+#: Seconds OMPL may search for a path where a goal region exists.
+OMPL_BUDGET_S = 10.0
+#: Most states the goal region keeps.
+GOAL_STATES = 64
+#: Chest rotation step of the goal region's IK (degrees).
+CHEST_STEP_DEG = 5.0
+#: Swivel step of the goal region's IK (degrees; the planner's default is 5).
+SWIVEL_STEP_DEG = 2.0
+#: Settings whose only use here is the metric of :func:`wrist_travel` (no limits read).
+_NO_LIMITS = Settings()
+
+
+@dataclass
+class Verdict:
+    """The cross-check of one refused target.
+
+    ``status``: one of :data:`STATUSES`; ``detail``: one line saying why; ``method``:
+    what decided (``ik`` no valid goal state, ``ompl`` a search, ``skin``, ``bones``,
+    ``point_in_mesh`` or ``none``); ``seconds``: wall time of this check. For the path
+    claim: ``goal_states`` (valid states in the goal region), ``states_checked`` (validity
+    tests, the goal region's and OMPL's), ``table1_chest_deg`` (Table 1's chest rotation at
+    the target), and for a path found ``path_length`` (how far the wrist travels along it,
+    arm lengths: :func:`wrist_travel`) and ``goal_state`` (the path's last state, 7 angles in degrees,
+    :data:`~reach_addon.core.sampling.JOINT_NAMES`). For the start claim ``clearance``:
+    the least distance between the arm's skin and the obstacles (arm lengths; 0 when they
+    meet)."""
+
+    target: str
+    reason: str
+    status: str
+    detail: str
+    method: str = "none"
+    seconds: float = 0.0
+    goal_states: int | None = None
+    states_checked: int | None = None
+    table1_chest_deg: float | None = None
+    path_length: float | None = None
+    goal_state: list | None = None
+    clearance: float | None = None
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+# --- the path claim: the core's problem, OMPL's search ------------------------------------
+
+@dataclass
+class GoalRegion:
+    """Valid goal states found by :func:`goal_region`: ``rows`` (N, 7) in degrees; how many
+    legal arm poses the IK gave (``legal``), how many of those had the arm clear of the
+    obstacles (``arm_clear``), and the chest rotations tried (``bodies``)."""
+
+    rows: np.ndarray
+    legal: int
+    arm_clear: int
+    bodies: list
+    wrists: int
+
+
+def _spread(n: int) -> np.ndarray:
+    """An order of range(n) that spreads its first few over the whole range (golden-ratio
+    steps), so that a goal region cut short still covers the swivel circle."""
+    return np.argsort((np.arange(n) * 0.6180339887498949) % 1.0, kind="stable")
+
+
+def goal_region(planner, validity: StateValidity, target_c, *, most: int = GOAL_STATES,
+                chest_step: float = CHEST_STEP_DEG,
+                swivel_step: float = SWIVEL_STEP_DEG) -> GoalRegion:
+    """Valid states with the wrist within the goal tolerance of ``target_c`` (canonical),
+    found by the core's IK (see the module docstring). ``planner`` gives the arm, the
+    settings and the generator's hand samples and collision checker; ``validity`` (on the
+    space widened by the start) decides each state. Returns a :class:`GoalRegion`."""
+    arm, s = planner.arm, planner.settings
+    target = np.asarray(target_c, dtype=float)
+    found = _goal_rows(planner, validity, target, most, chest_step, swivel_step)
+    if len(found.rows):
+        return found
+    tol = 0.95 * s.goal_tolerance * arm.arm_length
+    toward = np.asarray(arm.shoulder, dtype=float) - target
+    toward = toward / max(float(np.linalg.norm(toward)), 1e-12)
+    ball = [target + tol * d for d in np.vstack([np.eye(3), -np.eye(3), toward[None]])]
+    legal, arm_clear = found.legal, found.arm_clear
+    for wrist in ball:
+        part = _goal_rows(planner, validity, wrist, most, chest_step, swivel_step)
+        legal += part.legal
+        arm_clear += part.arm_clear
+        if len(part.rows):
+            return GoalRegion(part.rows, legal, arm_clear, part.bodies, 1 + len(ball))
+    return GoalRegion(np.zeros((0, 7)), legal, arm_clear, found.bodies, 1 + len(ball))
+
+
+def _goal_rows(planner, validity, wrist, most, chest_step, swivel_step) -> GoalRegion:
+    arm, s, gen = planner.arm, planner.settings, planner.generator
+    space = validity.space
+    fine = s.replace(swivel_step=min(float(swivel_step), float(s.swivel_step)))
+    lo, hi = float(space.lo[0]), float(space.hi[0])
+    table1 = float(np.clip(ik.solve(arm, wrist[None], s).body[0], lo, hi))
+    grid = np.arange(lo, hi, float(chest_step)).tolist() + [hi, table1]
+    bodies = sorted({round(b, 9) for b in grid if lo <= b <= hi},
+                    key=lambda b: (abs(b - table1) > 1e-9, abs(b - table1)))
+    per = max(2, int(math.ceil(most / max(1, len(bodies)))))
+    hands = sorted(gen.hand_samples, key=lambda h: (abs(h[0]) + abs(h[1]), h))
+    checker = gen.checker
+    per_body, legal_n, clear_n = [], 0, 0
+    for body in bodies:
+        sol = ik.solve(arm, wrist[None], fine, None, float(body))
+        legal = np.flatnonzero(sol.legal[0])
+        legal_n += len(legal)
+        rows = []
+        for k in legal[_spread(len(legal))]:
+            config = sol.config(0, int(k)).as_array()
+            config[3] = (config[3] + 180.0) % 360.0 - 180.0
+            if not (np.all(config >= space.lo[:5] - 1e-9) and np.all(config <= space.hi[:5] + 1e-9)):
+                continue
+            joints = sol.joints(0, int(k))[0]
+            if checker.collides(arm.to_world_points(joints), include_hand=False):
+                continue                       # the arm itself is blocked: no hand helps
+            clear_n += 1
+            for hand in hands:
+                q = np.concatenate([config, np.asarray(hand, dtype=float)])
+                if validity.valid(q):
+                    rows.append(q)
+                    break
+            if len(rows) >= per:
+                break
+        per_body.append(rows)
+    out = []
+    while any(per_body) and len(out) < most:
+        for rows in per_body:
+            if rows and len(out) < most:
+                out.append(rows.pop(0))
+    return GoalRegion(np.array(out).reshape(-1, 7), legal_n, clear_n, bodies, 1)
+
+
+def why_invalid(validity: StateValidity, q) -> str:
+    """Why the core's state test refuses configuration ``q`` (degrees): which of its parts
+    (elevation, elbow side, the body's capsules, an obstacle) — for messages."""
+    arm = validity.arm
+    q = [float(v) for v in q]
+    if math.hypot(q[1], q[2]) > validity.elevation_max:
+        return "the elevation limit"
+    joints = joints_of_one(arm, q)
+    hit = validity.checker.first_hit(arm.to_world_points(np.array(joints)))
+    if hit is not None:
+        return f"the {hit[0]} touches '{hit[1]}' (within the clearance)"
+    if arm.body_capsules:
+        return "the arm is inside the character's own body capsules, or the elbow off its side"
+    return "the elbow is off its side"
+
+
+def _ompl_space(space: JointSpace):
+    """The joint space as OMPL's bounded ``RealVectorStateSpace`` whose motions are checked
+    every ``Settings.step`` of the metric (as ``bench/ompl_race.py`` builds it)."""
+    from ompl import base as ob
+
+    n = len(JOINT_NAMES)
+    out = ob.RealVectorStateSpace(n)
+    bounds = ob.RealVectorBounds(n)
+    bounds.low = space.coordinates(space.lo).tolist()
+    bounds.high = space.coordinates(space.hi).tolist()
+    out.setBounds(bounds)
+    out.setLongestValidSegmentFraction(space.settings.step / out.getMaximumExtent())
+    return out
+
+
+def _wrist_goal_class():
+    from ompl import base as ob
+
+    class WristGoal(ob.GoalSampleableRegion):
+        """OMPL's goal region: states whose wrist is within ``tolerance`` arm lengths of
+        ``target`` (canonical); its samples cycle through ``coords`` (valid states found by
+        :func:`goal_region`, in OMPL's coordinates)."""
+
+        def __init__(self, si, space, target, tolerance, coords):
+            super().__init__(si)
+            self.space, self.target = space, np.asarray(target, dtype=float)
+            self.length = space.arm.arm_length
+            self.coords = [list(map(float, c)) for c in coords]
+            self.scale = space.scale.tolist()
+            self.drawn = 0
+            self.setThreshold(float(tolerance))
+
+        def distanceGoal(self, state):
+            q = [state[i] / k for i, k in enumerate(self.scale)]
+            wrist = joints_of_one(self.space.arm, q)[3]
+            return math.dist(wrist, self.target.tolist()) / self.length
+
+        def sampleGoal(self, state):
+            c = self.coords[self.drawn % len(self.coords)]
+            self.drawn += 1
+            for i, x in enumerate(c):
+                state[i] = x
+
+        def maxSampleCount(self):
+            return len(self.coords)
+
+    return WristGoal
+
+
+def _seed_ompl(seed: int) -> None:
+    """Seed OMPL's random numbers (it rejects 0, so seed + 1); its complaint about a
+    reseed after the first draw is silenced (the sequence is still the seed's)."""
+    from ompl import util as ou
+
+    level = ou.getLogLevel()
+    ou.setLogLevel(ou.LOG_NONE)
+    try:
+        ou.RNG.setSeed(int(seed) + 1)
+    finally:
+        ou.setLogLevel(level)
+
+
+#: Seconds OMPL's path simplifier may shorten a path found (its length is then the one
+#: reported; validity is checked again after it).
+SIMPLIFY_S = 1.0
+
+
+def ompl_search(validity: StateValidity, start_row, target_c, goals, *, budget_s: float,
+                max_states: int | None = None, seed: int = 0):
+    """RRTConnect from ``start_row`` (degrees) to the :class:`WristGoal` region of
+    ``target_c`` sampled by ``goals`` (N, 7) in ``validity``'s space, for at most
+    ``budget_s`` seconds (and ``max_states`` validity tests, if given); a path found is
+    then shortened by OMPL's simplifier for at most :data:`SIMPLIFY_S` seconds. Returns
+    (path (K, 7) in degrees or None, its length in the metric, states tested by the
+    search)."""
+    from ompl import base as ob
+    from ompl import geometric as og
+    from ompl import util as ou
+
+    space = validity.space
+    ou.setLogLevel(ou.LOG_ERROR)
+    _seed_ompl(seed)
+    state_space = _ompl_space(space)
+    si = ob.SpaceInformation(state_space)
+    scale = space.scale.tolist()
+    calls0 = validity.calls
+
+    def valid(state):
+        return validity.valid([state[i] / k for i, k in enumerate(scale)])
+
+    si.setStateValidityChecker(valid)
+    si.setup()
+    setup = og.SimpleSetup(si)
+    setup.setPlanner(og.RRTConnect(si))
+    start = state_space.allocState()
+    for i, x in enumerate(space.coordinates(start_row).tolist()):
+        start[i] = x
+    setup.setStartState(start)
+    goal = _wrist_goal_class()(si, space, target_c, validity.settings.goal_tolerance,
+                               space.coordinates(goals))
+    setup.setGoal(goal)
+    setup.setup()
+    ptc = ob.timedPlannerTerminationCondition(float(budget_s))
+    if max_states is not None:
+        limit = int(max_states)
+        ptc = ob.plannerOrTerminationCondition(
+            ptc, ob.PlannerTerminationCondition(lambda: validity.calls - calls0 >= limit))
+    setup.solve(ptc)
+    tested = validity.calls - calls0
+    if not setup.haveExactSolutionPath():
+        return None, None, tested
+    setup.simplifySolution(SIMPLIFY_S)
+    path = setup.getSolutionPath()
+    states = path.getStates()
+    coords = np.array([[s[i] for i in range(len(JOINT_NAMES))] for s in states])
+    return space.angles(coords), float(path.length()), tested
+
+
+def wrist_travel(arm, path, step: float) -> float:
+    """How far the wrist travels (arm lengths) along ``path`` (K, 7, degrees), its states
+    joined by straight joint-space motions sampled every ``step`` (arm lengths of the
+    lever-arm metric; :class:`~reach_addon.core.sampling.JointSpace`)."""
+    space = JointSpace(arm, _NO_LIMITS)
+    rows = [np.asarray(path[0], dtype=float)]
+    for qa, qb in zip(path[:-1], path[1:]):
+        n = max(1, int(math.ceil(space.distance(qa, qb) / step)))
+        rows += [qa + (qb - qa) * (k / n) for k in range(1, n + 1)]
+    wrists = joints_of(arm, np.array(rows))[:, 3]
+    return float(np.linalg.norm(np.diff(wrists, axis=0), axis=1).sum()) / arm.arm_length
+
+
+def _path_valid(validity: StateValidity, path) -> bool:
+    """Is every state of ``path`` (K, 7, degrees) and every state between them, a step of
+    the metric apart, valid by the core's test? (OMPL checked it so; this re-checks it
+    outside OMPL, on the angles it returned.)"""
+    space = validity.space
+    step = space.settings.step
+    for qa, qb in zip(path[:-1], path[1:]):
+        n = max(1, int(math.ceil(space.distance(qa, qb) / step)))
+        for k in range(n + 1):
+            if not validity.valid(qa + (qb - qa) * (k / n)):
+                return False
+    return True
+
+
+def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: str = NO_PATH,
+                     budget_s: float = OMPL_BUDGET_S, max_states: int | None = None,
+                     seed: int = 0, search: bool = True) -> Verdict:
+    """Cross-check the refusal "no clear path from ``start_row`` to ``target_c``".
+
+    ``planner``: a :class:`reach_addon.core.Planner` holding the problem (arm model,
+    obstacles, settings); ``start_row``: the start configuration (7 angles, degrees, as
+    :func:`reach_addon.core.sampling.pose_row` gives it); ``target_c``: the target in the
+    canonical frame (figure units). ``budget_s`` / ``max_states``: OMPL's budget;
+    ``seed``: OMPL's random seed. ``search`` False: only the goal region is checked (a
+    start the caller does not know) — confirmed if it is empty, else unchecked. Returns a
+    :class:`Verdict` (see the module docstring for the method)."""
+    t0 = time.perf_counter()
+    arm, s = planner.arm, planner.settings
+    start_row = np.asarray(start_row, dtype=float)
+    space = JointSpace(arm, s, start_row)
+    validity = StateValidity(arm, s, planner.generator.checker, space)
+    target_c = np.asarray(target_c, dtype=float)
+    table1 = float(ik.solve(arm, target_c[None], s).body[0])
+    region = goal_region(planner, validity, target_c)
+    v = Verdict(target, reason, CONFIRMED, "", "ik", goal_states=len(region.rows),
+                table1_chest_deg=round(table1, 3))
+    chest = f"chest {round(space.lo[0]) + 0}..{round(space.hi[0]) + 0}°"
+    if not len(region.rows):
+        v.detail = (f"no valid goal state: the IK over the swivel circle ({SWIVEL_STEP_DEG:g}° "
+                    f"steps), the chest range ({chest}, {CHEST_STEP_DEG:g}° steps) and "
+                    f"{len(planner.generator.hand_samples)} hand samples at the target "
+                    f"{'and its tolerance ball ' if region.wrists > 1 else ''}gave "
+                    f"{region.legal} legal arm poses, {region.arm_clear} with the arm clear, "
+                    "none valid with a hand")
+    elif not search:
+        v.status, v.method = UNCHECKED, "ik"
+        v.detail = (f"{len(region.rows)} valid goal states exist; the start (where the "
+                    "previous leg ended) is known only to the planner, so no path is searched")
+    elif not validity.valid(start_row):
+        v.status, v.method = INCONCLUSIVE, "ik"
+        v.detail = (f"{len(region.rows)} valid goal states exist, but the start pose is not "
+                    f"valid by the core's test ({why_invalid(validity, start_row)}): the "
+                    "planner first moves such a start out of contact, which a search from it "
+                    "cannot")
+    else:
+        v.method = "ompl"
+        path, length, tested = ompl_search(validity, start_row, target_c, region.rows,
+                                           budget_s=budget_s, max_states=max_states, seed=seed)
+        budget = f"{budget_s:g} s" + (f" / {max_states} states" if max_states else "")
+        if path is None:
+            v.detail = (f"OMPL RRTConnect found no path in {budget} ({tested} states tested) "
+                        f"to a goal region of {len(region.rows)} valid states ({chest})")
+        elif not _path_valid(validity, path) or math.dist(
+                joints_of_one(arm, path[-1])[3], target_c.tolist()) > \
+                s.goal_tolerance * arm.arm_length * (1 + 1e-6):
+            v.status = INCONCLUSIVE
+            v.detail = ("OMPL RRTConnect returned a path that the core's test refuses "
+                        "between its states, or that ends off the target (not counted)")
+        else:
+            goal = path[-1]
+            gap = math.dist(joints_of_one(arm, goal)[3], target_c.tolist()) / arm.arm_length
+            travel = wrist_travel(arm, path, s.step)
+            v.status = FALSE_REFUSAL
+            v.path_length, v.goal_state = round(travel, 4), [round(float(x), 3) for x in goal]
+            notes = [f"the wrist {gap:.4f} arm lengths from the target"]
+            if abs(goal[0] - table1) > 1.0:
+                notes.append(f"the chest turned {goal[0]:.1f}° where Table 1 gives {table1:.1f}°")
+            v.detail = (f"OMPL RRTConnect found a clear path in {time.perf_counter() - t0:.1f} s "
+                        f"({tested} states tested, {len(path)} waypoints, {length:.2f} long in "
+                        f"the joint metric): the wrist travels {travel:.3f} arm lengths to the "
+                        "goal state " + ", ".join(f"{n} {x:.1f}" for n, x in zip(JOINT_NAMES, goal))
+                        + f" ({'; '.join(notes)})")
+    v.states_checked = validity.calls
+    v.seconds = round(time.perf_counter() - t0, 4)
+    return v
+
+
+# --- Blender: the obstacles by the README's rules, the character, the start's skin ---------
+
+def character_objects_of(armature, scene) -> set:
+    """Names of the character's objects: the armature, every object with an Armature
+    modifier on it, and every object with it as an ancestor (this module's own reading of
+    the README's rule)."""
+    names = {armature.name}
+    for ob in scene.objects:
+        up = ob.parent
+        while up is not None and up != armature:
+            up = up.parent
+        if up is not None or any(m.type == "ARMATURE" and m.object == armature
+                                 for m in getattr(ob, "modifiers", ())):
+            names.add(ob.name)
+    return names
+
+
+#: Blender object types with faces (an evaluated mesh): the README's obstacle table.
+FACE_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
+
+
+def _mesh_arrays(mesh, matrix):
+    """(world vertices (V, 3), triangles (T, 3) of vertex indices) of an evaluated mesh."""
+    mesh.calc_loop_triangles()
+    nv, nt = len(mesh.vertices), len(mesh.loop_triangles)
+    co = np.empty(nv * 3, dtype=np.float64)
+    mesh.vertices.foreach_get("co", co)
+    idx = np.empty(nt * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("vertices", idx)
+    m = np.asarray(matrix, dtype=float)
+    return co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3], idx.reshape(-1, 3)
+
+
+def scene_obstacles(context, exclude, collection=None) -> list:
+    """The obstacles by the README's rules, read from Blender's evaluated depsgraph at the
+    current frame: [(label, world triangles (T, 3, 3), closed?)], one entry per instance
+    (an object, or each object a collection instance or geometry nodes draw, labelled
+    ``owner/object``). An instance counts when its type has faces (:data:`FACE_TYPES`),
+    its owner (the instancer, or the object itself) is visible, neither is in
+    ``exclude`` (names: the character, the targets) and, with ``collection``, either is in
+    it. Triangles with a NaN or infinite corner, or without area, are left out; ``closed``
+    is :func:`verification.geometry.closed` of the instance's triangulation."""
+    depsgraph = context.evaluated_depsgraph_get()
+    allowed = None if collection is None else {ob.name for ob in collection.all_objects}
+    out = []
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        if ob.type not in FACE_TYPES:
+            continue
+        original = ob.original
+        owner = inst.parent.original if inst.is_instance and inst.parent is not None else original
+        names = {owner.name, original.name}
+        if names & set(exclude) or (allowed is not None and not names & allowed) or \
+                not owner.visible_get():
+            continue
+        try:
+            mesh = ob.to_mesh()
+        except RuntimeError:
+            continue
+        try:
+            verts, tris = _mesh_arrays(mesh, np.array(inst.matrix_world))
+        finally:
+            ob.to_mesh_clear()
+        if not len(tris):
+            continue
+        label = owner.name if owner.name == original.name else f"{owner.name}/{original.name}"
+        world = verts[tris]
+        ok = np.isfinite(world).all(axis=(1, 2))
+        shut = geometry.closed(tris)
+        world = world[ok]
+        world = world[geometry.triangle_areas(world) > 0.0]
+        if len(world):
+            out.append((label, world, shut and bool(ok.all())))
+    return out
+
+
+def arm_bones(armature, info) -> set:
+    """Names of the reaching arm's bones: the clavicle (or, without one, the upper arm)
+    and every bone below it, with the rig adapter's arm bones, the bones it keys and the
+    hand's bones and everything below them."""
+    a = info.bones.arms[info.side]
+    pose = armature.pose.bones
+    roots = {a.clavicle or a.upper_arm, a.upper_arm, a.forearm, a.hand, *info.hand_bones}
+    roots |= {a.keyed(r) for r in ("clavicle", "upper_arm", "forearm", "hand")} - {None}
+    out = set()
+    for name in roots:
+        if name in pose:
+            out.add(name)
+            out |= {b.name for b in pose[name].children_recursive}
+    return out
+
+
+def _arm_skin(context, armature, bones: set):
+    """(arm triangles (T, 3, 3), meshes that have some) of the character's meshes at the
+    current frame (see the module docstring): a vertex counts as the arm's where its
+    weights on bone vertex groups are at least half the arm's, a triangle where one of its
+    vertices does; a mesh bone-parented (itself or an ancestor) to an arm bone is the arm's
+    whole. A mesh whose evaluated vertices do not match its own (a modifier that adds
+    geometry) is read by its nearest bone: a triangle whose centre lies nearer an arm bone
+    than any other bone counts."""
+    depsgraph = context.evaluated_depsgraph_get()
+    mw = np.array(armature.matrix_world)
+    all_bones = [(b.name, mw[:3, :3] @ np.array(b.head) + mw[:3, 3],
+                  mw[:3, :3] @ np.array(b.tail) + mw[:3, 3]) for b in armature.pose.bones]
+    parts, meshes = [], []
+    for ob in context.scene.objects:
+        if ob.type not in FACE_TYPES or not ob.visible_get():
+            continue
+        deformed = any(m.type == "ARMATURE" and m.object == armature and m.show_viewport
+                       for m in getattr(ob, "modifiers", ()))
+        whole, up, child = False, ob.parent, ob
+        while up is not None:
+            if up == armature:
+                whole = child.parent_type == "BONE" and child.parent_bone in bones
+                break
+            child, up = up, up.parent
+        if up is None and not deformed:
+            continue                                        # not the character's
+        if not (whole or deformed):
+            continue                                        # rides the armature, not the arm
+        ev = ob.evaluated_get(depsgraph)
+        mesh = ev.to_mesh()
+        try:
+            verts, tris = _mesh_arrays(mesh, np.array(ev.matrix_world))
+        finally:
+            ev.to_mesh_clear()
+        if not len(tris):
+            continue
+        if whole:
+            pick = np.ones(len(tris), dtype=bool)
+        elif len(verts) == len(ob.data.vertices):
+            names = {g.index: g.name for g in ob.vertex_groups}
+            bone_names = {b.name for b in armature.data.bones}
+            arm_v = np.zeros(len(verts), dtype=bool)
+            for v in ob.data.vertices:
+                total = share = 0.0
+                for g in v.groups:
+                    name = names.get(g.group)
+                    if name in bone_names:
+                        total += g.weight
+                        if name in bones:
+                            share += g.weight
+                arm_v[v.index] = total > 0 and share >= 0.5 * total
+            pick = arm_v[tris].any(axis=1)
+        else:
+            centres = verts[tris].mean(axis=1)
+            best = np.full(len(centres), np.inf)
+            mine = np.zeros(len(centres), dtype=bool)
+            for name, h, t in all_bones:
+                d = _point_segment(centres, h, t)
+                closer = d < best
+                best = np.where(closer, d, best)
+                mine = np.where(closer, name in bones, mine)
+            pick = mine
+        if pick.any():
+            parts.append(verts[tris[pick]])
+            meshes.append(ob.name)
+    tris = np.concatenate(parts) if parts else np.zeros((0, 3, 3))
+    return tris[geometry.triangle_areas(tris) > 0.0], meshes
+
+
+def _point_segment(p, a, b):
+    ab = b - a
+    t = np.clip((p - a) @ ab / max(float(ab @ ab), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(p - a - t[:, None] * ab, axis=1)
+
+
+def check_start(context, armature, info, exclude, collection=None, *, target: str = "",
+                message: str = "") -> Verdict:
+    """Cross-check ``start_in_collision`` at the current frame (the start frame): the arm's
+    skin and bones against the obstacles (see the module docstring). ``info``: the rig
+    adapter's :class:`~reach_addon.blender.rig.RigInfo` (which arm, its bones, its length);
+    ``exclude``: object names that are not obstacles besides the character (the targets);
+    ``collection``: the obstacle collection, or None. ``message``: the refusal's message,
+    which says which claim it is (the character's own body, an obstacle moving into a
+    chase: unchecked). Returns a :class:`Verdict`."""
+    t0 = time.perf_counter()
+    v = Verdict(target, START_IN_COLLISION, UNCHECKED, "", "none")
+    if "own body" in message or "moves into the arm" in message:
+        v.detail = ("a start inside the character's own body capsules, or an obstacle moving "
+                    "into a chase, is a claim about the rig model or a later frame: not checked")
+        v.seconds = round(time.perf_counter() - t0, 4)
+        return v
+    length = info.arm.arm_length
+    scene = context.scene
+    bones = arm_bones(armature, info)
+    obstacles = scene_obstacles(context, character_objects_of(armature, scene) | set(exclude),
+                                collection)
+    skin, meshes = _arm_skin(context, armature, bones)
+    mw = np.array(armature.matrix_world)
+    segs = [(n, mw[:3, :3] @ np.array(armature.pose.bones[n].head) + mw[:3, 3],
+             mw[:3, :3] @ np.array(armature.pose.bones[n].tail) + mw[:3, 3]) for n in sorted(bones)]
+    hits = []
+    skin_lo = skin.reshape(-1, 3).min(0) if len(skin) else None
+    skin_hi = skin.reshape(-1, 3).max(0) if len(skin) else None
+    skin_points = np.unique(skin.reshape(-1, 3), axis=0) if len(skin) else np.zeros((0, 3))
+    joints = np.array([p for _n, h, t in segs for p in (h, t)]).reshape(-1, 3)
+    least = 0.5 * length
+    for label, tris, shut in obstacles:
+        if len(skin):
+            ia, _ib = geometry.intersecting_pairs(skin, tris)
+            if len(ia):
+                hits.append(f"{len(ia)} arm skin triangle(s) of {', '.join(meshes)} meet '{label}'")
+            elif shut:
+                lo, hi = tris.reshape(-1, 3).min(0), tris.reshape(-1, 3).max(0)
+                if np.all(skin_hi >= lo) and np.all(skin_lo <= hi):
+                    inside = geometry.points_inside(skin_points, tris)
+                    if inside.any():
+                        hits.append(f"{int(inside.sum())} arm skin vertices inside the closed "
+                                    f"'{label}'")
+            least = min(least, geometry.least_distance(skin_points, tris, least),
+                        geometry.least_distance(tris.reshape(-1, 3), skin, least))
+        a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
+        crossing = [n for n, h, t in segs if geometry.segments_cross_triangles(
+            np.repeat(h[None], len(tris), 0), np.repeat(t[None], len(tris), 0), a, b, c).any()]
+        if crossing:
+            hits.append(f"bone(s) {', '.join(repr(n) for n in crossing[:3])} pass through '{label}'")
+        if shut and len(joints) and geometry.points_inside(joints, tris).any():
+            hits.append(f"a joint of the arm is inside the closed '{label}'")
+    if hits:
+        v.status, v.method = CONFIRMED, "skin" if len(skin) else "bones"
+        v.detail = "; ".join(hits[:4])
+        v.clearance = 0.0
+    elif not len(skin):
+        v.status, v.method = INCONCLUSIVE, "bones"
+        v.detail = (f"the arm has no skin to check (no mesh deformed by or parented to its "
+                    f"{len(bones)} bones) and its bones are clear of {len(obstacles)} obstacle(s)")
+    else:
+        v.status, v.method = FALSE_REFUSAL, "skin"
+        v.clearance = round(least / length, 4)
+        v.detail = (f"the arm's skin ({len(skin)} triangles of {', '.join(meshes)}) and its "
+                    f"{len(bones)} bones are clear of {len(obstacles)} obstacle(s) "
+                    f"({sum(len(t) for _l, t, _c in obstacles)} triangles), the nearest "
+                    + (f"{least / length:.4f} arm lengths away" if least < 0.5 * length
+                       else "farther than half an arm length"))
+    v.seconds = round(time.perf_counter() - t0, 4)
+    return v
+
+
+def check_target_inside(context, armature, point, exclude, collection=None, *, target: str = "",
+                        message: str = "") -> Verdict:
+    """Cross-check ``target_in_obstacle`` for the target at world ``point``: confirmed when
+    it lies inside a closed obstacle (ray parity; obstacles as :func:`scene_obstacles`),
+    else unchecked (see the module docstring)."""
+    t0 = time.perf_counter()
+    v = Verdict(target, TARGET_IN_OBSTACLE, UNCHECKED, "", "point_in_mesh")
+    names = [label for label, tris, shut in scene_obstacles(
+        context, character_objects_of(armature, context.scene) | set(exclude), collection)
+        if shut and geometry.points_inside(np.asarray(point, dtype=float)[None], tris)[0]]
+    if names:
+        v.status, v.detail = CONFIRMED, f"the target is inside the closed '{names[0]}'"
+    else:
+        v.detail = ("the target is inside no closed obstacle by ray parity; Reach also counts "
+                    "the character's own body" + (" (as its message says)"
+                                                  if "own body" in message else "")
+                    + " and reads open meshes its own way: not checked further")
+    v.seconds = round(time.perf_counter() - t0, 4)
+    return v
+
+
+# --- the planner's problem, rebuilt from a report ------------------------------------------
+
+@dataclass
+class Problem:
+    """A scene's planning problem as the pipeline builds it (:func:`rebuild`): the rig
+    model (``info``), ``settings`` (the report's, with the chest kept still where the
+    pipeline keeps it), the :class:`reach_addon.core.Planner` on the pipeline's obstacles
+    (``planner``; swept over the animation where obstacles move: ``moving``), the start
+    row (degrees), the start ``frame``, the target objects' names and the names left out
+    of the obstacles (``exclude``: the character, the targets)."""
+
+    info: object
+    settings: object
+    planner: object
+    start_row: np.ndarray
+    frame: int
+    targets: list
+    exclude: set
+    collection: object
+    moving: set
+
+
+def rebuild(context, report: dict, task: str = "reach", obstacles: str | None = None,
+            overrides: dict | None = None) -> Problem:
+    """Rebuild the planner's problem of a bake report (``python -m reach_addon bake
+    --report``) on the open file, which must be the bake's input: the armature
+    (``report['armature']``) read by ``reach_addon.blender.rig.build`` on the reported arm
+    at the first task's start frame, the settings of the report (``Settings.from_dict``),
+    the pipeline's handling of targets carried by the character's bones, and the
+    pipeline's obstacle gathering (the character and the targets left out, objects beyond
+    the arm's reach sphere unread; ``obstacles``: the collection name of ``--obstacles``).
+    Where obstacles move after the start frame, every place they take until their
+    animation ends is added (sampled twice a frame), so a path clear of these is clear
+    whenever it runs. ``task``: the bake's ``--task``;
+    ``overrides``: its ``--bone`` pairs. Leaves the scene at the start frame."""
+    import bpy
+
+    from reach_addon.blender import pipeline
+    from reach_addon.blender import rig as rig_mod
+    from reach_addon.blender.scene import (KEPT, character_objects, gather_pieces,
+                                           obstacles_from_pieces)
+    from reach_addon.core import Planner, Settings
+    from reach_addon.core.sampling import pose_row
+
+    scene = context.scene
+    frame = int(min(t["frame_start"] for t in report["tasks"]))
+    scene.frame_set(frame)
+    context.view_layer.update()
+    armature = bpy.data.objects[report["armature"]]
+    names = list(dict.fromkeys(t["target"] for t in report["tasks"]))
+    targets = [bpy.data.objects[n] for n in names]
+    settings = Settings.from_dict(report["settings"])
+    request = pipeline.Request(armature.name, names, task=task, side=report["arm"],
+                               obstacles=obstacles, settings=settings,
+                               overrides=dict(overrides or {}))
+    first = np.array(targets[0].matrix_world.translation)
+    info = rig_mod.build(armature, report["arm"], request.overrides, target=first)
+    info, settings, _note = pipeline._carried_targets(armature, targets, info, request, first)
+    collection = bpy.data.collections.get(obstacles) if obstacles else None
+    exclude = character_objects(armature, scene) | set(names)
+    # as the pipeline reads them: objects wholly beyond the arm's reach sphere are not read
+    pieces, _obstacles, _built = KEPT.get(context, exclude, collection,
+                                          within=pipeline.reach_bounds(info.arm, settings, targets))
+    pieces = list(pieces)
+    moving = pipeline._moving_owners(context, exclude, collection, frame)
+    if moving:
+        ends = [pipeline._animation_end(bpy.data.objects.get(n)) for n in moving]
+        end = int(math.ceil(max([e for e in ends if e is not None], default=frame)))
+        for f in range(frame, end + 1):
+            for k in range(2):
+                scene.frame_set(f, subframe=k / 2)
+                pieces += gather_pieces(context, exclude, collection, only=moving)
+        scene.frame_set(frame)
+        context.view_layer.update()
+    planner = Planner(info.arm, obstacles_from_pieces(pieces), settings)
+    start_row = pose_row(planner.generator.config_pose(info.start, info.start_hand))
+    return Problem(info, settings, planner, start_row, frame, names, exclude, collection, moving)
+
+
+def check_report(context, report: dict, task: str = "reach", obstacles: str | None = None, *,
+                 overrides: dict | None = None, budget_s: float = OMPL_BUDGET_S,
+                 max_states: int | None = None, seed: int = 0) -> list:
+    """Cross-check every refused target of a bake report on the open file (the bake's
+    input; see :func:`rebuild` for ``task``, ``obstacles``, ``overrides``). Returns one
+    :class:`Verdict` per failed task, in the report's order. The path claim is searched
+    from the rig's start pose; a later target of a ``sequence`` or ``guided`` task starts
+    where the one before it ended, which only the planner knows, so only its goal region
+    is checked there. A chase's ``no_path`` (the wrist did not catch up) is unchecked; its
+    other reasons are about the target's last position, searched from the start. Leaves
+    the scene at the start frame."""
+    import bpy
+
+    failed = [(i, t) for i, t in enumerate(report.get("tasks", ())) if not t["success"]]
+    if not failed:
+        return []
+    problem = rebuild(context, report, task, obstacles, overrides)
+    arm = problem.info.arm
+    armature = bpy.data.objects[report["armature"]]
+    scene = context.scene
+    out, start_verdict = [], None
+    for i, t in failed:
+        reason, name, message = t["reason"], t["target"], t.get("message") or ""
+        if reason == START_IN_COLLISION:
+            if start_verdict is None or "own body" in message or "moves into" in message:
+                start_verdict = check_start(context, armature, problem.info, problem.targets,
+                                            problem.collection, target=name, message=message)
+            out.append(Verdict(**{**start_verdict.to_dict(), "target": name}))
+            continue
+        point = np.array(bpy.data.objects[name].matrix_world.translation)
+        if task == "chase":
+            scene.frame_set(int(t["frame_end"]))
+            point = np.array(bpy.data.objects[name].matrix_world.translation)
+            scene.frame_set(problem.frame)
+        if reason == TARGET_IN_OBSTACLE:
+            out.append(check_target_inside(context, armature, point, problem.targets,
+                                           problem.collection, target=name, message=message))
+        elif reason in PATH_REASONS:
+            if task == "chase" and reason == NO_PATH:
+                out.append(Verdict(name, reason, UNCHECKED,
+                                   "a chase's no_path says the wrist did not catch the moving "
+                                   "target in time (a pursuit at a speed limit): not checked"))
+                continue
+            later = task in ("sequence", "guided") and i > 0
+            out.append(check_path_claim(problem.planner, problem.start_row,
+                                        arm.to_canonical_points(point), target=name,
+                                        reason=reason, budget_s=budget_s,
+                                        max_states=max_states, seed=seed, search=not later))
+        else:
+            out.append(Verdict(name, str(reason), UNCHECKED, "not a reason this module checks"))
+    return out
