@@ -19,8 +19,8 @@ refused target, with a :class:`Verdict` whose ``status`` is
     knows, a start inside the character's own body capsules, bad input).
 
 The path claim (``no_path``, ``arm_does_not_fit``, ``needs_lean``, ``needs_step``,
-``out_of_reach``): :func:`check_path_claim`
-------------------------------------------------------------------------------------
+``out_of_reach``, ``start_held``): :func:`check_path_claim`
+-------------------------------------------------------------------------------------
 The problem is the planner's own, rebuilt by the pipeline's readers (:func:`rebuild`):
 the rig model of ``reach_addon.blender.rig.build`` at the start frame, the obstacles of
 the pipeline's gathering (every place a moving obstacle takes over its animation, swept
@@ -86,7 +86,8 @@ import numpy as np
 
 from reach_addon.core import ik
 from reach_addon.core.errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH,
-                                     OUT_OF_REACH, START_IN_COLLISION, TARGET_IN_OBSTACLE)
+                                     OUT_OF_REACH, START_HELD, START_IN_COLLISION,
+                                     TARGET_IN_OBSTACLE)
 from reach_addon.core.sampling import (JOINT_NAMES, JointSpace, StateValidity, joints_of,
                                        joints_of_one)
 from reach_addon.core.settings import Settings
@@ -94,7 +95,7 @@ from reach_addon.core.settings import Settings
 from . import geometry
 
 #: The reasons whose claim is "no clear path": checked by OMPL (:func:`check_path_claim`).
-PATH_REASONS = (NO_PATH, ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH)
+PATH_REASONS = (NO_PATH, ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, START_HELD)
 #: Every reason this module answers for (the others are ``unchecked``).
 CHECKED_REASONS = PATH_REASONS + (START_IN_COLLISION, TARGET_IN_OBSTACLE)
 CONFIRMED, FALSE_REFUSAL = "confirmed", "false_refusal"

@@ -11,13 +11,16 @@ reaching shoulder's frame, and sorts every point into one of :data:`CLASSES`:
   strength category f_R (paper, "3-level criteria"). A planned reach ends there in this
   pose or, where the strongest is beyond the smoothness bound of its approach, in a weaker
   one: never in a stronger (tested against a batch study);
-* ``chest``: reachable as above only because the chest turns (Table 1): with the chest held
-  still (``body_rotation = 0``) no pose is clear there. Only with ``Settings.chest_rotation``;
+* ``chest``: reachable as above only because the chest turns (Table 1, or where Table 1's
+  turn puts no clear arm there the nearest turn that does, as a reach arrives:
+  ``ConfigurationGenerator.target_chest``): with the chest held still (``body_rotation =
+  0``) no pose is clear there. Only with ``Settings.chest_rotation``;
 * ``blocked``: within the arm's reach, but the scene (or the character's own body) leaves
   the arm or the hand no room: the target is inside an obstacle, or the arm does not fit
   (:meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target`);
-* ``out``: no legal arm pose puts the wrist there (beyond the arm, or outside the joint
-  limits; the diagnoses ``out_of_reach``, ``needs_lean`` and ``needs_step``).
+* ``out``: no legal arm pose puts the wrist there at any chest rotation of the range
+  (beyond the arm, or outside the joint limits; the diagnoses ``out_of_reach``,
+  ``needs_lean`` and ``needs_step``).
 
 **What the envelope is not.** It classifies the *end* pose, as Jack-style reach envelopes
 do: a point counts as reachable when the hand fits there. Plan also needs a way in from the
@@ -44,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import ik
+from .generator import CHEST_FIT_STEP
 
 #: The classes, in the order of their codes (0 … 5).
 CLASSES = ("f_R 0", "f_R 1", "f_R 2", "chest", "blocked", "out")
@@ -114,26 +118,48 @@ class Envelope:
 
 def classify_point(generator, point, legal: bool | None = None) -> tuple:
     """(class, f_R or -1) of one canonical wrist point, with the planner's generator (made
-    with :func:`exhaustive` settings; see the module docstring). ``legal``: whether some legal arm pose (joint
-    limits, the chest as Table 1 turns it) puts the wrist there, if the caller knows.
+    with :func:`exhaustive` settings; see the module docstring), at the chest rotation a
+    reach would arrive there with (``ConfigurationGenerator.target_chest``: Table 1's
+    where it fits, else the nearest that does). ``legal``: whether some legal arm pose
+    (joint limits, any chest rotation of the range) puts the wrist there, if the caller
+    knows.
 
     Without a clear pose the point is ``blocked`` or ``out`` as
     :meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target` sorts it
     (inside an obstacle: target_in_obstacle; no legal pose: beyond reach; else the arm or
     the hand does not fit), without working out how much room is missing."""
-    pose = generator.solve(point)
-    if pose is not None:
-        turned = abs(pose.config.body_rotation) > 1e-9
-        if generator.settings.chest_rotation and turned and \
+    point = np.asarray(point, dtype=float)
+    chest = generator.target_chest(point)
+    if chest is not None:
+        pose = generator.solve(point, body_rotation=chest)
+        if generator.settings.chest_rotation and abs(chest) > 1e-9 and \
                 generator.solve(point, body_rotation=0.0) is None:
             return CHEST, int(pose.f_r)
         return int(pose.f_r), int(pose.f_r)
     if legal is None:
-        legal = bool(ik.solve(generator.arm, np.asarray(point, float)[None],
-                              generator.settings).legal[0].any())
+        legal = bool(legal_anywhere(generator, point[None])[0])
     if legal or generator.obstacles.point_inside(generator.arm.to_world_points(point)):
         return BLOCKED, -1
     return OUT, -1
+
+
+def legal_anywhere(generator, points) -> np.ndarray:
+    """(n,) bool: does a legal arm pose put the wrist at each canonical point (n, 3) at
+    some chest rotation the planner may arrive with (Table 1's, then the range every
+    ``CHEST_FIT_STEP`` degrees and its ends; Table 1's alone with body rotation off)? One
+    vectorised IK call per chest rotation, for the points still without one."""
+    st, arm = generator.settings, generator.arm
+    points = np.asarray(points, dtype=float)
+    legal = ik.solve(arm, points, st).legal.any(axis=1) if len(points) else np.zeros(0, bool)
+    if st.chest_rotation and len(points):
+        limit = float(st.chest_rotation_max)
+        for b in sorted({round(float(b), 9) for b in
+                         np.arange(-limit, limit + 1e-9, CHEST_FIT_STEP)} | {-limit, limit}):
+            todo = np.flatnonzero(~legal)
+            if not todo.size:
+                break
+            legal[todo] = ik.solve(arm, points[todo], st, body_rotation=b).legal.any(axis=1)
+    return legal
 
 
 def envelope_steps(generator, points, chunk: int = 64):
@@ -145,10 +171,10 @@ def envelope_steps(generator, points, chunk: int = 64):
     f_r = np.full(n, -1, dtype=np.int8)
     t0 = time.perf_counter()
     arm = generator.arm
-    # Most of a cube round the shoulder is beyond the arm: one IK call for every point finds
-    # those with no legal pose, which are "out" (or "blocked" when inside an obstacle), as
-    # classify_point would find one by one (the same ik.solve, then diagnose_target).
-    legal = ik.solve(arm, points, generator.settings).legal.any(axis=1) if n else np.zeros(0, bool)
+    # Most of a cube round the shoulder is beyond the arm: a few IK calls for every point
+    # find those with no legal pose at any chest rotation, which are "out" (or "blocked"
+    # when inside an obstacle), as classify_point would find one by one.
+    legal = legal_anywhere(generator, points)
     inside = [generator.obstacles.point_inside(w) for w in arm.to_world_points(points[~legal])]
     classes[np.flatnonzero(~legal)[np.array(inside, bool)]] = BLOCKED
     todo = np.flatnonzero(legal)

@@ -26,7 +26,7 @@ from .numeric import cross
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
                      TARGET_IN_OBSTACLE)
 from .strength import strength_category
-from .torso import ChestPath
+from .torso import ChestPath, body_rotation_deg
 
 
 
@@ -45,6 +45,10 @@ class Diagnosis:
     distance: float = 0.0
     lean_deg: float = 0.0
     above: bool = False
+
+
+#: Degrees between the chest rotations :meth:`ConfigurationGenerator.target_chest` tries.
+CHEST_FIT_STEP = 5.0
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,7 @@ class ConfigurationGenerator:
                             (self._seg_clavicle, self._seg_upper, self._seg_fore))
         self.chest = None
         self.hand_blocked = False
+        self._target_chests: dict = {}
 
     def between_keys(self) -> ConfigurationGenerator:
         """This generator with half the clearance, for the instants between two keyed
@@ -116,14 +121,50 @@ class ConfigurationGenerator:
             self._between_keys = loose
         return loose
 
-    def for_reach(self, start: Pose, target) -> ConfigurationGenerator:
+    def for_reach(self, start: Pose, target, fit_chest: bool = True) -> ConfigurationGenerator:
         """A view of this generator for one reach from ``start`` to ``target``: the chest
         rotation follows :class:`~reach_addon.core.torso.ChestPath` instead of Table 1
-        alone (the search, the smoothing and the timing of that reach all use it)."""
+        alone (the search, the smoothing and the timing of that reach all use it), toward
+        :meth:`target_chest` at the target with ``fit_chest`` (a chase's frames, planned
+        many times a second toward a target that moves, keep to Table 1)."""
         view = copy.copy(self)
+        arrival = self.target_chest(target) if fit_chest else None
         view.chest = ChestPath(self.arm.arm_length, self.arm.hand_length, self.settings,
-                               start.wrist, start.config.body_rotation, target)
+                               start.wrist, start.config.body_rotation, target, arrival)
         return view
+
+    def chest_candidates(self, wrist) -> list:
+        """The chest rotations (degrees) a reach may arrive at ``wrist`` with, in the order
+        they are tried: Table 1's (the paper's), then the rest of the chest's range
+        (``Settings.chest_rotation_max`` either way) every :data:`CHEST_FIT_STEP` degrees
+        and its ends, nearest to Table 1's first. Table 1's alone with body rotation off."""
+        st = self.settings
+        table = float(body_rotation_deg(np.asarray(wrist, dtype=float), self.arm.arm_length,
+                                        self.arm.hand_length, st))
+        if not st.chest_rotation:
+            return [table]
+        limit = float(st.chest_rotation_max)
+        grid = {round(float(b), 9) for b in np.arange(-limit, limit + 1e-9, CHEST_FIT_STEP)}
+        grid |= {-limit, limit}
+        return [table] + sorted((b for b in grid if abs(b - table) > 1e-9),
+                                key=lambda b: (abs(b - table), b))
+
+    def target_chest(self, wrist) -> float | None:
+        """The chest rotation a reach should arrive at ``wrist`` with: the first of
+        :meth:`chest_candidates` at which a legal pose puts the arm and a hand there clear
+        (:meth:`solve`). Table 1's wherever it fits (the paper's model, kept wherever it
+        can be); where it puts no clear arm on the target (the shoulder turned out of
+        reach, the elbow into a shelf board) the nearest rotation that does, as a person
+        turns the trunk to get at a thing. None if none does. Remembered per target."""
+        key = tuple(np.round(np.asarray(wrist, dtype=float), 12).tolist())
+        cache = self._target_chests
+        if key not in cache:
+            if len(cache) >= 64:
+                cache.clear()
+            cache[key] = next((b for b in self.chest_candidates(wrist)
+                               if self.solve(np.asarray(wrist, dtype=float),
+                                             body_rotation=b) is not None), None)
+        return cache[key]
 
     def move_scale(self, previous: Pose, wrist) -> float:
         """How many search steps a move of the wrist from ``previous`` spans (at least 1),
@@ -569,16 +610,30 @@ class ConfigurationGenerator:
           is the clearance the best pose lacks (figure units, margin included), ``part`` the
           segment and ``obstacle`` what it touches;
         * ``NEEDS_LEAN`` / ``NEEDS_STEP`` / ``OUT_OF_REACH``: no legal arm pose puts the
-          wrist there (:meth:`_beyond_reach`)."""
+          wrist there (:meth:`_beyond_reach`).
+
+        Every chest rotation of the range counts (:meth:`chest_candidates`), not Table 1's
+        alone: a target a turned trunk reaches is reachable (:meth:`target_chest`); the
+        reason given is read at the rotation nearest Table 1's that has legal poses, and
+        beyond reach from the turn that brings the shoulder nearest the target."""
         wrist = np.asarray(wrist, dtype=float)
         arm, checker = self.arm, self.checker
         world = arm.to_world_points(wrist)
         if self.obstacles.point_inside(world):
             return Diagnosis(TARGET_IN_OBSTACLE, obstacle=self.obstacles.enclosing_owner(world))
-        sol = ik.solve(arm, wrist[None], self.settings)
+        if self.target_chest(wrist) is not None:
+            return None
+        nearest = None           # the chest rotation whose shoulder is nearest the target
+        for chest in self.chest_candidates(wrist):
+            sol = ik.solve(arm, wrist[None], self.settings, body_rotation=chest)
+            if sol.legal[0].any():
+                break
+            if nearest is None or np.linalg.norm(wrist - sol.shoulder[0]) < \
+                    np.linalg.norm(wrist - nearest.shoulder[0]):
+                nearest = sol
+        else:
+            return self._beyond_reach(wrist, nearest)
         legal = np.flatnonzero(sol.legal[0])
-        if legal.size == 0:
-            return self._beyond_reach(wrist, sol)
         body = float(sol.body[0])
         joints = sol.joints(0, legal)
         clear_of_body = ~ik.self_collision(arm, body, joints, include_hand=False)

@@ -267,7 +267,7 @@ class LiveSession:
         if problem is not None:
             # Something moved into the arm: first try another pose with the wrist where it
             # is (within the smoothness bound), then search on from there.
-            escape = gen.for_reach(start, target_c).solve(start.wrist, start)
+            escape = gen.for_reach(start, target_c, fit_chest=False).solve(start.wrist, start)
             if escape is not None:
                 prefix, start, problem = [start], escape, None
         # The reach task's search, fallbacks included; the diagnosis (is the target

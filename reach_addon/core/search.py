@@ -418,7 +418,7 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
     the bound (the wrist's angles alone could not make up for an arm turning too fast over
     several frames in a row)."""
     s = generator.settings
-    view = generator.for_reach(previous, target)
+    view = generator.for_reach(previous, target, fit_chest=False)
     turn = s.hand_space_turn_speed / fps       # the hand's whole turn in a frame, roll too
     results = []
     stuck = False

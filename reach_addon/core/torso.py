@@ -251,7 +251,11 @@ class ChestPath:
     with ``w_0`` and ``θ_0`` the start wrist and chest rotation and ``t`` the target: equal
     to the start rotation at the start, to Table 1 at the target, continuous in between,
     and still a function of the wrist position alone (the paper's dimensionality
-    reduction). Capped at ``Settings.chest_rotation_max`` either way.
+    reduction). Capped at ``Settings.chest_rotation_max`` either way. ``target_rotation``:
+    the rotation the reach should arrive with where Table 1's puts no clear arm on the
+    target (:meth:`~reach_addon.core.generator.ConfigurationGenerator.target_chest`); it
+    takes over from Table 1 as the wrist nears the target, as the start's hands over,
+    + (θ_t − T_1(t)) (1 − min(1, |w − t| / |w_0 − t|)).
 
     Phasing (paper: "the joint recruitments are phased; they do not all change
     simultaneously"): the arm leads and the chest follows. The turn from θ_0 toward θ(w)
@@ -264,7 +268,8 @@ class ChestPath:
     searched and timed, carries it (the timing then needs no second IK solve).
     """
 
-    def __init__(self, arm_length, hand_length, settings, start_wrist, start_rotation, target):
+    def __init__(self, arm_length, hand_length, settings, start_wrist, start_rotation, target,
+                 target_rotation=None):
         self.arm_length = arm_length
         self.hand_length = hand_length
         self.settings = settings
@@ -272,6 +277,8 @@ class ChestPath:
         start_wrist = np.asarray(start_wrist, dtype=float)
         self.offset = float(start_rotation) - float(body_rotation_deg(start_wrist, arm_length,
                                                                         hand_length, settings))
+        self.arrival = 0.0 if target_rotation is None else float(target_rotation) - float(
+            body_rotation_deg(self.target, arm_length, hand_length, settings))
         self.span = float(np.linalg.norm(start_wrist - self.target))
         self.start_rotation = float(start_rotation)
 
@@ -283,6 +290,7 @@ class ChestPath:
             return table
         remaining = min(1.0, math.dist(wrist.tolist(), self.target.tolist()) / self.span)
         limit = self.settings.chest_rotation_max
-        handed = min(max(table + self.offset * remaining, -limit), limit)
+        handed = min(max(table + self.offset * remaining + self.arrival * (1.0 - remaining),
+                         -limit), limit)
         recruited = phased(1.0 - remaining, self.settings.chest_phase_delay)
         return self.start_rotation + (handed - self.start_rotation) * float(recruited)
