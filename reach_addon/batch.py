@@ -417,34 +417,154 @@ def _local(specs, workers: int):
         t.join()
 
 
-def _dask(specs, address: str):
+#: Dask's address schemes whose connections are encrypted and authenticated (TLS).
+ENCRYPTED_SCHEMES = ("tls", "wss")
+
+
+def is_loopback(host: str) -> bool:
+    """True when ``host`` (an address's host part) is this machine's loopback interface:
+    127.0.0.0/8, ::1 (or ::ffff:127.x.y.z) or ``localhost``. Other names are not looked
+    up: a name is taken for a network address, whatever it resolves to."""
+    import ipaddress
+
+    if host.lower().rstrip(".") == "localhost":
+        return True
     try:
-        from distributed import Client, as_completed
+        ip = ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    mapped = getattr(ip, "ipv4_mapped", None)
+    return ip.is_loopback or bool(mapped and mapped.is_loopback)
+
+
+def insecure_address_message(address: str) -> str:
+    """The refusal of a plain (unencrypted) ``address`` that is not loopback: the risk, and
+    the two ways on."""
+    return (f"refusing --dask {address}: a plain connection is neither encrypted nor "
+            "authenticated, and a Dask scheduler runs whatever task graph it is sent, so "
+            "anyone who can reach that port can run any code on the scheduler and on "
+            "every worker, as the user they run as; use tls://HOST:PORT with "
+            "--tls-ca-file, --tls-cert and --tls-key (README: Batch studies), or accept "
+            "that risk with --insecure-network")
+
+
+def dask_security(address: str, tls_ca_file=None, tls_cert=None, tls_key=None,
+                  insecure_network: bool = False):
+    """How to connect to the Dask scheduler at ``address``; no connection is tried.
+
+    Inputs: the ``--dask`` address (``tls://HOST:PORT``, ``tcp://HOST:PORT``, or
+    ``HOST:PORT``, which Dask reads as its default scheme, tcp), the TLS files given as
+    flags (paths to PEM files; None: not given) and ``--insecure-network``.
+
+    Returns a ``distributed.security.Security`` for a ``tls://`` (or ``wss://``) address:
+    the CA file, the client certificate and its key are the flags where given, else Dask's
+    configuration (``distributed.comm.tls.ca-file``, ``distributed.comm.tls.client.cert``
+    and ``.key``: a YAML file in ``~/.config/dask/`` or ``DASK_DISTRIBUTED__COMM__TLS__...``
+    variables); encryption is required and the files are loaded here. Returns None for a
+    plain address on the loopback interface (:func:`is_loopback`), or anywhere with
+    ``insecure_network``.
+
+    Raises ReachError (one line) for a plain address elsewhere without
+    ``insecure_network`` (:func:`insecure_address_message`), TLS flags with a plain
+    address, a TLS address without a CA or certificate, or TLS files that are missing or
+    do not load; and when the distributed package is missing."""
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+        from distributed.security import Security
     except ImportError:
-        raise ReachError("--dask needs the distributed package: pip install 'dask[distributed]'") from None
+        raise ReachError("--dask needs the distributed package: pip install "
+                         "'dask[distributed]'") from None
     try:
-        client = Client(address, timeout=20)
+        scheme, loc = parse_address(address)
+        host, _port = parse_host_port(loc, default_port=8786)
+    except ValueError as exc:
+        raise ReachError(f"--dask {address}: {exc}") from None
+    given = {"--tls-ca-file": tls_ca_file, "--tls-cert": tls_cert, "--tls-key": tls_key}
+    if scheme not in ENCRYPTED_SCHEMES:
+        if any(given.values()):
+            flags = ", ".join(k for k, v in given.items() if v)
+            raise ReachError(f"{flags} given, but --dask {address} is a plain {scheme}:// "
+                             "address: write it tls://HOST:PORT")
+        if not (insecure_network or is_loopback(host)):
+            raise ReachError(insecure_address_message(address))
+        return None
+    chosen = {k: v for k, v in (("tls_ca_file", tls_ca_file), ("tls_client_cert", tls_cert),
+                                ("tls_client_key", tls_key)) if v}
+    security = Security(require_encryption=True, **chosen)
+    missing = [(flag, key) for flag, key, value in (
+        ("--tls-ca-file", "distributed.comm.tls.ca-file", security.tls_ca_file),
+        ("--tls-cert", "distributed.comm.tls.client.cert", security.tls_client_cert))
+        if not value]
+    if missing:
+        raise ReachError(f"--dask {address} needs the cluster's CA and a certificate signed "
+                         "by it, with its key: give "
+                         + " and ".join(flag for flag, _ in missing) + " (and --tls-key), "
+                         "or set " + " and ".join(key for _, key in missing)
+                         + " (and .client.key) in Dask's configuration")
+    for flag, value in (("--tls-ca-file", security.tls_ca_file),
+                        ("--tls-cert", security.tls_client_cert),
+                        ("--tls-key", security.tls_client_key)):
+        if value and "\n" not in value and not Path(value).is_file():
+            raise ReachError(f"{flag}: file '{value}' not found")
+    try:
+        security.get_connection_args("client")      # loads the CA, certificate and key
+    except (OSError, ValueError) as exc:            # ssl.SSLError is an OSError
+        raise ReachError(f"the TLS files do not load (CA '{security.tls_ca_file}', "
+                         f"certificate '{security.tls_client_cert}', key "
+                         f"'{security.tls_client_key}'): {exc}") from None
+    return security
+
+
+def connect(address: str, security):
+    """A ``distributed.Client`` of the scheduler at ``address``, connected with
+    ``security`` (:func:`dask_security`); a ReachError (one line) if it cannot connect or
+    the TLS handshake fails."""
+    from distributed import Client
+
+    try:
+        return Client(address, security=security, timeout=20)
     except OSError as exc:
-        raise ReachError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
-    try:
-        futures = client.map(dask_task, specs, key=[f"reach-{s['id']}" for s in specs],
-                             pure=False)
-        ids = {f.key: s["id"] for f, s in zip(futures, specs)}
-        for fut in as_completed(futures):
-            try:
-                yield fut.result()
-            except Exception as exc:
-                yield {"id": ids[fut.key], "error": f"{type(exc).__name__}: {exc}"}
-    finally:
-        client.close()
+        raise ReachError(_connect_error(address, exc)) from None
+
+
+def _dask(client, specs):
+    """Yield results of ``specs`` from the cluster of ``client`` as they finish."""
+    from distributed import as_completed
+
+    futures = client.map(dask_task, specs, key=[f"reach-{s['id']}" for s in specs], pure=False)
+    ids = {f.key: s["id"] for f, s in zip(futures, specs)}
+    for fut in as_completed(futures):
+        try:
+            yield fut.result()
+        except Exception as exc:
+            yield {"id": ids[fut.key], "error": f"{type(exc).__name__}: {exc}"}
+
+
+def _connect_error(address: str, exc: OSError) -> str:
+    """One line for a failed connection to the scheduler: Dask's reason without its
+    connection description, and for a refused TLS handshake what to check."""
+    reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    reason = reason.rpartition(">: ")[2]
+    if "SSL" in reason or "certificate" in reason:
+        return (f"the Dask scheduler at {address} and this client did not accept each "
+                f"other's TLS certificates ({reason}): --tls-cert must be signed by the CA "
+                "the cluster trusts, and --tls-ca-file must be the CA that signed the "
+                "scheduler's certificate")
+    return f"cannot reach the Dask scheduler at {address}: {reason}"
 
 
 def run_study(path: Path, workers: int | None = None, dask: str | None = None,
-              output: Path | None = None, out=None) -> int:
-    """Run a study; returns the exit status (0 all reached, 1 some failed)."""
+              output: Path | None = None, out=None, *, tls_ca_file=None, tls_cert=None,
+              tls_key=None, insecure_network: bool = False) -> int:
+    """Run a study; returns the exit status (0 all reached, 1 some failed).
+
+    ``dask``: a scheduler's address (else ``workers`` local processes), connected to as
+    :func:`dask_security` says, with the TLS files and ``insecure_network`` given here; its
+    refusals come before the study is read or anything is written."""
     out = out or sys.stdout
+    security = (dask_security(dask, tls_ca_file, tls_cert, tls_key, insecure_network)
+                if dask else None)
     study = load_study(path, output)
-    study.output.mkdir(parents=True, exist_ok=True)
     results = {}
     pending = []
     for spec in study.specs:
@@ -453,13 +573,26 @@ def run_study(path: Path, workers: int | None = None, dask: str | None = None,
             pending.append(spec)
         else:
             results[spec["id"]] = r
+    client = connect(dask, security) if dask and pending else None
+    try:
+        return _run(study, pending, results, workers, dask, client, out)
+    finally:
+        if client is not None:
+            client.close(timeout=10)
+
+
+def _run(study, pending, results, workers, dask, client, out) -> int:
+    """Plan ``pending`` (on ``client``'s cluster, else locally), write each result as it
+    arrives, then the summaries; ``results`` holds those already done."""
+    study.output.mkdir(parents=True, exist_ok=True)
     workers = workers or os.cpu_count() or 1
     where = f"Dask cluster {dask}" if dask else f"{min(workers, max(1, len(pending)))} local workers"
     print(f"study '{study.name}': {len(study.specs)} tasks, {len(results)} already done, "
           f"{len(pending)} to run on {where}", file=out, flush=True)
     t0 = time.perf_counter()
     errors = 0
-    source = _dask(pending, dask) if dask else _local(pending, min(workers, max(1, len(pending))))
+    source = (_dask(client, pending) if client is not None
+              else _local(pending, min(workers, max(1, len(pending)))))
     by_id = {s["id"]: s for s in pending}
     for n, result in enumerate(source, 1):
         spec = by_id.get(result.get("id"))

@@ -1,0 +1,157 @@
+"""A Dask cluster on loopback for the batch tests, started as the README's recipe starts
+one: certificates made with the recipe's ``openssl`` commands, a scheduler and workers with
+``--tls-ca-file``, ``--tls-cert`` and ``--tls-key``, bound to 127.0.0.1.
+
+Every process is started in a new session (its own process group), so the scheduler, the
+workers' nannies, the Dask workers and the Reach worker children under them are all ended
+together, by the group's id, when the cluster closes — also when a test fails or the
+cluster does not start. Every wait has a deadline."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+BINDIR = Path(sys.executable).parent
+OPENSSL_TIMEOUT = 60
+START_TIMEOUT = 120
+
+
+def env(**extra):
+    """The environment of the command line and the cluster: this checkout importable, and
+    Dask's configuration only what the test gives (no ``DASK_*`` variables, no user file:
+    ``DASK_CONFIG`` names a folder without one)."""
+    out = {k: v for k, v in os.environ.items() if not k.startswith("DASK_")}
+    out.update(PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1",
+               DASK_CONFIG=str(Path(os.environ.get("TMPDIR", "/tmp")) / "reach-tests-no-dask-config"))
+    out.update(extra)
+    return out
+
+
+def openssl(*argv, cwd):
+    subprocess.run(["openssl", *argv], cwd=cwd, check=True, timeout=OPENSSL_TIMEOUT,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def make_certs(folder: Path, name: str = "farm") -> dict:
+    """A CA ``<name>-ca.pem`` and a key and certificate signed by it, ``<name>.key`` and
+    ``<name>.pem``, in ``folder`` — the README's commands. Returns the three paths:
+    ``{"ca", "cert", "key"}``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    openssl("req", "-x509", "-newkey", "rsa:3072", "-nodes", "-days", "365", "-subj",
+            f"/CN=reach {name} CA", "-keyout", f"{name}-ca.key", "-out", f"{name}-ca.pem",
+            cwd=folder)
+    openssl("req", "-newkey", "rsa:3072", "-nodes", "-subj", f"/CN=reach {name}", "-keyout",
+            f"{name}.key", "-out", f"{name}.csr", cwd=folder)
+    openssl("x509", "-req", "-in", f"{name}.csr", "-CA", f"{name}-ca.pem", "-CAkey",
+            f"{name}-ca.key", "-CAcreateserial", "-days", "365", "-out", f"{name}.pem",
+            cwd=folder)
+    return {"ca": folder / f"{name}-ca.pem", "cert": folder / f"{name}.pem",
+            "key": folder / f"{name}.key"}
+
+
+def tls_flags(certs: dict) -> list:
+    """The three flags of ``reach batch`` and of ``dask scheduler`` / ``dask worker``."""
+    return ["--tls-ca-file", str(certs["ca"]), "--tls-cert", str(certs["cert"]),
+            "--tls-key", str(certs["key"])]
+
+
+def security(certs: dict):
+    """A test client's ``Security`` with these files."""
+    from distributed.security import Security
+
+    return Security(require_encryption=True, tls_ca_file=str(certs["ca"]),
+                    tls_client_cert=str(certs["cert"]), tls_client_key=str(certs["key"]))
+
+
+def free_port():
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def end_group(proc, timeout=30):
+    """End ``proc`` and every process in its group: SIGTERM, then SIGKILL at ``timeout``."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            pass
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and group_alive(proc.pid):
+            proc.poll()
+            time.sleep(0.2)
+        if not group_alive(proc.pid):
+            break
+    try:
+        proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        pass
+
+
+def group_alive(pgid: int) -> list:
+    """The ids of the live (not zombie) processes in process group ``pgid``."""
+    alive = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            text = stat.read_text()
+        except OSError:
+            continue
+        fields = text[text.rindex(")") + 2:].split()
+        if fields[0] != "Z" and int(fields[2]) == pgid:
+            alive.append(int(stat.parent.name))
+    return alive
+
+
+@contextmanager
+def cluster(folder: Path, certs: dict | None, workers: int = 2):
+    """A scheduler on 127.0.0.1 and ``workers`` Dask worker processes (one thread each),
+    with TLS from ``certs`` (None: plain tcp). Yields the scheduler's address once every
+    worker has registered; the logs are ``folder/scheduler.log`` and
+    ``folder/workers.log``."""
+    dask = BINDIR / "dask"
+    assert dask.exists(), ("the dask command is missing: pip install 'dask[distributed]' "
+                           "(it is in requirements-dev.txt; run make setup)")
+    folder.mkdir(parents=True, exist_ok=True)
+    port = free_port()
+    scheme = "tls" if certs else "tcp"
+    address = f"{scheme}://127.0.0.1:{port}"
+    flags = tls_flags(certs) if certs else []
+    procs = []
+    logs = {}
+
+    def start(name, argv):
+        log = logs[name] = folder / f"{name}.log"
+        with open(log, "w") as fh:
+            procs.append(subprocess.Popen([str(dask), *argv], env=env(), stdout=fh,
+                                          stderr=subprocess.STDOUT, start_new_session=True))
+
+    def tail():
+        return "\n".join(f"--- {p.name}\n" + p.read_text()[-3000:] for p in logs.values())
+
+    try:
+        start("scheduler", ["scheduler", "--host", "127.0.0.1", "--port", str(port),
+                            "--no-dashboard", *flags])
+        if workers:
+            start("workers", ["worker", address, "--host", "127.0.0.1", "--nworkers",
+                              str(workers), "--nthreads", "1", "--no-dashboard",
+                              "--local-directory", str(folder / "scratch"), *flags])
+        from distributed import Client
+
+        deadline = time.monotonic() + START_TIMEOUT
+        with Client(address, security=security(certs) if certs else None,
+                    timeout=START_TIMEOUT) as client:
+            while len(client.scheduler_info()["workers"]) < workers:
+                assert time.monotonic() < deadline, "the Dask workers did not start\n" + tail()
+                assert all(p.poll() is None for p in procs), "a Dask process ended\n" + tail()
+                time.sleep(0.5)
+        yield address
+    finally:
+        for p in reversed(procs):
+            end_group(p)
