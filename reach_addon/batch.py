@@ -1,4 +1,4 @@
-"""Batch studies: many reach tasks over scenes, armatures and targets, on local worker
+r"""Batch studies: many reach tasks over scenes, armatures and targets, on local worker
 processes or on a Dask distributed cluster, with one result file per task.
 
 A study is a TOML file (paths relative to it)::
@@ -38,17 +38,33 @@ Execution. Blender's Python module must run on a process's main thread, so every
 in a *Reach worker process*: a persistent child (``python -c ...`` with the bpy wheel, or
 ``blender -b --python-expr ...`` under the Blender binary) that reads one task per line on
 stdin and answers with one JSON line. Locally, ``workers`` such children (default: the
-number of cores) take tasks as they free up. With ``dask="tcp://HOST:PORT"`` the tasks are
+number of cores) take tasks as they free up. With ``dask="tls://HOST:PORT"`` the tasks are
 submitted to an existing Dask distributed cluster; each Dask worker process keeps one Reach
 worker child, so the work done per task is exactly the local one and the results are the
-same. Start such a cluster with (every machine needs Python 3.11, the bpy wheel, numpy,
-dask[distributed] and Reach importable — the scheduler too, it unpickles the task graph —
-and the scene files at the same paths)::
+same. Every machine needs Python 3.11, the bpy wheel, numpy, dask[distributed] and Reach
+importable — the scheduler too, it unpickles the task graph — and the scene files at the
+same paths.
 
-    PYTHONPATH=/path/to/reach dask scheduler --host 0.0.0.0 --port 8786
-    PYTHONPATH=/path/to/reach dask worker tcp://HOST:8786 --nworkers 4 --nthreads 1
+A Dask scheduler runs whatever it is sent: anyone who can connect to its port can run any
+code, as the user the cluster runs as, on the scheduler and every worker. So every
+connection uses TLS, each side showing a certificate of the farm's own CA
+(:func:`dask_security`: the CA, certificate and key from the flags or Dask's
+configuration), and a plain ``tcp://`` address beyond the loopback is refused unless
+``insecure_network`` accepts that risk. With a CA ``farm-ca.pem`` and a key and certificate
+signed by it, ``farm.key`` and ``farm.pem`` (the README's ``openssl`` commands make them),
+``SCHED`` the scheduler's address on the farm network and ``ME`` each worker machine's
+own (both 127.0.0.1 for a trial on one machine)::
 
-One thread per Dask worker process is enough: its Reach worker child does the work.
+    TLS="--tls-ca-file farm-ca.pem --tls-cert farm.pem --tls-key farm.key"
+    PYTHONPATH=/path/to/reach dask scheduler --host $SCHED --port 8786 \
+        --dashboard-address 127.0.0.1:8787 $TLS
+    PYTHONPATH=/path/to/reach dask worker tls://$SCHED:8786 --host $ME --nworkers 4 \
+        --nthreads 1 --dashboard-address 127.0.0.1:0 $TLS
+    python -m reach_addon batch study.toml --dask tls://$SCHED:8786 $TLS
+
+``--host`` binds each process to the farm's interface alone, ``--dashboard-address`` keeps
+Dask's HTTP pages (no login) on the loopback. One thread per Dask worker process is
+enough: its Reach worker child does the work.
 
 Results are written by the submitting process as they arrive, one JSON file per task named
 by a hash of its specification, atomically (:mod:`.atomic`: a temporary file renamed into

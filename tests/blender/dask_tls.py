@@ -1,6 +1,7 @@
 """A Dask cluster on loopback for the batch tests, started as the README's recipe starts
 one: certificates made with the recipe's ``openssl`` commands, a scheduler and workers with
-``--tls-ca-file``, ``--tls-cert`` and ``--tls-key``, bound to 127.0.0.1.
+``--tls-ca-file``, ``--tls-cert`` and ``--tls-key``, bound to 127.0.0.1 with ``--host`` and
+``--dashboard-address`` — and checked: every socket the cluster listens on is on 127.0.0.1.
 
 Every process is started in a new session (its own process group), so the scheduler, the
 workers' nannies, the Dask workers and the Reach worker children under them are all ended
@@ -95,6 +96,43 @@ def end_group(proc, timeout=30):
         pass
 
 
+def _hex_ip(text: str) -> str:
+    """An address of /proc/net/tcp{,6} (host byte order, 32-bit words) as text."""
+    import ipaddress
+    import struct
+
+    raw = bytes.fromhex(text)
+    words = struct.unpack(f"<{len(raw) // 4}I", raw)
+    return str(ipaddress.ip_address(struct.pack(f">{len(words)}I", *words)))
+
+
+def listening(pgids) -> list:
+    """(address, port) of every TCP socket that a process in the groups ``pgids`` listens
+    on (IPv4-mapped addresses as IPv4)."""
+    import ipaddress
+
+    inodes = set()
+    for pgid in pgids:
+        for pid in group_alive(pgid):
+            for fd in Path(f"/proc/{pid}/fd").glob("*"):
+                try:
+                    target = os.readlink(fd)
+                except OSError:
+                    continue
+                if target.startswith("socket:["):
+                    inodes.add(target[8:-1])
+    out = []
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        for line in Path(table).read_text().splitlines()[1:]:
+            fields = line.split()
+            if fields[3] == "0A" and fields[9] in inodes:      # LISTEN
+                host, port = fields[1].split(":")
+                ip = ipaddress.ip_address(_hex_ip(host))
+                mapped = getattr(ip, "ipv4_mapped", None)
+                out.append((str(mapped or ip), int(port, 16)))
+    return sorted(out)
+
+
 def group_alive(pgid: int) -> list:
     """The ids of the live (not zombie) processes in process group ``pgid``."""
     alive = []
@@ -113,8 +151,8 @@ def group_alive(pgid: int) -> list:
 def cluster(folder: Path, certs: dict | None, workers: int = 2):
     """A scheduler on 127.0.0.1 and ``workers`` Dask worker processes (one thread each),
     with TLS from ``certs`` (None: plain tcp). Yields the scheduler's address once every
-    worker has registered; the logs are ``folder/scheduler.log`` and
-    ``folder/workers.log``."""
+    worker has registered and every socket of the cluster listens on 127.0.0.1 alone; the
+    logs are ``folder/scheduler.log`` and ``folder/workers.log``."""
     dask = BINDIR / "dask"
     assert dask.exists(), ("the dask command is missing: pip install 'dask[distributed]' "
                            "(it is in requirements-dev.txt; run make setup)")
@@ -137,10 +175,11 @@ def cluster(folder: Path, certs: dict | None, workers: int = 2):
 
     try:
         start("scheduler", ["scheduler", "--host", "127.0.0.1", "--port", str(port),
-                            "--no-dashboard", *flags])
+                            "--dashboard-address", "127.0.0.1:0", *flags])
         if workers:
             start("workers", ["worker", address, "--host", "127.0.0.1", "--nworkers",
-                              str(workers), "--nthreads", "1", "--no-dashboard",
+                              str(workers), "--nthreads", "1",
+                              "--dashboard-address", "127.0.0.1:0",
                               "--local-directory", str(folder / "scratch"), *flags])
         from distributed import Client
 
@@ -151,6 +190,9 @@ def cluster(folder: Path, certs: dict | None, workers: int = 2):
                 assert time.monotonic() < deadline, "the Dask workers did not start\n" + tail()
                 assert all(p.poll() is None for p in procs), "a Dask process ended\n" + tail()
                 time.sleep(0.5)
+        bound = listening([proc.pid for proc in procs])
+        assert ("127.0.0.1", port) in bound, bound
+        assert {host for host, _ in bound} == {"127.0.0.1"}, bound
         yield address
     finally:
         for p in reversed(procs):
