@@ -23,13 +23,11 @@ START_TIMEOUT = 120
 
 
 def env(**extra):
-    """The environment of the command line and the cluster: this checkout importable, and
-    Dask's configuration only what the test gives (no ``DASK_*`` variables, no user file:
-    ``DASK_CONFIG`` names a folder without one)."""
+    """The environment of the command line and the cluster: this checkout importable, no
+    ``DASK_*`` variables but those in ``extra`` (Dask still reads its YAML files, e.g.
+    ``~/.config/dask/``: the tests give every TLS setting they rely on)."""
     out = {k: v for k, v in os.environ.items() if not k.startswith("DASK_")}
-    out.update(PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1",
-               DASK_CONFIG=str(Path(os.environ.get("TMPDIR", "/tmp")) / "reach-tests-no-dask-config"))
-    out.update(extra)
+    out.update(PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1", **extra)
     return out
 
 

@@ -137,12 +137,17 @@ def test_plain_tcp_beyond_loopback_is_refused_before_any_connection(study, liste
     assert not out.exists()
 
 
+#: Dask's TLS settings unset, whatever a configuration file of this machine says.
+NO_TLS_CONFIG = {f"DASK_DISTRIBUTED__COMM__TLS__{key}": "None"
+                 for key in ("CA_FILE", "CLIENT__CERT", "CLIENT__KEY")}
+
+
 def test_tls_needs_its_files(tmp_path):
     """A tls:// address without a CA and certificate (no flags, no Dask configuration),
     with a file that is not there, or with TLS flags on a plain address: one line naming
     what to give, before the study is read (it does not exist here)."""
     missing = tmp_path / "no-study.toml"
-    line = refused(batch(missing, "--dask", "tls://127.0.0.1:8786"))
+    line = refused(batch(missing, "--dask", "tls://127.0.0.1:8786", **NO_TLS_CONFIG))
     for name in ("--tls-ca-file", "--tls-cert", "--tls-key", "distributed.comm.tls.ca-file",
                  "distributed.comm.tls.client.cert"):
         assert name in line, line
