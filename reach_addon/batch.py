@@ -69,11 +69,14 @@ enough: its Reach worker child does the work.
 Results are written by the submitting process as they arrive, one JSON file per task named
 by a hash of its specification, atomically (:mod:`.atomic`: a temporary file renamed into
 place); a re-run skips tasks whose result exists. At the end ``summary.csv`` (one row per task) and
-``summary.json`` (success rate, times, strength categories, per variant) are written.
+``summary.json`` (success rate, times, strength categories, per variant) are written. A run
+stopped early (SIGTERM, Ctrl+C: :class:`Progress` says what it did) stops its Reach worker
+processes or cancels its Dask futures, keeps every result it wrote and writes no summary.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import io
@@ -363,7 +366,18 @@ class WorkerProcess:
         raise RuntimeError(f"Reach worker exited with status {self.proc.wait()} "
                            f"while planning task {spec['id']}")
 
+    def terminate(self):
+        """Stop the child now (SIGTERM, then SIGKILL after 10 s), whatever it is doing."""
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
     def close(self):
+        """Let the child finish: end of input, then up to 30 s to exit."""
         if self.proc.poll() is None:
             self.proc.stdin.close()
             try:
@@ -401,22 +415,32 @@ def finished(output: Path, spec: dict) -> dict | None:
 
 
 def _local(specs, workers: int):
-    """Yield results of ``specs`` from ``workers`` Reach worker children, as they finish."""
+    """Yield results of ``specs`` from ``workers`` Reach worker children, as they finish.
+    Closed or stopped early (a signal, an error), no further task starts and the children
+    are terminated."""
     todo = queue.Queue()
     for s in specs:
         todo.put(s)
     done = queue.Queue()
+    stop = threading.Event()
+    lock = threading.Lock()
+    children = []
 
     def serve():
         proc = None
         try:
-            while True:
+            while not stop.is_set():
                 try:
                     spec = todo.get_nowait()
                 except queue.Empty:
                     return
                 try:
-                    proc = proc if proc is not None and proc.proc.poll() is None else WorkerProcess()
+                    if proc is None or proc.proc.poll() is not None:
+                        with lock:                  # no child starts once stop is set
+                            if stop.is_set():
+                                return
+                            proc = WorkerProcess()
+                            children.append(proc)
                     done.put(proc.run(spec))
                 except Exception as exc:
                     done.put({"id": spec["id"], "error": f"{type(exc).__name__}: {exc}"})
@@ -427,10 +451,24 @@ def _local(specs, workers: int):
     threads = [threading.Thread(target=serve, daemon=True) for _ in range(max(1, workers))]
     for t in threads:
         t.start()
-    for _ in specs:
-        yield done.get()
-    for t in threads:
-        t.join()
+    try:
+        for _ in specs:
+            while True:         # a timed wait: the main thread sees a signal within 0.5 s
+                try:
+                    result = done.get(timeout=0.5)
+                    break
+                except queue.Empty:
+                    pass
+            yield result
+        for t in threads:
+            t.join()
+    finally:
+        with lock:
+            stop.set()
+        for proc in children:
+            proc.terminate()
+        for t in threads:
+            t.join(timeout=10)
 
 
 #: Dask's address schemes whose connections are encrypted and authenticated (TLS).
@@ -544,16 +582,23 @@ def connect(address: str, security):
 
 
 def _dask(client, specs):
-    """Yield results of ``specs`` from the cluster of ``client`` as they finish."""
+    """Yield results of ``specs`` from the cluster of ``client`` as they finish. Stopped
+    early (a signal, an error), the futures not yet done are cancelled."""
     from distributed import as_completed
 
-    futures = client.map(dask_task, specs, key=[f"reach-{s['id']}" for s in specs], pure=False)
-    ids = {f.key: s["id"] for f, s in zip(futures, specs)}
-    for fut in as_completed(futures):
-        try:
-            yield fut.result()
-        except Exception as exc:
-            yield {"id": ids[fut.key], "error": f"{type(exc).__name__}: {exc}"}
+    futures = []
+    try:
+        futures = client.map(dask_task, specs, key=[f"reach-{s['id']}" for s in specs],
+                             pure=False)
+        ids = {f.key: s["id"] for f, s in zip(futures, specs)}
+        for fut in as_completed(futures):
+            try:
+                yield fut.result()
+            except Exception as exc:
+                yield {"id": ids[fut.key], "error": f"{type(exc).__name__}: {exc}"}
+    finally:
+        if any(not f.done() for f in futures):
+            client.cancel(futures)
 
 
 def _connect_error(address: str, exc: OSError) -> str:
@@ -569,15 +614,39 @@ def _connect_error(address: str, exc: OSError) -> str:
     return f"cannot reach the Dask scheduler at {address}: {reason}"
 
 
+@dataclass
+class Progress:
+    """What a run of a study has done so far, for the line the command line prints when
+    SIGTERM or Ctrl+C stops it (:meth:`note`). :func:`run_study` fills it in."""
+
+    study: Study | None = None
+    written: int = 0                # result files this run has written
+
+    def note(self) -> str:
+        """What was and was not done: results are counted on disk (whole files only)."""
+        if self.study is None:
+            return "nothing was written"
+        total = len(self.study.specs)
+        done = sum(finished(self.study.output, s) is not None for s in self.study.specs)
+        return (f"{self.written} task result(s) written by this run ({done} of {total} "
+                f"tasks done in '{self.study.output / 'tasks'}'), {total - done} not done: "
+                "a re-run plans only those; no summary written")
+
+
 def run_study(path: Path, workers: int | None = None, dask: str | None = None,
               output: Path | None = None, out=None, *, tls_ca_file=None, tls_cert=None,
-              tls_key=None, insecure_network: bool = False) -> int:
+              tls_key=None, insecure_network: bool = False,
+              progress: Progress | None = None) -> int:
     """Run a study; returns the exit status (0 all reached, 1 some failed).
 
     ``dask``: a scheduler's address (else ``workers`` local processes), connected to as
     :func:`dask_security` says, with the TLS files and ``insecure_network`` given here; its
-    refusals come before the study is read or anything is written."""
+    refusals come before the study is read or anything is written. ``progress`` (optional)
+    is kept up to date with what the run has written. A signal or error that stops the run
+    leaves every result file whole (:mod:`.atomic`) and no summary written; the Reach
+    worker processes are stopped, Dask futures cancelled."""
     out = out or sys.stdout
+    progress = progress if progress is not None else Progress()
     security = (dask_security(dask, tls_ca_file, tls_cert, tls_key, insecure_network)
                 if dask else None)
     study = load_study(path, output)
@@ -591,16 +660,17 @@ def run_study(path: Path, workers: int | None = None, dask: str | None = None,
             results[spec["id"]] = r
     client = connect(dask, security) if dask and pending else None
     try:
-        return _run(study, pending, results, workers, dask, client, out)
+        return _run(study, pending, results, workers, dask, client, out, progress)
     finally:
         if client is not None:
             client.close(timeout=10)
 
 
-def _run(study, pending, results, workers, dask, client, out) -> int:
+def _run(study, pending, results, workers, dask, client, out, progress) -> int:
     """Plan ``pending`` (on ``client``'s cluster, else locally), write each result as it
     arrives, then the summaries; ``results`` holds those already done."""
     study.output.mkdir(parents=True, exist_ok=True)
+    progress.study = study
     workers = workers or os.cpu_count() or 1
     where = f"Dask cluster {dask}" if dask else f"{min(workers, max(1, len(pending)))} local workers"
     print(f"study '{study.name}': {len(study.specs)} tasks, {len(results)} already done, "
@@ -610,18 +680,20 @@ def _run(study, pending, results, workers, dask, client, out) -> int:
     source = (_dask(client, pending) if client is not None
               else _local(pending, min(workers, max(1, len(pending)))))
     by_id = {s["id"]: s for s in pending}
-    for n, result in enumerate(source, 1):
-        spec = by_id.get(result.get("id"))
-        label = _label(spec) if spec else "?"
-        if "error" in result or spec is None:
-            errors += 1
-            print(f"[{n}/{len(pending)}] {label}: ERROR {result.get('error')}", file=out, flush=True)
-            continue
-        atomic.write_text(result_path(study.output, spec), json.dumps(result, indent=1))
-        results[spec["id"]] = result
-        state = (f"reached, f_R {result['final_f_r']}" if result["success"]
-                 else f"not reached ({result['reason']})")
-        print(f"[{n}/{len(pending)}] {label}: {state}", file=out, flush=True)
+    with contextlib.closing(source):   # stopped early: the workers stop now, not later
+        for n, result in enumerate(source, 1):
+            spec = by_id.get(result.get("id"))
+            label = _label(spec) if spec else "?"
+            if "error" in result or spec is None:
+                errors += 1
+                print(f"[{n}/{len(pending)}] {label}: ERROR {result.get('error')}", file=out, flush=True)
+                continue
+            atomic.write_text(result_path(study.output, spec), json.dumps(result, indent=1))
+            progress.written += 1
+            results[spec["id"]] = result
+            state = (f"reached, f_R {result['final_f_r']}" if result["success"]
+                     else f"not reached ({result['reason']})")
+            print(f"[{n}/{len(pending)}] {label}: {state}", file=out, flush=True)
     wall = time.perf_counter() - t0
     ordered = [results[s["id"]] for s in study.specs if s["id"] in results]
     summary = summarize(study, ordered, wall, dask or f"local:{workers}")

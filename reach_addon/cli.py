@@ -396,12 +396,22 @@ def cmd_envelope(args) -> int:
 
 
 def cmd_batch(args) -> int:
-    from .batch import run_study
+    """A study (:func:`.batch.run_study`). Stopped by SIGTERM or Ctrl+C, the one line says
+    how many results this run wrote, how many tasks are done and how many are left to a
+    re-run (:meth:`.batch.Progress.note`)."""
+    from .batch import Progress, run_study
 
-    return run_study(Path(args.study), workers=args.workers, dask=args.dask,
-                     output=Path(args.output) if args.output else None,
-                     tls_ca_file=args.tls_ca_file, tls_cert=args.tls_cert,
-                     tls_key=args.tls_key, insecure_network=args.insecure_network)
+    progress = Progress()
+    try:
+        with _interruptible():
+            return run_study(Path(args.study), workers=args.workers, dask=args.dask,
+                             output=Path(args.output) if args.output else None,
+                             tls_ca_file=args.tls_ca_file, tls_cert=args.tls_cert,
+                             tls_key=args.tls_key, insecure_network=args.insecure_network,
+                             progress=progress)
+    except Interrupted as exc:
+        exc.note = progress.note()
+        raise
 
 
 def cmd_demo(args) -> int:

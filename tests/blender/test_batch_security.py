@@ -1,13 +1,18 @@
 """``reach batch`` and the network: a plain ``tcp://`` scheduler address beyond loopback is
 refused with one line, before any connection is tried (a listening socket the address
 leads to sees none; with ``--insecure-network`` it does); a ``tls://`` address needs a CA
-and a certificate; a TLS scheduler refuses a client without the cluster's certificate."""
+and a certificate; a TLS scheduler refuses a client without the cluster's certificate.
+And the stop: SIGTERM stops a study with one line saying what finished and what did not,
+every result file whole, no worker left running, and a re-run does the rest."""
 
+import json
+import signal
 import socket
 import ssl
 import subprocess
 import sys
 import threading
+import time
 
 import dask_tls
 import pytest
@@ -184,3 +189,61 @@ def test_a_tls_scheduler_refuses_clients_without_the_cluster_certificate(study, 
 
         with Client(address, security=dask_tls.security(farm), timeout=30) as client:
             assert client.scheduler_info()["address"] == address
+
+
+def test_sigterm_stops_a_study_with_one_line_and_whole_results(study, tmp_path):
+    """SIGTERM to ``reach batch`` after two results: status 143, one line on stderr saying
+    how many results were written and how many tasks are not done (the counts of the
+    files), every result file whole JSON of its task, no temporary file and no summary,
+    no process of the run left; a re-run plans only the tasks not done."""
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "reach_addon", "batch", str(study), "--workers", "2",
+         "--output", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dask_tls.env(),
+        cwd=ROOT, start_new_session=True)
+    watchdog = threading.Timer(RUN_TIMEOUT, lambda: dask_tls.end_group(proc, timeout=5))
+    watchdog.start()
+    try:
+        seen = []
+        for line in proc.stdout:
+            seen.append(line)
+            if line.startswith("[2/8]"):
+                break
+        assert seen and seen[-1].startswith("[2/8]"), "".join(seen) + proc.stderr.read()
+        proc.send_signal(signal.SIGTERM)
+        t0 = time.monotonic()
+        stdout, stderr = proc.communicate(timeout=60)
+        stopped_in = time.monotonic() - t0
+        deadline = time.monotonic() + 15
+        while dask_tls.group_alive(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        left = dask_tls.group_alive(proc.pid)
+    finally:
+        watchdog.cancel()
+        dask_tls.end_group(proc, timeout=5)
+    stdout = "".join(seen) + stdout
+    assert proc.returncode == 128 + signal.SIGTERM, stdout + stderr
+    assert stopped_in < 20.0
+    assert left == [], "Reach worker processes outlived the run"
+
+    files = sorted((out / "tasks").glob("*.json"))
+    written = len([line for line in stdout.splitlines() if line.startswith("[")])
+    assert 2 <= written == len(files) < 8, stdout
+    for path in files:
+        result = json.loads(path.read_text())
+        assert result["id"] == path.stem and "success" in result
+    assert not [p for p in out.rglob("*") if ".tmp" in p.name]
+    assert not (out / "summary.json").exists() and not (out / "summary.csv").exists()
+    lines = stderr.strip().splitlines()
+    assert lines == [f"reach: stopped by SIGTERM; {written} task result(s) written by this "
+                     f"run ({written} of 8 tasks done in '{out / 'tasks'}'), {8 - written} "
+                     "not done: a re-run plans only those; no summary written"], stderr
+
+    before = {p.name: p.stat().st_mtime_ns for p in files}
+    run = batch(study, "--workers", 2, "--output", out)
+    assert run.returncode in (0, 1), run.stdout + run.stderr
+    assert f"8 tasks, {written} already done, {8 - written} to run" in run.stdout, run.stdout
+    assert len(list((out / "tasks").glob("*.json"))) == 8
+    assert {p.name: p.stat().st_mtime_ns for p in files} == before
+    assert json.loads((out / "summary.json").read_text())["tasks"] == 8
