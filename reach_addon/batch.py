@@ -1,4 +1,4 @@
-"""Batch studies: many reach tasks over scenes, armatures and targets, on local worker
+r"""Batch studies: many reach tasks over scenes, armatures and targets, on local worker
 processes or on a Dask distributed cluster, with one result file per task.
 
 A study is a TOML file (paths relative to it)::
@@ -38,26 +38,45 @@ Execution. Blender's Python module must run on a process's main thread, so every
 in a *Reach worker process*: a persistent child (``python -c ...`` with the bpy wheel, or
 ``blender -b --python-expr ...`` under the Blender binary) that reads one task per line on
 stdin and answers with one JSON line. Locally, ``workers`` such children (default: the
-number of cores) take tasks as they free up. With ``dask="tcp://HOST:PORT"`` the tasks are
+number of cores) take tasks as they free up. With ``dask="tls://HOST:PORT"`` the tasks are
 submitted to an existing Dask distributed cluster; each Dask worker process keeps one Reach
 worker child, so the work done per task is exactly the local one and the results are the
-same. Start such a cluster with (every machine needs Python 3.11, the bpy wheel, numpy,
-dask[distributed] and Reach importable — the scheduler too, it unpickles the task graph —
-and the scene files at the same paths)::
+same. Every machine needs Python 3.11, the bpy wheel, numpy, dask[distributed] and Reach
+importable — the scheduler too, it unpickles the task graph — and the scene files at the
+same paths.
 
-    PYTHONPATH=/path/to/reach dask scheduler --host 0.0.0.0 --port 8786
-    PYTHONPATH=/path/to/reach dask worker tcp://HOST:8786 --nworkers 4 --nthreads 1
+A Dask scheduler runs whatever it is sent: anyone who can connect to its port can run any
+code, as the user the cluster runs as, on the scheduler and every worker. So every
+connection uses TLS, each side showing a certificate of the farm's own CA
+(:func:`dask_security`: the CA, certificate and key from the flags or Dask's
+configuration), and a plain ``tcp://`` address beyond the loopback is refused unless
+``insecure_network`` accepts that risk. With a CA ``farm-ca.pem`` and a key and certificate
+signed by it, ``farm.key`` and ``farm.pem`` (the README's ``openssl`` commands make them),
+``SCHED`` the scheduler's address on the farm network and ``ME`` each worker machine's
+own (both 127.0.0.1 for a trial on one machine)::
 
-One thread per Dask worker process is enough: its Reach worker child does the work.
+    TLS="--tls-ca-file farm-ca.pem --tls-cert farm.pem --tls-key farm.key"
+    PYTHONPATH=/path/to/reach dask scheduler --host $SCHED --port 8786 \
+        --dashboard-address 127.0.0.1:8787 $TLS
+    PYTHONPATH=/path/to/reach dask worker tls://$SCHED:8786 --host $ME --nworkers 4 \
+        --nthreads 1 --dashboard-address 127.0.0.1:0 $TLS
+    python -m reach_addon batch study.toml --dask tls://$SCHED:8786 $TLS
+
+``--host`` binds each process to the farm's interface alone, ``--dashboard-address`` keeps
+Dask's HTTP pages (no login) on the loopback. One thread per Dask worker process is
+enough: its Reach worker child does the work.
 
 Results are written by the submitting process as they arrive, one JSON file per task named
 by a hash of its specification, atomically (:mod:`.atomic`: a temporary file renamed into
 place); a re-run skips tasks whose result exists. At the end ``summary.csv`` (one row per task) and
-``summary.json`` (success rate, times, strength categories, per variant) are written.
+``summary.json`` (success rate, times, strength categories, per variant) are written. A run
+stopped early (SIGTERM, Ctrl+C: :class:`Progress` says what it did) stops its Reach worker
+processes or cancels its Dask futures, keeps every result it wrote and writes no summary.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import io
@@ -347,7 +366,18 @@ class WorkerProcess:
         raise RuntimeError(f"Reach worker exited with status {self.proc.wait()} "
                            f"while planning task {spec['id']}")
 
+    def terminate(self):
+        """Stop the child now (SIGTERM, then SIGKILL after 10 s), whatever it is doing."""
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
     def close(self):
+        """Let the child finish: end of input, then up to 30 s to exit."""
         if self.proc.poll() is None:
             self.proc.stdin.close()
             try:
@@ -385,22 +415,32 @@ def finished(output: Path, spec: dict) -> dict | None:
 
 
 def _local(specs, workers: int):
-    """Yield results of ``specs`` from ``workers`` Reach worker children, as they finish."""
+    """Yield results of ``specs`` from ``workers`` Reach worker children, as they finish.
+    Closed or stopped early (a signal, an error), no further task starts and the children
+    are terminated."""
     todo = queue.Queue()
     for s in specs:
         todo.put(s)
     done = queue.Queue()
+    stop = threading.Event()
+    lock = threading.Lock()
+    children = []
 
     def serve():
         proc = None
         try:
-            while True:
+            while not stop.is_set():
                 try:
                     spec = todo.get_nowait()
                 except queue.Empty:
                     return
                 try:
-                    proc = proc if proc is not None and proc.proc.poll() is None else WorkerProcess()
+                    if proc is None or proc.proc.poll() is not None:
+                        with lock:                  # no child starts once stop is set
+                            if stop.is_set():
+                                return
+                            proc = WorkerProcess()
+                            children.append(proc)
                     done.put(proc.run(spec))
                 except Exception as exc:
                     done.put({"id": spec["id"], "error": f"{type(exc).__name__}: {exc}"})
@@ -411,21 +451,142 @@ def _local(specs, workers: int):
     threads = [threading.Thread(target=serve, daemon=True) for _ in range(max(1, workers))]
     for t in threads:
         t.start()
-    for _ in specs:
-        yield done.get()
-    for t in threads:
-        t.join()
-
-
-def _dask(specs, address: str):
     try:
-        from distributed import Client, as_completed
+        for _ in specs:
+            while True:         # a timed wait: the main thread sees a signal within 0.5 s
+                try:
+                    result = done.get(timeout=0.5)
+                    break
+                except queue.Empty:
+                    pass
+            yield result
+        for t in threads:
+            t.join()
+    finally:
+        with lock:
+            stop.set()
+        for proc in children:
+            proc.terminate()
+        for t in threads:
+            t.join(timeout=10)
+
+
+#: Dask's address schemes whose connections are encrypted and authenticated (TLS).
+ENCRYPTED_SCHEMES = ("tls", "wss")
+
+
+def is_loopback(host: str) -> bool:
+    """True when ``host`` (an address's host part) is this machine's loopback interface:
+    127.0.0.0/8, ::1 (or ::ffff:127.x.y.z) or ``localhost``. Other names are not looked
+    up: a name is taken for a network address, whatever it resolves to."""
+    import ipaddress
+
+    if host.lower().rstrip(".") == "localhost":
+        return True
+    try:
+        ip = ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    mapped = getattr(ip, "ipv4_mapped", None)
+    return ip.is_loopback or bool(mapped and mapped.is_loopback)
+
+
+def insecure_address_message(address: str) -> str:
+    """The refusal of a plain (unencrypted) ``address`` that is not loopback: the risk, and
+    the two ways on."""
+    return (f"refusing --dask {address}: a plain connection is neither encrypted nor "
+            "authenticated, and a Dask scheduler runs whatever task graph it is sent, so "
+            "anyone who can reach that port can run any code on the scheduler and on "
+            "every worker, as the user they run as; use tls://HOST:PORT with "
+            "--tls-ca-file, --tls-cert and --tls-key (README: Batch studies), or accept "
+            "that risk with --insecure-network")
+
+
+def dask_security(address: str, tls_ca_file=None, tls_cert=None, tls_key=None,
+                  insecure_network: bool = False):
+    """How to connect to the Dask scheduler at ``address``; no connection is tried.
+
+    Inputs: the ``--dask`` address (``tls://HOST:PORT``, ``tcp://HOST:PORT``, or
+    ``HOST:PORT``, which Dask reads as its default scheme, tcp), the TLS files given as
+    flags (paths to PEM files; None: not given) and ``--insecure-network``.
+
+    Returns a ``distributed.security.Security`` for a ``tls://`` (or ``wss://``) address:
+    the CA file, the client certificate and its key are the flags where given, else Dask's
+    configuration (``distributed.comm.tls.ca-file``, ``distributed.comm.tls.client.cert``
+    and ``.key``: a YAML file in ``~/.config/dask/`` or ``DASK_DISTRIBUTED__COMM__TLS__...``
+    variables); encryption is required and the files are loaded here. Returns None for a
+    plain address on the loopback interface (:func:`is_loopback`), or anywhere with
+    ``insecure_network``.
+
+    Raises ReachError (one line) for a plain address elsewhere without
+    ``insecure_network`` (:func:`insecure_address_message`), TLS flags with a plain
+    address, a TLS address without a CA or certificate, or TLS files that are missing or
+    do not load; and when the distributed package is missing."""
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+        from distributed.security import Security
     except ImportError:
-        raise ReachError("--dask needs the distributed package: pip install 'dask[distributed]'") from None
+        raise ReachError("--dask needs the distributed package: pip install "
+                         "'dask[distributed]'") from None
     try:
-        client = Client(address, timeout=20)
+        scheme, loc = parse_address(address)
+        host, _port = parse_host_port(loc, default_port=8786)
+    except ValueError as exc:
+        raise ReachError(f"--dask {address}: {exc}") from None
+    given = {"--tls-ca-file": tls_ca_file, "--tls-cert": tls_cert, "--tls-key": tls_key}
+    if scheme not in ENCRYPTED_SCHEMES:
+        if any(given.values()):
+            flags = ", ".join(k for k, v in given.items() if v)
+            raise ReachError(f"{flags} given, but --dask {address} is a plain {scheme}:// "
+                             "address: write it tls://HOST:PORT")
+        if not (insecure_network or is_loopback(host)):
+            raise ReachError(insecure_address_message(address))
+        return None
+    chosen = {k: v for k, v in (("tls_ca_file", tls_ca_file), ("tls_client_cert", tls_cert),
+                                ("tls_client_key", tls_key)) if v}
+    security = Security(require_encryption=True, **chosen)
+    missing = [(flag, key) for flag, key, value in (
+        ("--tls-ca-file", "distributed.comm.tls.ca-file", security.tls_ca_file),
+        ("--tls-cert", "distributed.comm.tls.client.cert", security.tls_client_cert))
+        if not value]
+    if missing:
+        raise ReachError(f"--dask {address} needs the cluster's CA and a certificate signed "
+                         "by it, with its key: give "
+                         + " and ".join(flag for flag, _ in missing) + " (and --tls-key), "
+                         "or set " + " and ".join(key for _, key in missing)
+                         + " (and .client.key) in Dask's configuration")
+    for flag, value in (("--tls-ca-file", security.tls_ca_file),
+                        ("--tls-cert", security.tls_client_cert),
+                        ("--tls-key", security.tls_client_key)):
+        if value and "\n" not in value and not Path(value).is_file():
+            raise ReachError(f"{flag}: file '{value}' not found")
+    try:
+        security.get_connection_args("client")      # loads the CA, certificate and key
+    except (OSError, ValueError) as exc:            # ssl.SSLError is an OSError
+        raise ReachError(f"the TLS files do not load (CA '{security.tls_ca_file}', "
+                         f"certificate '{security.tls_client_cert}', key "
+                         f"'{security.tls_client_key}'): {exc}") from None
+    return security
+
+
+def connect(address: str, security):
+    """A ``distributed.Client`` of the scheduler at ``address``, connected with
+    ``security`` (:func:`dask_security`); a ReachError (one line) if it cannot connect or
+    the TLS handshake fails."""
+    from distributed import Client
+
+    try:
+        return Client(address, security=security, timeout=20)
     except OSError as exc:
-        raise ReachError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+        raise ReachError(_connect_error(address, exc)) from None
+
+
+def _dask(client, specs):
+    """Yield results of ``specs`` from the cluster of ``client`` as they finish. Stopped
+    early (a signal, an error), the futures not yet done are cancelled."""
+    from distributed import as_completed
+
+    futures = []
     try:
         futures = client.map(dask_task, specs, key=[f"reach-{s['id']}" for s in specs],
                              pure=False)
@@ -436,15 +597,59 @@ def _dask(specs, address: str):
             except Exception as exc:
                 yield {"id": ids[fut.key], "error": f"{type(exc).__name__}: {exc}"}
     finally:
-        client.close()
+        if any(not f.done() for f in futures):
+            client.cancel(futures)
+
+
+def _connect_error(address: str, exc: OSError) -> str:
+    """One line for a failed connection to the scheduler: Dask's reason without its
+    connection description, and for a refused TLS handshake what to check."""
+    reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    reason = reason.rpartition(">: ")[2]
+    if "SSL" in reason or "certificate" in reason:
+        return (f"the Dask scheduler at {address} and this client did not accept each "
+                f"other's TLS certificates ({reason}): --tls-cert must be signed by the CA "
+                "the cluster trusts, and --tls-ca-file must be the CA that signed the "
+                "scheduler's certificate")
+    return f"cannot reach the Dask scheduler at {address}: {reason}"
+
+
+@dataclass
+class Progress:
+    """What a run of a study has done so far, for the line the command line prints when
+    SIGTERM or Ctrl+C stops it (:meth:`note`). :func:`run_study` fills it in."""
+
+    study: Study | None = None
+    written: int = 0                # result files this run has written
+
+    def note(self) -> str:
+        """What was and was not done: results are counted on disk (whole files only)."""
+        if self.study is None:
+            return "nothing was written"
+        total = len(self.study.specs)
+        done = sum(finished(self.study.output, s) is not None for s in self.study.specs)
+        return (f"{self.written} task result(s) written by this run ({done} of {total} "
+                f"tasks done in '{self.study.output / 'tasks'}'), {total - done} not done: "
+                "a re-run plans only those; no summary written")
 
 
 def run_study(path: Path, workers: int | None = None, dask: str | None = None,
-              output: Path | None = None, out=None) -> int:
-    """Run a study; returns the exit status (0 all reached, 1 some failed)."""
+              output: Path | None = None, out=None, *, tls_ca_file=None, tls_cert=None,
+              tls_key=None, insecure_network: bool = False,
+              progress: Progress | None = None) -> int:
+    """Run a study; returns the exit status (0 all reached, 1 some failed).
+
+    ``dask``: a scheduler's address (else ``workers`` local processes), connected to as
+    :func:`dask_security` says, with the TLS files and ``insecure_network`` given here; its
+    refusals come before the study is read or anything is written. ``progress`` (optional)
+    is kept up to date with what the run has written. A signal or error that stops the run
+    leaves every result file whole (:mod:`.atomic`) and no summary written; the Reach
+    worker processes are stopped, Dask futures cancelled."""
     out = out or sys.stdout
+    progress = progress if progress is not None else Progress()
+    security = (dask_security(dask, tls_ca_file, tls_cert, tls_key, insecure_network)
+                if dask else None)
     study = load_study(path, output)
-    study.output.mkdir(parents=True, exist_ok=True)
     results = {}
     pending = []
     for spec in study.specs:
@@ -453,26 +658,42 @@ def run_study(path: Path, workers: int | None = None, dask: str | None = None,
             pending.append(spec)
         else:
             results[spec["id"]] = r
+    client = connect(dask, security) if dask and pending else None
+    try:
+        return _run(study, pending, results, workers, dask, client, out, progress)
+    finally:
+        if client is not None:
+            client.close(timeout=10)
+
+
+def _run(study, pending, results, workers, dask, client, out, progress) -> int:
+    """Plan ``pending`` (on ``client``'s cluster, else locally), write each result as it
+    arrives, then the summaries; ``results`` holds those already done."""
+    study.output.mkdir(parents=True, exist_ok=True)
+    progress.study = study
     workers = workers or os.cpu_count() or 1
     where = f"Dask cluster {dask}" if dask else f"{min(workers, max(1, len(pending)))} local workers"
     print(f"study '{study.name}': {len(study.specs)} tasks, {len(results)} already done, "
           f"{len(pending)} to run on {where}", file=out, flush=True)
     t0 = time.perf_counter()
     errors = 0
-    source = _dask(pending, dask) if dask else _local(pending, min(workers, max(1, len(pending))))
+    source = (_dask(client, pending) if client is not None
+              else _local(pending, min(workers, max(1, len(pending)))))
     by_id = {s["id"]: s for s in pending}
-    for n, result in enumerate(source, 1):
-        spec = by_id.get(result.get("id"))
-        label = _label(spec) if spec else "?"
-        if "error" in result or spec is None:
-            errors += 1
-            print(f"[{n}/{len(pending)}] {label}: ERROR {result.get('error')}", file=out, flush=True)
-            continue
-        atomic.write_text(result_path(study.output, spec), json.dumps(result, indent=1))
-        results[spec["id"]] = result
-        state = (f"reached, f_R {result['final_f_r']}" if result["success"]
-                 else f"not reached ({result['reason']})")
-        print(f"[{n}/{len(pending)}] {label}: {state}", file=out, flush=True)
+    with contextlib.closing(source):   # stopped early: the workers stop now, not later
+        for n, result in enumerate(source, 1):
+            spec = by_id.get(result.get("id"))
+            label = _label(spec) if spec else "?"
+            if "error" in result or spec is None:
+                errors += 1
+                print(f"[{n}/{len(pending)}] {label}: ERROR {result.get('error')}", file=out, flush=True)
+                continue
+            atomic.write_text(result_path(study.output, spec), json.dumps(result, indent=1))
+            progress.written += 1
+            results[spec["id"]] = result
+            state = (f"reached, f_R {result['final_f_r']}" if result["success"]
+                     else f"not reached ({result['reason']})")
+            print(f"[{n}/{len(pending)}] {label}: {state}", file=out, flush=True)
     wall = time.perf_counter() - t0
     ordered = [results[s["id"]] for s in study.specs if s["id"] in results]
     summary = summarize(study, ordered, wall, dask or f"local:{workers}")

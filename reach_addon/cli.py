@@ -170,8 +170,21 @@ def build_parser() -> argparse.ArgumentParser:
     batch.add_argument("study", help="the study's TOML file")
     batch.add_argument("--workers", type=int, default=None,
                        help="local worker processes (default: the number of cores)")
-    batch.add_argument("--dask", metavar="tcp://HOST:PORT",
-                       help="run the tasks on an existing Dask distributed cluster instead")
+    batch.add_argument("--dask", metavar="tls://HOST:PORT",
+                       help="run the tasks on an existing Dask distributed cluster instead "
+                            "(tcp:// only to 127.0.0.1, unless --insecure-network)")
+    batch.add_argument("--tls-ca-file", metavar="PEM",
+                       help="the CA the Dask cluster's certificates are signed by (default: "
+                            "Dask's configuration, distributed.comm.tls.ca-file)")
+    batch.add_argument("--tls-cert", metavar="PEM",
+                       help="this client's certificate, signed by that CA (default: "
+                            "distributed.comm.tls.client.cert)")
+    batch.add_argument("--tls-key", metavar="PEM",
+                       help="the certificate's private key, unless the certificate file "
+                            "holds it (default: distributed.comm.tls.client.key)")
+    batch.add_argument("--insecure-network", action="store_true",
+                       help="allow a plain tcp:// scheduler beyond this machine: anyone who "
+                            "can reach its port can run code on every worker")
     batch.add_argument("--output", help="results folder (default: the study's, else next to it)")
     batch.set_defaults(func=cmd_batch)
 
@@ -383,10 +396,22 @@ def cmd_envelope(args) -> int:
 
 
 def cmd_batch(args) -> int:
-    from .batch import run_study
+    """A study (:func:`.batch.run_study`). Stopped by SIGTERM or Ctrl+C, the one line says
+    how many results this run wrote, how many tasks are done and how many are left to a
+    re-run (:meth:`.batch.Progress.note`)."""
+    from .batch import Progress, run_study
 
-    return run_study(Path(args.study), workers=args.workers, dask=args.dask,
-                     output=Path(args.output) if args.output else None)
+    progress = Progress()
+    try:
+        with _interruptible():
+            return run_study(Path(args.study), workers=args.workers, dask=args.dask,
+                             output=Path(args.output) if args.output else None,
+                             tls_ca_file=args.tls_ca_file, tls_cert=args.tls_cert,
+                             tls_key=args.tls_key, insecure_network=args.insecure_network,
+                             progress=progress)
+    except Interrupted as exc:
+        exc.note = progress.note()
+        raise
 
 
 def cmd_demo(args) -> int:

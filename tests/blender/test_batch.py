@@ -1,20 +1,19 @@
 """Batch studies: a reach-envelope study of ≥ 20 tasks on 2 local worker processes and on a
-real Dask scheduler with 2 workers (subprocesses on loopback) gives the same results; a
-re-run redoes only the missing results."""
+real Dask scheduler with 2 workers (subprocesses on loopback, every connection TLS with
+certificates the test makes, as the README's recipe does) gives the same results; the TLS
+settings work from the flags and from Dask's configuration; a re-run redoes only the
+missing results."""
 
 import csv
 import json
-import os
-import socket
 import subprocess
 import sys
-import time
-from pathlib import Path
 
+import dask_tls
 import pytest
 import rigs
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = dask_tls.ROOT
 TIMING = {"search_time_s", "preprocess_time_s", "planning_time_s", "wall_time_s"}
 
 STUDY = """
@@ -40,13 +39,10 @@ count = [2, 2, 3]
 """
 
 
-def env():
-    return dict(os.environ, PYTHONPATH=str(ROOT))
-
-
-def batch(*argv, timeout=900):
+def batch(*argv, timeout=900, **env):
     return subprocess.run([sys.executable, "-m", "reach_addon", "batch", *map(str, argv)],
-                          capture_output=True, text=True, env=env(), timeout=timeout, cwd=ROOT)
+                          capture_output=True, text=True, env=dask_tls.env(**env),
+                          timeout=timeout, cwd=ROOT)
 
 
 def results(folder):
@@ -57,42 +53,16 @@ def results(folder):
     return out
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+@pytest.fixture(scope="module")
+def certs(tmp_path_factory):
+    return dask_tls.make_certs(tmp_path_factory.mktemp("certs"))
 
 
 @pytest.fixture
-def dask_cluster():
-    """A Dask scheduler and one worker command with 2 worker processes, on loopback."""
-    bindir = Path(sys.executable).parent
-    if not (bindir / "dask").exists():
-        pytest.fail("the dask command is missing: pip install 'dask[distributed]' "
-                    "(it is in requirements-dev.txt; run make setup)")
-    port = free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    procs = [subprocess.Popen([bindir / "dask", "scheduler", "--host", "127.0.0.1", "--port",
-                               str(port), "--no-dashboard"], env=env(),
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
-    procs.append(subprocess.Popen([bindir / "dask", "worker", address, "--nworkers", "2",
-                                   "--nthreads", "1", "--no-dashboard"], env=env(),
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-    from distributed import Client
-
-    deadline = time.monotonic() + 120
-    with Client(address, timeout=60) as client:
-        while len(client.scheduler_info()["workers"]) < 2:
-            assert time.monotonic() < deadline, "the Dask workers did not start"
-            time.sleep(0.5)
-    yield address
-    for p in reversed(procs):
-        p.terminate()
-    for p in procs:
-        try:
-            p.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            p.kill()
+def dask_cluster(certs, tmp_path):
+    """A TLS Dask scheduler and one worker command with 2 worker processes, on loopback."""
+    with dask_tls.cluster(tmp_path / "cluster", certs, workers=2) as address:
+        yield address
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +74,8 @@ def study(addon, tmp_path_factory):
     return path
 
 
-def test_local_and_dask_runs_agree_and_a_rerun_redoes_only_missing_results(study, dask_cluster):
+def test_local_and_tls_dask_runs_agree_and_a_rerun_redoes_only_missing_results(
+        study, certs, dask_cluster):
     local, remote = study.parent / "local", study.parent / "dask"
     run = batch(study, "--workers", 2, "--output", local)
     assert run.returncode == 1, run.stdout + run.stderr   # "Inside" cannot be reached
@@ -129,9 +100,21 @@ def test_local_and_dask_runs_agree_and_a_rerun_redoes_only_missing_results(study
         if r["variant"] == "no-body":
             assert r["final_angles_deg"]["body_rotation"] == 0.0
 
-    run = batch(study, "--dask", dask_cluster, "--output", remote)
+    assert dask_cluster.startswith("tls://127.0.0.1:")
+    run = batch(study, "--dask", dask_cluster, *dask_tls.tls_flags(certs), "--output", remote)
     assert run.returncode == 1, run.stdout + run.stderr
-    assert "Dask cluster" in run.stdout.splitlines()[0]
+    assert f"Dask cluster {dask_cluster}" in run.stdout.splitlines()[0]
+    assert results(remote) == first
+
+    # the same files from Dask's configuration instead of the flags: 3 tasks again
+    for p in sorted((remote / "tasks").glob("*.json"))[:3]:
+        p.unlink()
+    run = batch(study, "--dask", dask_cluster, "--output", remote,
+                DASK_DISTRIBUTED__COMM__TLS__CA_FILE=str(certs["ca"]),
+                DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT=str(certs["cert"]),
+                DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY=str(certs["key"]))
+    assert "28 tasks, 25 already done, 3 to run on Dask cluster" in run.stdout, \
+        run.stdout + run.stderr
     assert results(remote) == first
 
     # delete half the local results: a re-run plans exactly those again
