@@ -250,6 +250,9 @@ def steps(context, request: Request, bake: bool = True):
         # objects beyond every pose's reach are left out (core.arm.reach_sphere).
         pieces, obstacles, _built = KEPT.get(context, exclude, collection,
                                              within=reach_bounds(info.arm, settings, targets))
+        # a capsule fuller than its skin where the start rests beside something is fitted
+        # to the skin there (a tapering limb's thin end), so the start is judged as it shows
+        info = rig_mod.fit_to_start(info, armature, obstacles, settings)
         moving = set() if request.task == "chase" else \
             _moving_owners(context, exclude, collection, frame_start)
         yield 0.05, f"{obstacles.triangle_count} obstacle triangles"

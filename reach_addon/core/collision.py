@@ -407,6 +407,16 @@ class CollisionChecker:
             return segment.name, self.obstacles.owner(index)
         return None
 
+    def touches(self, world_joints, name: str) -> bool:
+        """Does the segment ``name`` (of :attr:`SEGMENTS`) of the pose with these world
+        joints (5, 3) come nearer an obstacle than its radius and the clearance?"""
+        tree = self.obstacles.tree
+        if tree is None:
+            return False
+        segment = self.by_name[name]
+        j = np.asarray(world_joints, dtype=float)
+        return self._segment_hit(tree, j[segment.a], j[segment.b], segment) is not None
+
     def capsule_clear(self, p, q, radius: float) -> bool:
         """Is the capsule from world point ``p`` to ``q`` of ``radius`` (plus the
         clearance) clear of the obstacles? The two tests of the class docstring."""

@@ -10,9 +10,12 @@ start, though, so Reach first moves out of contact and then plans as usual:
 * **Out of contact.** Otherwise a generator for a thinner arm (every radius less by as
   much as the start lacks, so the start is clear for it) takes steps of the search's
   length, at each the one (of the search's candidate directions, with the hand kept
-  continuous and the chest still) that most increases the real arm's clearance, until the real arm is clear
-  with the whole margin. Every step must increase it: the first moves of the motion only
-  ever get farther from what the arm touched. At most ``max_steps`` steps.
+  continuous and the chest still) that most increases the real arm's clearance, until the
+  real arm is clear with the whole margin. No step may decrease it: the first moves of the
+  motion never get nearer what the arm touched. Where no step increases it (a hand in a
+  sleeve, its faces parallel to the walls), the step that keeps it and takes the wrist
+  farthest from the start is taken, so the arm slides out along what it touches. At most
+  ``max_steps`` steps.
 
 The escape's poses lead the motion; the hand pass checks their frames with the thinner arm
 (:class:`~reach_addon.core.hand.HandPass`), every later frame with the real one.
@@ -21,6 +24,9 @@ The escape's poses lead the motion; the hand pass checks their frames with the t
 from __future__ import annotations
 
 import dataclasses
+import math
+
+import numpy as np
 
 from .arm import Pose
 from .generator import ConfigurationGenerator
@@ -69,19 +75,31 @@ def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
         if not generator.checker.collides(arm.to_world_points(poses[-1].joints)):
             return Escape(poses, loose, c0, obstacle)
         prev = poses[-1]
-        best, best_c = None, clearance
-        for w in prev.wrist + offsets:
+        best, best_key = None, None
+        # the search's directions, and along the limbs: a hand in a sleeve or a slot slides
+        # out only along it, which no direction of the sphere follows closely enough
+        along = [prev.wrist - prev.elbow, prev.joints[4] - prev.wrist]
+        along = [generator.step_length * s * v / max(float(np.linalg.norm(v)), 1e-12)
+                 for v in along for s in (1.0, -1.0)]
+        for w in prev.wrist + np.vstack([offsets] + along):
             pose = loose.solve(w, prev, body_rotation=prev.config.body_rotation,
                                hand_scale=1.0)
             if pose is None:
                 continue
             c = start_clearance(generator, pose)
-            if c > best_c + 1e-9:
-                best, best_c = pose, c
-        if best is None:
-            return None
+            if c < clearance - 1e-9:
+                continue                         # never nearer what it touches
+            # the farthest from what it touches; where every step keeps the clearance as it
+            # is (a hand in a sleeve, its faces parallel to the walls), the farthest from
+            # the start, so that it slides on out
+            key = (c > clearance + 1e-9, c, math.dist(w.tolist(), start.wrist.tolist()))
+            if best_key is None or key > best_key:
+                best, best_key = pose, key
+        if best is None or (not best_key[0] and best_key[2] <= math.dist(
+                prev.wrist.tolist(), start.wrist.tolist()) + 1e-9):
+            return None                          # nothing farther from it, nor out along it
         poses.append(best)
-        clearance = best_c
+        clearance = max(clearance, best_key[1])
     return None
 
 

@@ -448,7 +448,8 @@ class Planner:
         plan.stats.planning_time_s = time.perf_counter() - t0
         return plan
 
-    def _start_failure(self, task: Task, start: Pose, problem, msg: str | None = None) -> Plan:
+    def _start_failure(self, task: Task, start: Pose, problem, msg: str | None = None,
+                       reason: str = START_IN_COLLISION) -> Plan:
         part, obstacle = problem
         if msg is None and part == "sternum":
             # the body's root is enclosed: a room or box round the character, or a solid
@@ -461,7 +462,7 @@ class Planner:
                    "passes through the chest, move the character out of it")
         msg = msg or (f"the start pose already touches '{obstacle}' (at the {part}); move the "
                       "arm or the obstacle apart, or lower the clearance, before planning")
-        segs = [Segment(i, task.name(i), task.targets[i], False, START_IN_COLLISION, msg, 0, 0,
+        segs = [Segment(i, task.name(i), task.targets[i], False, reason, msg, 0, 0,
                         Stats(), np.zeros((0, 3)), np.zeros((0, 3)))
                 for i in range(1 if task.kind == "chase" else len(task.targets))]
         return Plan(task, self.arm, self.settings, [start], segs, Stats(frames=1))
@@ -490,6 +491,15 @@ class Planner:
                                              depth_message(obstacle, part, depth, limit))
         way_out = escape(gen, start, obstacle)
         if way_out is None:
+            if depth <= 0.0:
+                # nearer than the clearance, not touching: what holds the arm, not a contact
+                cm = 100.0 * -depth * length * self.arm.metres_per_unit
+                return None, self._start_failure(task, start, problem, (
+                    f"the arm cannot move from its start pose: its {part} is {cm:.1f} cm "
+                    f"({-depth:.3f} arm lengths) from '{obstacle}', nearer than the clearance "
+                    f"({self.settings.clearance:g} arm lengths), and no step takes it farther "
+                    f"from '{obstacle}'; move the arm or '{obstacle}' apart, or lower the "
+                    "clearance"), START_HELD)
             return None, self._start_failure(task, start, problem)
         return way_out, None
 

@@ -18,11 +18,12 @@ from pathlib import Path
 import bpy
 import everyday
 import numpy as np
-import pytest
 import rigs
 import synthetic
 
 from reach_addon.blender import rig as rig_mod
+from reach_addon.blender.scene import KEPT, character_objects
+from reach_addon.core import Planner, Settings
 from reach_addon.core.sampling import joints_of_one
 from verification import geometry, refusal
 
@@ -153,11 +154,15 @@ def test_a_starved_planner_s_no_path_is_a_false_refusal(tmp_path):
     assert np.linalg.norm(np.array(wrist) - target) <= 0.006 * info.arm.arm_length
 
 
-def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_a_false_start_in_collision(tmp_path):
+def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_not_refused(tmp_path):
     """A square sleeve of four closed bars round the hand, 15 % wider than the hand's skin
     box: the skin is clear (its faces 6 mm from the walls), but the hand's round capsule
-    (the box's corners) stands into all four walls, and no step out of the sleeve takes
-    it farther from them, so Reach refuses the start. The skin says otherwise."""
+    (the box's corners) stands into all four walls, and no step out of the sleeve takes it
+    farther from them. Reach used to refuse that start (start_in_collision), which the skin
+    check calls a false refusal: it says the skin is clear. Now the rig adapter fits the
+    hand's capsule to its skin at the start (``rig.fit_to_start``: no fuller than the skin,
+    6 mm from the walls, still within the clearance) and the way out of contact slides out
+    along the walls where no step gets farther from them (``core.contact.escape``)."""
     arm, info = humanoid(skin_radius=0.04)
     hand = arm.pose.bones["mixamorig:RightHand"]
     mw = arm.matrix_world
@@ -174,12 +179,24 @@ def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_a_false_start_in_collis
             rigs.add_box(f"Sleeve{2 * k + (sign > 0)}", centre + sign * (half + bar / 2) * a,
                          (bar, 2 * (half + bar), long), np.column_stack([a, b, axis]))
     rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
-    rc, report = bake(tmp_path, ["Ahead"])
-    if reasons(report)["Ahead"] != "start_in_collision":
-        pytest.skip(f"Reach did not refuse this start: {report['tasks'][0]['message']}")
-    (v,) = refusal.check_report(bpy.context, report)
+    # the claim Reach used to make, checked by the skin: false
+    v = refusal.check_start(bpy.context, arm, info, {"Ahead"}, target="Ahead")
     assert (v.status, v.method) == ("false_refusal", "skin"), v.detail
     assert 0.0 < v.clearance < 0.03
+    # the planner's capsule stands into the walls; fitted to the skin it does not
+    obstacles = KEPT.get(bpy.context, character_objects(arm, bpy.context.scene) | {"Ahead"},
+                         None)[1]
+
+    def hand_touches(rig_info):
+        gen = Planner(rig_info.arm, obstacles, Settings()).generator
+        pose = gen.config_pose(rig_info.start, rig_info.start_hand)
+        return gen.checker.touches(rig_info.arm.to_world_points(pose.joints), "hand")
+
+    assert hand_touches(info)
+    fitted = rig_mod.fit_to_start(info, arm, obstacles, Settings())
+    assert 0.5 * info.arm.hand_radius <= fitted.arm.hand_radius < info.arm.hand_radius
+    rc, report = bake(tmp_path, ["Ahead"])
+    assert reasons(report)["Ahead"] != "start_in_collision", report["tasks"][0]["message"]
 
 
 def test_the_geometry_finds_touching_crossing_and_inside():
