@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..core import Planner, ReachError, Settings, Task
+from ..core import START_HELD, START_IN_COLLISION, Planner, ReachError, Settings, Task
 from ..core import envelope as envelope_mod
 from ..core.arm import REACH_SLACK, frame_angle, reach_sphere
 from ..core.orient import palm_frame, wanted_axes
@@ -250,9 +250,6 @@ def steps(context, request: Request, bake: bool = True):
         # objects beyond every pose's reach are left out (core.arm.reach_sphere).
         pieces, obstacles, _built = KEPT.get(context, exclude, collection,
                                              within=reach_bounds(info.arm, settings, targets))
-        # a capsule fuller than its skin where the start rests beside something is fitted
-        # to the skin there (a tapering limb's thin end), so the start is judged as it shows
-        info = rig_mod.fit_to_start(info, armature, obstacles, settings)
         moving = set() if request.task == "chase" else \
             _moving_owners(context, exclude, collection, frame_start)
         yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
@@ -322,6 +319,7 @@ def steps(context, request: Request, bake: bool = True):
             plans.append((plan, frame))
             frame += len(plan.poses)
 
+        _start_as_it_shows(armature, info, plans, obstacles)
         outcome = Outcome(request, info, plans, [], obstacles=obstacles.triangle_counts())
         keyed, baked_result = [], None
         draw = request.draw
@@ -627,6 +625,34 @@ def _results(info, plans, keyed, request, baked_result=None):
                 first + seg.frame_start, first + seg.frame_end,
                 list(keyed) if baked else [], stats, seg.method))
     return out
+
+
+def _start_as_it_shows(armature, info, plans, obstacles) -> None:
+    """Where a plan refuses its start as touching an obstacle (``start_in_collision``)
+    while the arm's skin, as Blender shows it on the start frame, touches nothing
+    (:func:`.rig.skin_clearance`), the refusal is a claim about Reach's model of the arm,
+    not about what the user sees: it becomes ``start_held``, saying so. (A capsule has one
+    radius along its segment, read from the skin's bulk; a tapering limb's is fuller than
+    its skin near its thin end: CesiumMan's upper arm touched a plane its skin kept 5 cm
+    from.) The character's own body, an enclosed chest and an obstacle moving into a
+    chase are left as they are."""
+    length = info.arm.arm_length
+    skin = None
+    for plan, _first in plans:
+        for seg in plan.segments:
+            if seg.reason != START_IN_COLLISION or "already touches" not in seg.message:
+                continue
+            if skin is None:
+                skin = rig_mod.skin_clearance(info, armature, obstacles, 0.5 * length)
+            if skin <= 0.0:
+                continue
+            seg.reason = START_HELD
+            seg.message = (f"{seg.message.split(';')[0]} as Reach models the arm (one capsule "
+                           f"per segment, fuller than the skin there), although its skin is "
+                           f"{100.0 * skin * info.arm.metres_per_unit:.1f} cm "
+                           f"({skin / length:.3f} arm lengths) clear, and no move of the model "
+                           "leaves it: the arm cannot move from its start pose; move the arm or "
+                           "the obstacle a little apart, or lower the clearance")
 
 
 def measure_orientation(context, armature, info, results, settings) -> None:

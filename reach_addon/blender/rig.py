@@ -53,7 +53,6 @@ and what was measured.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import re
 from dataclasses import dataclass, field
@@ -62,8 +61,8 @@ import bpy
 import numpy as np
 
 from ..core import ArmConfig, ArmModel, Capsule, ReachError, config_from_joints
-from ..core.arm import forward_kinematics, hand_angles, pose_from_config
-from ..core.collision import CollisionChecker, segment_distance_float
+from ..core.arm import forward_kinematics, hand_angles
+from ..core.collision import segment_distance_float
 
 ROLES = ("clavicle", "upper_arm", "forearm", "hand")
 SIDES = ("right", "left")
@@ -960,60 +959,26 @@ START_BODY_GAP = 0.02
 MIN_BODY_RADIUS = 0.25
 
 
-def fit_to_start(info: RigInfo, armature, obstacles, settings) -> RigInfo:
-    """``info`` with each of the arm's capsules (upper arm, forearm, hand) that the start
-    pose holds nearer an obstacle than the clearance narrowed where its own skin there
-    keeps farther from it: until the planner's own check finds the start clear of it
-    (:class:`~reach_addon.core.collision.CollisionChecker`), never by more than the capsule
-    overstates the skin (its surface's distance from the obstacles against the skin's,
-    :func:`skin_points`: a skin itself within the clearance leaves the capsule as near as
-    the skin, and the start in contact, :mod:`~reach_addon.core.contact`), never below half
-    its radius. ``info`` itself where nothing is narrowed.
-
-    Why. A capsule has one radius along its whole segment, read from the skin's bulk
-    (:func:`_skin_radius`); a limb that tapers (CesiumMan's upper arm, 0.146 arm lengths
-    thick near the shoulder) is fuller than its skin near its thin end. A start resting
-    there beside a surface then touches with the capsule although the skin keeps 0.09 arm
-    lengths away, and where no move takes the capsule out of contact the reach was refused
-    as ``start_in_collision``: a refusal of what the user sees clear. The pose on screen
-    shows how thick the arm is there."""
+def skin_clearance(info: RigInfo, armature, obstacles, horizon: float) -> float:
+    """The least distance (figure units) between the reaching arm's skin as Blender shows it
+    now (:func:`skin_points` of the upper arm, forearm and hand bones, the bones below the
+    hand included, weighted 0.5 or more) and the obstacles, looking no farther than
+    ``horizon`` (returned where nothing is that near, or the arm has no skin); 0 where a
+    point of the skin is inside a closed obstacle: what a user sees of a start the
+    planner's capsules hold in contact (a tapering limb's capsule is fuller than its skin
+    near its thin end)."""
     tree = getattr(obstacles, "tree", None)
+    bones = info.bones.arms[info.side]
+    names = {bones.upper_arm, bones.forearm} | set(info.hand_bones or (bones.hand,))
+    names |= {b.name for h in tuple(names - {bones.upper_arm, bones.forearm})
+              for b in armature.pose.bones[h].children_recursive}
     if tree is None:
-        return info
-    arm, bones = info.arm, info.bones.arms[info.side]
-    length = arm.arm_length
-    clearance = settings.clearance * length
-    joints = arm.to_world_points(pose_from_config(arm, info.start, hand=info.start_hand).joints)
-    hands = set(info.hand_bones or (bones.hand,))
-    hands |= {b.name for h in tuple(hands) for b in armature.pose.bones[h].children_recursive}
-    parts = (("upper_arm_radius", "upper arm", 1, 2, {bones.upper_arm}),
-             ("forearm_radius", "forearm", 2, 3, {bones.forearm}),
-             ("hand_radius", "hand", 3, 4, hands))
-    radii = {}
-    for key, name, a, b, names in parts:
-        r = getattr(arm, key)
-        horizon = r + clearance
-        axis = [tree.find_nearest((joints[a] + t * (joints[b] - joints[a])).tolist(), horizon)
-                for t in np.linspace(0.0, 1.0, 41)]
-        near = [hit[3] for hit in axis if hit[0] is not None]
-        if not near or min(near) - r >= clearance:
-            continue
-        gap = min(near) - r                              # the capsule's surface, < clearance
-        skin = [tree.find_nearest(p.tolist(), horizon) for p in skin_points(armature, names)]
-        if not skin:
-            continue
-        skin_gap = min((hit[3] for hit in skin if hit[0] is not None), default=horizon)
-        most = min(skin_gap - gap, 0.5 * r)              # never thinner than the skin shows
-        if most <= 0.0:
-            continue
-        cut = min(clearance - gap, most)
-        while cut < most and CollisionChecker(dataclasses.replace(
-                arm, **{**radii, key: r - cut}), obstacles, settings).touches(joints, name):
-            cut = min(cut + 0.005 * length, most)
-        radii[key] = r - cut
-    if not radii:
-        return info
-    return dataclasses.replace(info, arm=dataclasses.replace(arm, **radii))
+        return horizon
+    points = skin_points(armature, names)
+    if any(obstacles.point_inside(p) for p in points):
+        return 0.0                                   # the skin is inside a closed obstacle
+    near = [tree.find_nearest(p.tolist(), horizon) for p in points]
+    return min((hit[3] for hit in near if hit[0] is not None), default=horizon)
 
 
 def clear_of_start(capsules, segments, arm_length):

@@ -226,7 +226,11 @@ class Obstacles:
         p = require_finite("point", point)
         odd = 0
         reach = 2.0 * self.size + float(np.abs(p).max())
-        nudge = 1e-7 * self.size
+        # past a face before casting on: the BVH works in 32-bit floats, whose step near a
+        # coordinate x is about 1.2e-7 |x|, so a nudge of the scene's size alone (1e-7 of
+        # a 28 cm box standing a metre from the origin) lands on the face just crossed and
+        # counts it again and again
+        nudge = 1e-6 * (self.size + float(np.abs(p).max()))
         for direction in _AXES:
             origin = p.copy()
             crossings = 0

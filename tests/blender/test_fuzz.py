@@ -32,7 +32,7 @@ def test_the_subset_has_every_feature_of_the_campaign():
 #: seed that stops being one fails it too (the list stays true). None now: the six the
 #: cross-check found first (91, 134, 144, 189: a turned trunk reaches the target; 118,
 #: 198: a tapering arm's capsule stood out of its skin at the start) are fixed
-#: (``ConfigurationGenerator.target_chest``, ``rig.fit_to_start``).
+#: (``ConfigurationGenerator.target_chest``; the start's skin, ``pipeline._start_as_it_shows``).
 KNOWN_FALSE_REFUSALS: dict = {}
 
 

@@ -298,6 +298,18 @@ def test_open_and_closed_meshes_inside_test():
     assert Obstacles(None).point_inside((0, 0, 0)) is False
 
 
+@pytest.mark.parametrize("size, far", [(0.16, 1.2), (0.02, 30.0), (5.0, 4000.0)])
+def test_inside_a_small_box_far_from_the_origin(size, far):
+    """A box small against its distance from the origin (a 16 cm crate round a hand a
+    metre up): the ray's nudge past each face it crosses must outstep the BVH's 32-bit
+    floats there, else the face is counted again and a point inside reads outside (it did,
+    for every point of a hand in a crate)."""
+    c = np.array([-0.6, -0.15, 1.0]) * far
+    box = obstacles({"Crate": [(tuple(c - size / 2), tuple(c + size / 2))]})
+    assert box.point_inside(c) and box.point_inside(c + 0.4 * size)
+    assert not box.point_inside(c + 0.6 * size)
+
+
 def test_the_independent_check_sees_a_penetration(arm):
     """The check used above is not vacuous: a pose through a box reads negative."""
     pose = Planner(arm, None).generator.config_pose(ArmConfig(0.0, 0.0, 90.0, 0.0, 0.0))
