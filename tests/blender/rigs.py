@@ -103,6 +103,42 @@ def rest_still(armature):
     bpy.context.view_layer.update()
 
 
+def height(armature) -> float:
+    """How tall the character is (world units): the vertical extent of the meshes it
+    deforms or carries, as Blender evaluates them."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    zs = []
+    for ob in armature.children_recursive if hasattr(armature, "children_recursive") \
+            else armature.children:
+        if ob.type != "MESH":
+            continue
+        ev = ob.evaluated_get(depsgraph)
+        mesh = ev.to_mesh()
+        co = np.array([v.co[:] for v in mesh.vertices]) @ np.array(ob.matrix_world)[:3, :3].T
+        zs += [co[:, 2].min() + ob.matrix_world.translation.z,
+               co[:, 2].max() + ob.matrix_world.translation.z]
+        ev.to_mesh_clear()
+    return float(max(zs) - min(zs))
+
+
+def small_scale(armature, tall=0.2, object_scale=0.0012):
+    """Make the character ``tall`` metres high the way a Mixamo import is small: its bones
+    and meshes in large units under an armature object scaled by ``object_scale`` (the
+    data scaled up and applied, then the object scaled down). Returns the armature."""
+    k = tall / (object_scale * height(armature))
+    bpy.ops.object.select_all(action="DESELECT")
+    for ob in [armature] + list(armature.children):
+        ob.select_set(True)
+    bpy.context.view_layer.objects.active = armature
+    armature.scale = (k, k, k)
+    bpy.context.view_layer.update()
+    bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
+    armature.scale = (object_scale,) * 3
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.update()
+    return armature
+
+
 # --- scenes ---------------------------------------------------------------------------------
 
 def add_box(name, center, size, rotation=None):

@@ -234,6 +234,31 @@ def test_plan_previews_without_keys_and_clear_removes_the_display(fresh, addon):
     assert not any(ob.name.startswith("Reach ") for ob in bpy.data.objects)
 
 
+def test_trajectory_tube_scales_with_the_arm(fresh, addon):
+    """The drawn trajectory's tube is a share of the arm's length, as the target markers
+    are: on a 0.2 m character (armature scale 0.0012, as a Mixamo import) as thin beside
+    the hand as on the same character at full size, and thinner than the forearm."""
+    ratios = {}
+    for tall in (None, 0.2):
+        arm = rigs.load("quaternius")
+        rigs.rest_still(arm)
+        if tall:
+            rigs.small_scale(arm, tall)
+            assert rigs.height(arm) == pytest.approx(tall, rel=1e-3)
+        info = addon.blender.rig.build(arm, "right")
+        target, _plate = rigs.plate_scene(info, arm)
+        props = bpy.context.scene.reach
+        props.armature, props.target, props.arm = arm, target, "RIGHT"
+        assert bpy.ops.reach.plan() == {"FINISHED"}
+        length = info.arm.arm_length
+        tube = bpy.data.objects["Reach Trajectory"].data.bevel_depth
+        markers = bpy.data.objects["Reach Targets"].dimensions.x / 2
+        ratios[tall] = tube / length
+        assert tube < 0.5 * info.arm.forearm_radius, (tall, tube, info.arm.forearm_radius)
+        assert markers == pytest.approx(0.04 * length, rel=0.05)
+    assert ratios[0.2] == pytest.approx(ratios[None], rel=1e-3), ratios
+
+
 def test_sequence_from_a_collection_of_targets(fresh, addon):
     arm = rigs.load("metarig")
     info = addon.blender.rig.build(arm, "right")
