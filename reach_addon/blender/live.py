@@ -287,7 +287,8 @@ def note_error(message: str) -> None:
 
 
 def status_lines() -> list:
-    """Lines the panel shows while Live is on (or why it stopped)."""
+    """Lines the panel shows while Live is on (or why it stopped): the target's state, with
+    the arm when Auto chose it, and why it cannot be reached."""
     st = _state
     if st is None:
         return [_last_status] if _last_status else []
@@ -297,7 +298,8 @@ def status_lines() -> list:
             "reached": "on target", "closest": "closest approach",
             "blocked": "blocked"}.get(s.state, s.state)
     distance = "" if not math.isfinite(s.distance) else f", {s.distance:.3f} arm lengths away"
-    lines.append(f"{st.target}: {head}{distance}")
+    arm = f" ({st.info.side} arm, Auto)" if st.request.side == "auto" else ""
+    lines.append(f"{st.target}{arm}: {head}{distance}")
     if s.reason is not None:
         lines.append(s.message)
     if st.timings:

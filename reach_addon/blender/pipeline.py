@@ -99,6 +99,8 @@ class TaskResult:
     #: what found the path: "best-first" (the paper's search), "sampling" (the fallback
     #: where it gave up) or "chase"
     method: str = "best-first"
+    #: whether Arm: Auto chose ``arm`` (the message then names it, :func:`arm_note`)
+    auto: bool = False
 
     def to_dict(self) -> dict:
         return dict(self.__dict__)
@@ -129,6 +131,12 @@ class Outcome:
             "obstacles": [{"name": n, "triangles": t} for n, t in self.obstacles],
             "warnings": list(self.warnings),
         }
+
+
+def arm_note(request: Request, info) -> str:
+    """What begins every message of a request whose arm Auto chose, naming that arm
+    ("Left arm (Auto): "); "" when the user chose the arm."""
+    return f"{info.side.capitalize()} arm (Auto): " if request.side == "auto" else ""
 
 
 def find_object(name, what):
@@ -351,8 +359,9 @@ def steps(context, request: Request, bake: bool = True):
             else:
                 # Nothing the user asked for can be baked: leave the scene as it was.
                 failed = next(p for p, _f in plans if not p.success)
-                outcome.failure = (f"{failed.message}; nothing was baked (turn on 'Bake "
-                                   "closest approach' to bake the motion that gets closest)")
+                outcome.failure = (f"{arm_note(request, info)}{failed.message}; nothing was "
+                                   "baked (turn on 'Bake closest approach' to bake the motion "
+                                   "that gets closest)")
                 draw = False
         outcome.results = _results(info, plans, keyed, request, baked_result)
         if outcome.baked:
@@ -605,7 +614,8 @@ def run(context, request: Request, bake: bool = True) -> Outcome:
 
 
 def _results(info, plans, keyed, request, baked_result=None):
-    """A :class:`TaskResult` per target. ``baked_result``: the bake's
+    """A :class:`TaskResult` per target; a failed one's message begins with the arm when
+    Auto chose it (:func:`arm_note`). ``baked_result``: the bake's
     :class:`.bake.BakeResult`, in each baked task's statistics as
     ``rig_residual_arm_lengths`` (how far the rig put a planned joint; 0 on rigs whose keys
     carry the arm exactly), ``linear_spans`` (spans between keys made linear so that
@@ -623,10 +633,11 @@ def _results(info, plans, keyed, request, baked_result=None):
                 if index < len(baked_result.linear_spans):
                     stats["linear_spans"] = baked_result.linear_spans[index]
                     stats["close_spans"] = baked_result.close_spans[index]
+            message = seg.message if seg.success else arm_note(request, info) + seg.message
             out.append(TaskResult(
-                seg.name, info.side, seg.success, seg.reason, seg.message,
+                seg.name, info.side, seg.success, seg.reason, message,
                 first + seg.frame_start, first + seg.frame_end,
-                list(keyed) if baked else [], stats, seg.method))
+                list(keyed) if baked else [], stats, seg.method, request.side == "auto"))
     return out
 
 

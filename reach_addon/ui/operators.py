@@ -232,8 +232,9 @@ class _Run:
             self.report({"WARNING"}, outcome.warnings[0])
         elif first is None:
             verb = "Baked" if outcome.baked else "Planned"
+            chosen = ", chosen by Auto" if outcome.request.side == "auto" else ""
             self.report({"INFO"}, f"{verb} {len(outcome.results)} reach(es) for "
-                                  f"{outcome.rig.armature_name} ({outcome.rig.side} arm)")
+                                  f"{outcome.rig.armature_name} ({outcome.rig.side} arm{chosen})")
         elif outcome.baked:
             self.report({"WARNING"}, f"{first.message} (closest approach baked)"
                         if self.bake and props.bake_closest else first.message)
@@ -303,20 +304,38 @@ class REACH_OT_detect_bones(bpy.types.Operator):
 
 
 def result_lines(props) -> list:
-    """Lines the panel shows for the last result."""
+    """Lines the panel shows for the last result. A reach that succeeded: its head (with
+    the arm when Auto chose it), then its statistics. One that failed: its head, its
+    message (which names the arm Auto chose), then only the statistics that describe
+    something: a failure with no motion (the search never left the start) has no frames,
+    path or strength to show, and one that searched nothing no node counts."""
     res = last_result(props)
     lines = []
     for t in res.get("tasks", []):
         st = t["stats"]
-        head = f"{t['target']}: " + ("reached" if t["success"] else t["reason"].replace("_", " "))
-        if t["success"] and t.get("method") == "sampling":
+        ok = t["success"]
+        head = f"{t['target']}: " + ("reached" if ok else t["reason"].replace("_", " "))
+        if ok and t.get("method") == "sampling":
             head += " (sampling planner)"
+        if ok and t.get("auto"):
+            head += f" with the {t['arm']} arm (Auto)"
         lines.append(head)
-        lines.append(f"  frames {t['frame_start']}–{t['frame_end']}, "
-                     f"search {st['search_time_s'] * 1000:.0f} ms")
-        lines.append(f"  nodes {st['nodes_searched']} searched, {st['nodes_in_solution']} in path")
+        if not ok:
+            lines.append("  " + t["message"])
+        moved = ok or (t["frame_end"] > t["frame_start"]
+                       and st["path_length_arm_lengths"] > 0)
+        if moved:
+            lines.append(f"  frames {t['frame_start']}–{t['frame_end']}, "
+                         f"search {st['search_time_s'] * 1000:.0f} ms")
+        elif st["nodes_searched"]:
+            lines.append(f"  search {st['search_time_s'] * 1000:.0f} ms")
+        if ok or st["nodes_searched"]:
+            lines.append(f"  nodes {st['nodes_searched']} searched, "
+                         f"{st['nodes_in_solution']} in path")
         if st.get("sampling_states"):
             lines.append(f"  sampling: {st['sampling_states']} states tested")
+        if not moved:
+            continue
         lines.append(f"  path {st['path_length_arm_lengths']:.2f} arm lengths, "
                      f"mean f_R {st['mean_f_r']:.2f}")
         if "mean_wrist_bend_deg" in st:
@@ -329,8 +348,6 @@ def result_lines(props) -> list:
         if st.get("orientation_error_deg") is not None:
             lines.append(f"  palm {st['orientation_error_deg']:.0f}° from the target's axes"
                          + ("" if st["orientation_met"] else " (over tolerance)"))
-        if not t["success"]:
-            lines.append("  " + t["message"])
     lines += [f"Warning: {w}" for w in res.get("warnings", ())]
     if res.get("time"):
         lines.append(f"Time: planner {res['time']['planner_s'] * 1000:.0f} ms, "

@@ -191,6 +191,21 @@ def plate_scene(info, armature):
     return add_target("Cup", target), plate
 
 
+def table_at_the_hand(info):
+    """A box "Table" round the end of the hand of ``info``'s arm as the rig rests (the hand
+    in it by a fifth of an arm length, the wrist out) and a target "Inside" in the box:
+    the shoulder of that arm is the nearer to it, so Arm: Auto takes that arm, whose
+    start pose is inside the box. Returns (table, target)."""
+    f, length = info.frame, info.arm.arm_length
+    wrist, elbow = info.joints_world["wrist"], info.joints_world["elbow"]
+    out = (wrist - elbow) / np.linalg.norm(wrist - elbow)
+    hand_end = wrist + out * info.arm.hand_length
+    centre = hand_end + out * 0.2 * length
+    rotation = np.column_stack([out, f.forward, np.cross(out, f.forward)])
+    table = add_box("Table", centre, (0.8 * length, 1.0 * length, 0.6 * length), rotation)
+    return table, add_target("Inside", centre + f.forward * 0.3 * length)
+
+
 def save_cli_scene(kind: str, rig_module, path: Path) -> dict:
     """A file for the command line: rig ``kind`` at rest, the plate scene's target "Cup"
     behind a plate, a free target "Jar" high in front of the chest
