@@ -24,10 +24,16 @@ add-on is unregistered; none of them lets an exception reach Blender (an error s
 session and the panel shows why).
 
 Keys and undo: :func:`key_pose` keys the pose on screen at the current frame through
-:func:`.bake.bake` (the "Key Pose" operator, K in the 3D View while Live is on). Stopping a
-session pushes one undo step ("Reach Live"), so Ctrl+Z takes the arm back to where it
-was before Live, as for any pose edit; an undo or redo while Live is on restarts the
-session from the restored pose.
+:func:`.bake.bake` (the "Key Pose" operator, K in the 3D View while Live is on). Live
+itself pushes no undo step while it runs, but what the user does meanwhile does (a move
+of the target with G is one, saved with whatever pose the arm had reached by then). So
+stopping a session pushes two (:func:`_undo_steps`): "Before Reach Live", the scene as it
+is now but every bone Live posed back as it was when Live began, then "Reach Live", the
+pose on screen. One Ctrl+Z after Live therefore restores the arm's pose from before Live
+and keeps the target's moves; Ctrl+Shift+Z brings the live pose back; further Ctrl+Z go
+back through the steps pushed while Live was on (the target's moves, each with the arm
+as it was then). An undo or redo while Live is on restarts the session from the restored
+pose.
 """
 
 from __future__ import annotations
@@ -51,6 +57,11 @@ from .scene import ObstacleCache, character_objects
 #: Seconds between timer ticks while a re-plan is under way (Blender handles events between).
 TICK_S = 0.005
 UNDO_MESSAGE = "Reach Live"
+#: The undo step pushed before :data:`UNDO_MESSAGE` when Live stops: the arm as before Live.
+UNDO_BEFORE = "Before Reach Live"
+#: The pose bone channels Live may write (rotations; locations and scales are put back as
+#: they were, but a bone's matrix turns into channels with rounding).
+CHANNELS = ("location", "rotation_quaternion", "rotation_euler", "rotation_axis_angle", "scale")
 
 
 # --- the session ------------------------------------------------------------------------------
@@ -97,6 +108,11 @@ _state: LiveState | None = None
 _last_status = ""                  # why the last session ended, for the panel
 _in_update = False
 _drawn: tuple = ()                 # the status last drawn
+#: Since Live was turned on (kept while a session restarts for another target, an undo or a
+#: moved armature), per armature: every pose bone's channels (:data:`CHANNELS`) as they were
+#: when Live first posed it, the bones Live has written since, and the IK/FK switches it
+#: turned, with their values before. :func:`_undo_steps` puts them back for its first step.
+_before: dict = {}
 
 
 def state() -> LiveState | None:
@@ -140,8 +156,14 @@ def start(context, request: pipeline.Request, budget_s: float | None = None) -> 
     settings and bone overrides); the arm is posed on the following updates. Raises
     :class:`~reach_addon.core.ReachError` for bad input, leaving nothing running."""
     global _state, _last_status
-    stop(push_undo=False)
+    if not stop(push_undo=False):
+        _before.clear()              # Live was off: what it changes is counted from now
     st = _open(context, request, DEFAULT_BUDGET_S if budget_s is None else float(budget_s))
+    armature = bpy.data.objects[st.armature]
+    if st.armature not in _before:
+        _before[st.armature] = {"channels": {pb.name: _channels(pb)
+                                             for pb in armature.pose.bones},
+                                "posed": set(), "switches": {}}
     _state = st
     _last_status = ""
     _install()
@@ -156,14 +178,58 @@ def stop(push_undo: bool = True) -> bool:
     _state = None
     _uninstall()
     if was and push_undo:
-        _undo_push()
+        _undo_steps()
     return was
 
 
-def _undo_push():
+def _channels(pose_bone) -> dict:
+    return {c: tuple(getattr(pose_bone, c)) for c in CHANNELS}
+
+
+def _undo_steps():
+    """The two undo steps of stopping Live (see the module doc): the bones Live posed, and
+    the IK/FK switches it turned, put back as they were before Live for "Before Reach
+    Live", then the pose on screen restored for "Reach Live". Nothing is redrawn or
+    evaluated between the two, so the viewport never shows the first."""
+    shown = []
+    for name, before in _before.items():
+        armature = bpy.data.objects.get(name)
+        if armature is None or armature.type != "ARMATURE":
+            continue
+        bones = armature.pose.bones
+        posed = [b for b in sorted(before["posed"]) if b in bones and b in before["channels"]]
+        now = {b: _channels(bones[b]) for b in posed}
+        switches = {(b, p): bones[b].get(p) for b, p in before["switches"] if b in bones}
+        shown.append((armature, now, switches))
+        for b in posed:
+            for channel, value in before["channels"][b].items():
+                setattr(bones[b], channel, value)
+        for (b, p), value in before["switches"].items():
+            if b not in bones:
+                continue
+            if value is None:
+                bones[b].pop(p, None)
+            else:
+                bones[b][p] = value
+        armature.update_tag()
+    _undo_push(UNDO_BEFORE)
+    for armature, now, switches in shown:
+        bones = armature.pose.bones
+        for b, channels in now.items():
+            for channel, value in channels.items():
+                setattr(bones[b], channel, value)
+        for (b, p), value in switches.items():
+            if value is not None:
+                bones[b][p] = value
+        armature.update_tag()
+    _undo_push(UNDO_MESSAGE)
+    _before.clear()
+
+
+def _undo_push(message):
     try:
         if bpy.ops.ed.undo_push.poll():
-            bpy.ops.ed.undo_push(message=UNDO_MESSAGE)
+            bpy.ops.ed.undo_push(message=message)
     except (RuntimeError, AttributeError):
         pass  # no undo stack (e.g. while Blender is loading a file)
 
@@ -239,11 +305,16 @@ def _apply(st: LiveState, armature) -> None:
     targets = bake_mod.target_matrices(st.info, plan, st.start_world, st.chest_head)
     targets_arm = {role: st.armature_inverse[None] @ m[1:] for role, m in targets.items()}
     pose = armature.pose.bones
+    before = _before.get(armature.name)
     for side, (bone_name, prop) in st.info.bones.ik_fk.items():
         if side == st.info.side and pose[bone_name].get(prop) != 1.0:
+            if before is not None:
+                before["switches"].setdefault((bone_name, prop), pose[bone_name].get(prop))
             pose[bone_name][prop] = 1.0
             armature.update_tag()
     locals_ = bake_mod.local_matrices(armature, st.keyed, targets_arm, st.start_pose)
+    if before is not None:
+        before["posed"].update(locals_)
     bake_mod.settle(bpy.context, armature, st.keyed, st.reference, targets_arm, locals_,
                     st.start_pose)
     for name, mats in locals_.items():
@@ -287,7 +358,8 @@ def note_error(message: str) -> None:
 
 
 def status_lines() -> list:
-    """Lines the panel shows while Live is on (or why it stopped)."""
+    """Lines the panel shows while Live is on (or why it stopped): the target's state, with
+    the arm when Auto chose it, and why it cannot be reached."""
     st = _state
     if st is None:
         return [_last_status] if _last_status else []
@@ -297,7 +369,8 @@ def status_lines() -> list:
             "reached": "on target", "closest": "closest approach",
             "blocked": "blocked"}.get(s.state, s.state)
     distance = "" if not math.isfinite(s.distance) else f", {s.distance:.3f} arm lengths away"
-    lines.append(f"{st.target}: {head}{distance}")
+    arm = f" ({st.info.side} arm, Auto)" if st.request.side == "auto" else ""
+    lines.append(f"{st.target}{arm}: {head}{distance}")
     if s.reason is not None:
         lines.append(s.message)
     if st.timings:

@@ -74,9 +74,11 @@ def _remove_data(data):
             return
 
 
-def trajectory(scene, points, name="Reach Trajectory", radius=0.006):
-    """A red poly curve through ``points`` (world, (n, 3)) with a thin bevel so it shows in
-    solid shading and in renders."""
+def trajectory(scene, points, radius, name="Reach Trajectory"):
+    """A red poly curve through ``points`` (world, (n, 3)), bevelled to a tube of ``radius``
+    (world units; the pipeline gives a share of the arm's length, :data:`.pipeline.TUBE_RADIUS`,
+    so that it is as thin beside a small figure's hand as beside a tall one's) so that it
+    shows in solid shading and in renders."""
     remove(name)
     points = np.asarray(points, dtype=float)
     curve = bpy.data.curves.new(name, "CURVE")

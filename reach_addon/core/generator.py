@@ -28,7 +28,11 @@ from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
 from .strength import strength_category
 from .torso import ChestPath, body_rotation_deg
 
-
+#: How far the body's up axis, read from the bones, may be off the true vertical (degrees;
+#: the Quaternius test rig's, hips to chest, leans 6.8° at rest): a target is reported too
+#: high or too low only where no tilt this large could make it a step away instead
+#: (:meth:`ConfigurationGenerator._beyond_reach`).
+UP_TILT_DEG = 15.0
 
 
 @dataclass(frozen=True)
@@ -683,10 +687,19 @@ class ConfigurationGenerator:
     def _beyond_reach(self, wrist, sol) -> Diagnosis:
         """No legal arm pose puts the wrist at ``wrist``. Beyond the straight arm's reach
         from the shoulder: ``NEEDS_LEAN`` if leaning the trunk toward it (about the waist,
-        at most ``Settings.lean_max``) brings it within reach, else ``NEEDS_STEP`` if its
-        height is within the arm's reach of the shoulder's (a step closer would do), else
-        ``OUT_OF_REACH`` (too high or too low). Within the straight arm's reach (too close,
-        or behind the back): ``OUT_OF_REACH`` by the joint limits."""
+        at most ``Settings.lean_max``) brings it within reach; else ``OUT_OF_REACH`` (too
+        high or too low: ``above`` says which, ``missing`` by how much) only where that is
+        certain, else ``NEEDS_STEP`` with ``missing`` the target's distance beyond the
+        arm's reach: the least the shoulder must move toward it. Within the straight arm's
+        reach (too close, or behind the back): ``OUT_OF_REACH`` by the joint limits.
+
+        Certain: the body's up axis is read from the bones and may lean off the true
+        vertical by up to :data:`UP_TILT_DEG` (a spine bent in the rest pose), and a tilt
+        ε moves a target at distance d up or down by up to d·sin ε, more than an arm
+        length for a target a few metres away. So a target is too high or too low only
+        if it stays more than the arm's reach above (below) the shoulder whichever up
+        axis within that tilt is the true one; a far target is a step away, by its
+        distance."""
         arm = self.arm
         shoulder = sol.shoulder[0]
         distance = float(np.linalg.norm(wrist - shoulder))
@@ -708,12 +721,13 @@ class ConfigurationGenerator:
                 return Diagnosis(NEEDS_LEAN, distance=distance, missing=distance - reach,
                                  lean_deg=float(lean))
         height = float(wrist[2] - shoulder[2])
-        if abs(height) < reach:
-            horizontal = float(np.hypot(wrist[0] - shoulder[0], wrist[1] - shoulder[1]))
-            return Diagnosis(NEEDS_STEP, distance=distance,
-                             missing=horizontal - math.sqrt(reach * reach - height * height))
-        return Diagnosis(OUT_OF_REACH, distance=distance, missing=abs(height) - reach,
-                         above=height > 0)
+        horizontal = float(np.hypot(wrist[0] - shoulder[0], wrist[1] - shoulder[1]))
+        elevation = math.atan2(abs(height), horizontal)
+        surely = distance * math.sin(max(0.0, elevation - math.radians(UP_TILT_DEG)))
+        if surely >= reach:
+            return Diagnosis(OUT_OF_REACH, distance=distance, missing=abs(height) - reach,
+                             above=height > 0)
+        return Diagnosis(NEEDS_STEP, distance=distance, missing=distance - reach)
 
     def start_problem(self, pose: Pose):
         """None if a start pose is usable, else (segment, obstacle) of its first contact or

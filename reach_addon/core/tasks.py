@@ -700,8 +700,9 @@ class Planner:
         if d.reason == NEEDS_STEP:
             return NEEDS_STEP, (
                 f"target '{name}' is out of reach even leaning {self.settings.lean_max:.0f}° "
-                f"({d.distance / length:.2f} arm lengths from the shoulder): a step of "
-                f"{size(d.missing)} closer would reach it ({closest}); move the character")
+                f"({d.distance / length:.2f} arm lengths from the shoulder): it needs a step "
+                f"of at least {size(d.missing)} toward it ({closest}); move the character or "
+                "the target")
         if d.reason == OUT_OF_REACH:
             if d.missing <= 0:
                 where = "no legal arm pose puts the wrist there (joint limits)"

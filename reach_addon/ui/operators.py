@@ -11,8 +11,10 @@ Esc lands between slices, at a yield of
 :func:`~reach_addon.blender.pipeline.steps`, and the keys and drawing are made in its last
 step, which does not yield (a cancelled operator pushes no undo step; the user's own
 steps stay as they were). In background mode (``INVOKE_DEFAULT`` runs ``execute`` there)
-they run synchronously. Every :class:`~reach_addon.core.ReachError` becomes
-``self.report({'ERROR'}, ...)``.
+they run synchronously. Every :class:`~reach_addon.core.ReachError`, and a Bake that keys
+nothing, is a refusal (:meth:`_Run._refuse`): its whole reason goes to the Result panel, the
+console and the Info log, and ``self.report({'ERROR'}, ...)`` pops up its first words and
+where the rest is (a script calling the operator gets all of it in its RuntimeError).
 
 Live toggles live mode (:mod:`reach_addon.blender.live`): while it is on the arm follows the
 target; Key Pose (K in the 3D View while Live is on) keys the pose on screen at the current
@@ -47,6 +49,10 @@ REDRAW_SHARE = 4.0
 #: What the last redraw of the progress took (seconds; 0 until one was measured): the
 #: next run waits long enough before its first.
 _redraw = {"cost": 0.0}
+#: Most characters of a refusal's reason shown in the error popup: Blender draws a report
+#: in one line, which ran off the screen; the whole reason goes to the Result panel, the
+#: Info log and the console (:meth:`_Run._refuse`).
+POPUP_CHARS = 60
 
 
 class _Clock:
@@ -135,13 +141,16 @@ class _Run:
         """The work as a step generator (:func:`~reach_addon.blender.pipeline.steps`)."""
         return pipeline.steps(context, request_from(context.scene.reach), bake=self.bake)
 
+    #: Whether the run was started from the interface (``invoke``): its refusals then pop
+    #: up short, the whole reason in the Result panel (:meth:`_refuse`).
+    _popup = False
+
     def execute(self, context):
         self._clock = _Clock()
         try:
             outcome = drain(self.steps(context))
         except ReachError as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+            return self._refuse(context, str(exc))
         self._clock.work = self._clock.wall
         return self._finish(context, outcome)
 
@@ -149,6 +158,7 @@ class _Run:
         if bpy.app.background:
             return self.execute(context)
         props = context.scene.reach
+        self._popup = True
         self._clock = _Clock()
         self._progress = (0.0, "")
         try:
@@ -156,8 +166,7 @@ class _Run:
             self._advance(context)          # validation errors surface here, synchronously
         except ReachError as exc:
             self._steps = None
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+            return self._refuse(context, str(exc))
         except StopIteration as done:
             return self._finish(context, done.value)
         props.running = True
@@ -210,8 +219,7 @@ class _Run:
             return self._finish(context, done.value)
         except ReachError as exc:
             self._stop(context)
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+            return self._refuse(context, str(exc))
         self._show_progress(context)
         return {"RUNNING_MODAL"}
 
@@ -220,11 +228,29 @@ class _Run:
         context.scene.reach.running = False
         context.scene.reach.progress = 0.0
 
+    def _refuse(self, context, message, summary=None):
+        """Stop with nothing done, saying why: the whole ``message`` in the Result panel
+        (kept in the last result as ``refused``, beside the plan's ``summary`` if there is
+        one), on the console (stdout) and in the Info log; started from the interface, the
+        error popup shows its first :data:`POPUP_CHARS` characters and where the rest is
+        (a script's ``bpy.ops`` call gets the whole message in its RuntimeError)."""
+        verb = "Bake" if self.bake else "Plan"
+        props = context.scene.reach
+        props.last_result = json.dumps({**(summary or {}), "refused": message,
+                                        "operation": verb, "time": self._clock.times()})
+        props.status = ""
+        print(f"Reach: {verb} refused: {message}", flush=True)
+        if not self._popup:
+            self.report({"ERROR"}, message)
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{verb} refused: {message}")
+        self.report({"ERROR"}, popup_text(verb, message))
+        return {"CANCELLED"}
+
     def _finish(self, context, outcome):
         props = context.scene.reach
         if outcome.failure:
-            self.report({"ERROR"}, outcome.failure)
-            return {"CANCELLED"}
+            return self._refuse(context, outcome.failure, outcome.summary())
         props.last_result = json.dumps({**outcome.summary(), "time": self._clock.times()})
         props.status = ""
         first = next((r for r in outcome.results if not r.success), None)
@@ -232,8 +258,9 @@ class _Run:
             self.report({"WARNING"}, outcome.warnings[0])
         elif first is None:
             verb = "Baked" if outcome.baked else "Planned"
+            chosen = ", chosen by Auto" if outcome.request.side == "auto" else ""
             self.report({"INFO"}, f"{verb} {len(outcome.results)} reach(es) for "
-                                  f"{outcome.rig.armature_name} ({outcome.rig.side} arm)")
+                                  f"{outcome.rig.armature_name} ({outcome.rig.side} arm{chosen})")
         elif outcome.baked:
             self.report({"WARNING"}, f"{first.message} (closest approach baked)"
                         if self.bake and props.bake_closest else first.message)
@@ -302,21 +329,54 @@ class REACH_OT_detect_bones(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def popup_text(verb: str, message: str) -> str:
+    """The error popup of a refused Plan or Bake: the start of ``message``, cut at a word
+    within :data:`POPUP_CHARS` characters, and where the whole of it is."""
+    head = message
+    if len(message) > POPUP_CHARS:
+        head = message[:POPUP_CHARS + 1].rsplit(" ", 1)[0].rstrip(" ,;:(") + " …"
+    return f"{verb} refused: {head} (all of it: Reach › Result, Info log)"
+
+
 def result_lines(props) -> list:
-    """Lines the panel shows for the last result."""
+    """Lines the panel shows for the last result. A refused run: "Bake refused:" and the
+    whole reason (after the reaches' lines when it planned and keyed nothing). A reach
+    that succeeded: its head (with
+    the arm when Auto chose it), then its statistics. One that failed: its head, its
+    message (which names the arm Auto chose), then only the statistics that describe
+    something: a failure with no motion (the search never left the start) has no frames,
+    path or strength to show, and one that searched nothing no node counts."""
     res = last_result(props)
     lines = []
+    refused = res.get("refused")
+    if refused and not res.get("tasks"):
+        lines.append(f"{res.get('operation', 'Reach')} refused:")
+        lines.append("  " + refused)
     for t in res.get("tasks", []):
         st = t["stats"]
-        head = f"{t['target']}: " + ("reached" if t["success"] else t["reason"].replace("_", " "))
-        if t["success"] and t.get("method") == "sampling":
+        ok = t["success"]
+        head = f"{t['target']}: " + ("reached" if ok else t["reason"].replace("_", " "))
+        if ok and t.get("method") == "sampling":
             head += " (sampling planner)"
+        if ok and t.get("auto"):
+            head += f" with the {t['arm']} arm (Auto)"
         lines.append(head)
-        lines.append(f"  frames {t['frame_start']}–{t['frame_end']}, "
-                     f"search {st['search_time_s'] * 1000:.0f} ms")
-        lines.append(f"  nodes {st['nodes_searched']} searched, {st['nodes_in_solution']} in path")
+        if not ok:
+            lines.append("  " + t["message"])
+        moved = ok or (t["frame_end"] > t["frame_start"]
+                       and st["path_length_arm_lengths"] > 0)
+        if moved:
+            lines.append(f"  frames {t['frame_start']}–{t['frame_end']}, "
+                         f"search {st['search_time_s'] * 1000:.0f} ms")
+        elif st["nodes_searched"]:
+            lines.append(f"  search {st['search_time_s'] * 1000:.0f} ms")
+        if ok or st["nodes_searched"]:
+            lines.append(f"  nodes {st['nodes_searched']} searched, "
+                         f"{st['nodes_in_solution']} in path")
         if st.get("sampling_states"):
             lines.append(f"  sampling: {st['sampling_states']} states tested")
+        if not moved:
+            continue
         lines.append(f"  path {st['path_length_arm_lengths']:.2f} arm lengths, "
                      f"mean f_R {st['mean_f_r']:.2f}")
         if "mean_wrist_bend_deg" in st:
@@ -329,8 +389,10 @@ def result_lines(props) -> list:
         if st.get("orientation_error_deg") is not None:
             lines.append(f"  palm {st['orientation_error_deg']:.0f}° from the target's axes"
                          + ("" if st["orientation_met"] else " (over tolerance)"))
-        if not t["success"]:
-            lines.append("  " + t["message"])
+    if refused and res.get("tasks"):
+        lines.append(f"{res.get('operation', 'Reach')} refused: nothing was baked (turn on "
+                     "'Bake closest approach' under Options to bake the motion that gets "
+                     "closest)")
     lines += [f"Warning: {w}" for w in res.get("warnings", ())]
     if res.get("time"):
         lines.append(f"Time: planner {res['time']['planner_s'] * 1000:.0f} ms, "

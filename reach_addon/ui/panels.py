@@ -47,19 +47,17 @@ def _chars(context):
     return max(16, int((pixels - 40 * scale) / (5.9 * scale)))
 
 
-def _wrapped(layout, lines, width, icon=None):
+def _wrapped(layout, lines, width):
     """Lines as labels, each wrapped to ``width`` characters (its continuation indented
-    under it), so that none is clipped; ``icon`` beside the first."""
+    under it), so that none is clipped. The Result's and Live's text alike: labels with no
+    icon, whose width :func:`_chars` is measured for (an icon beside them took the room
+    of several characters, and Blender clipped the middle of Live's lines)."""
     col = layout.column(align=True)
-    for k, line in enumerate(lines):
+    for line in lines:
         indent = " " * (len(line) - len(line.lstrip()))
         parts = textwrap.wrap(line.strip(), max(8, width - len(indent) - 2)) or [""]
         for j, part in enumerate(parts):
-            text = indent + ("  " if j else "") + part
-            if icon:
-                col.label(text=text, icon=icon if k == 0 and j == 0 else "BLANK1")
-            else:
-                col.label(text=text)
+            col.label(text=indent + ("  " if j else "") + part)
 
 
 class REACH_PT_main(_Reach, bpy.types.Panel):
@@ -163,7 +161,7 @@ class REACH_PT_live(_Reach, bpy.types.Panel):
         sub.operator("reach.key_pose", text="Key (K)", icon="KEY_HLT")
         _row(layout, props, "live_budget_ms")
         lines = live.status_lines() if on or not live.is_active() else []
-        _wrapped(layout, lines, _chars(context), icon="INFO")
+        _wrapped(layout, lines, _chars(context))
 
 
 class REACH_PT_bones(_Reach, bpy.types.Panel):

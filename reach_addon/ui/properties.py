@@ -14,6 +14,7 @@ from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, P
                        StringProperty)
 
 from ..blender import live, pipeline
+from ..blender.scene import VIZ_TAG
 from ..core import ReachError, Settings
 from ..core.live import DEFAULT_BUDGET_S
 from ..core.settings import fields
@@ -74,6 +75,23 @@ def _is_armature(_self, ob):
     return ob.type == "ARMATURE"
 
 
+#: Object types the Target field leaves out: a character's rig, and the scene's cameras,
+#: lights and speakers are never what a hand reaches for (reach for an Empty instead,
+#: parented to a bone if it must move with one).
+NOT_TARGETS = frozenset({"ARMATURE", "CAMERA", "LIGHT", "LIGHT_PROBE", "SPEAKER"})
+
+
+def _is_target(_self, ob):
+    """What the Target field offers: any object but armatures, cameras, lights, speakers
+    and Reach's own display (its trajectory, markers, guiding nodes)."""
+    return ob.type not in NOT_TARGETS and not ob.get(VIZ_TAG)
+
+
+def _not_reach_display(_self, coll):
+    """What the collection fields offer: any collection but Reach's own display."""
+    return not coll.get(VIZ_TAG)
+
+
 def _live_get(self):
     return live.is_active(self.id_data)
 
@@ -122,15 +140,18 @@ def _scene_annotations():
             ("SEQUENCE", "Sequence", "Several targets in order, each from where the last ended"),
             ("GUIDED", "Guided", "Reach through the guiding nodes of the workspace grid"),
             ("CHASE", "Chase", "Follow an animated target over its frame range")]),
-        "target": PointerProperty(name="Target", type=bpy.types.Object,
-                                  description="The object the wrist reaches for",
+        "target": PointerProperty(name="Target", type=bpy.types.Object, poll=_is_target,
+                                  description="The object the wrist reaches for (not an "
+                                              "armature, camera or light)",
                                   update=_live_inputs_update),
         "targets": PointerProperty(name="Targets", type=bpy.types.Collection,
+                                   poll=_not_reach_display,
                                    description="Several targets, reached in order of their names"),
         "obstacles": EnumProperty(name="Obstacles", default="VISIBLE", items=[
             ("VISIBLE", "All visible", "Every visible object with geometry except the character"),
             ("COLLECTION", "Collection", "Only the objects of one collection")]),
-        "obstacle_collection": PointerProperty(name="Obstacle collection", type=bpy.types.Collection),
+        "obstacle_collection": PointerProperty(name="Obstacle collection", type=bpy.types.Collection,
+                                               poll=_not_reach_display),
         "use_current_frame": BoolProperty(name="From current frame", default=True,
                                           description="Start at the frame on screen (off: at "
                                                       "Start frame)"),

@@ -111,13 +111,14 @@ def make_profile(root: Path, blender: str) -> tuple:
     return prof, proc
 
 
-def build_scene(profile: Profile) -> tuple:
-    """The plate scene (``scripts/build_scene.py``) built from the rig :data:`RIG` and saved
-    in the profile's folder: the Blender run, and {"path", "armature", "target", "plate",
-    "arm_length"} (what it printed)."""
-    path = profile.root / "scene.blend"
+def build_scene(profile: Profile, small: bool = False) -> tuple:
+    """The plate scene (``scripts/build_scene.py``) built from the rig :data:`RIG` (with
+    ``small``, made 0.2 m tall, armature scale 0.0012) and saved in the profile's folder:
+    the Blender run, and {"path", "armature", "target", "plate", "arm_length", "height",
+    "scale"} (what it printed)."""
+    path = profile.root / ("scene-small.blend" if small else "scene.blend")
     proc = profile.blender_run("--background", "--python", SCRIPTS / "build_scene.py", "--",
-                               RIG, path, timeout=120)
+                               RIG, path, *(["small"] if small else []), timeout=120)
     return proc, {"path": path, **tagged(proc, "SCENE")}
 
 # --- screenshots -------------------------------------------------------------------------------

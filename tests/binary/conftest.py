@@ -44,6 +44,16 @@ def scene(profile) -> dict:
     return info
 
 
+@pytest.fixture(scope="session")
+def small_scene(profile) -> dict:
+    """The same scene with the character 0.2 m tall, small as a Mixamo import is (armature
+    scale 0.0012): what the interface sessions and the README's picture use."""
+    proc, info = build_scene(profile, small=True)
+    assert proc.returncode == 0 and info["path"].is_file(), output(proc)
+    assert abs(info["height"] - 0.2) < 1e-3 and abs(info["scale"] - 0.0012) < 1e-9, info
+    return info
+
+
 # The planner step for the session's Plan and Bake: twice the default, so they take half the
 # time (each a second or two of planning, searched straight at the plate).
 GUI_STEP = 0.04
@@ -56,9 +66,11 @@ def gui_tools():
 
 
 @pytest.fixture(scope="session")
-def gui(gui_tools, profile, scene) -> dict:
-    """One interface session (``scripts/gui_session.py``) under Xvfb: what it recorded,
-    with the screenshots it took (copied to ``out/gui/`` for people to look at)."""
+def gui(gui_tools, profile, small_scene) -> dict:
+    """One interface session (``scripts/gui_session.py``) under Xvfb, on the small
+    character: what it recorded, with the screenshots it took (copied to ``out/gui/`` for
+    people to look at)."""
+    scene = small_scene
     run_dir = profile.root / "gui"
     run_dir.mkdir(exist_ok=True)
     proc = profile.blender_run_gui(scene["path"], "--python", SCRIPTS / "gui_session.py", "--",

@@ -1,8 +1,10 @@
 """Reach in Blender 3.4.1's interface (under Xvfb): what a user sees in the sidebar and the
-viewport while planning and baking. One interface session (the ``gui`` fixture) records the
-live UI and takes screenshots; these tests check both."""
+viewport while planning and baking. One interface session (the ``gui`` fixture), on a
+character 0.2 m tall (armature scale 0.0012, as a Mixamo import), records the live UI and
+takes screenshots; these tests check both."""
 
 import numpy as np
+import pytest
 from binhost import crop, polyline_distance, strongly_red, text_rows
 
 
@@ -136,6 +138,31 @@ def test_trajectory_is_drawn_red_in_the_viewport(gui):
                   & (path[:, 1] >= 0) & (path[:, 1] < view[3])]
     covered = polyline_distance(inside, pixels[near]) <= 6.0
     assert covered.mean() >= 0.5, f"red drawn along {covered.mean():.0%} of the path"
+
+
+def test_trajectory_tube_is_thin_beside_the_small_arm(gui):
+    """On the 0.2 m character (armature scale 0.0012) the red tube is drawn a fiftieth of
+    an arm length across, not as thick as the forearm: its new red pixels, over the length
+    of the path they lie along, are a band no wider than a few pixels more than the tube's
+    diameter drawn there, and that diameter is a fiftieth of the arm drawn there."""
+    planned = gui["steps_by_name"]["planned"]
+    scale = planned["scale"]
+    assert scale["bevel"] == pytest.approx(0.01 * scale["arm_length"], rel=1e-3), scale
+    assert scale["tube_px"] <= 0.03 * scale["arm_px"], scale
+    reg = regions(gui, "planned")
+    view, ui = reg["WINDOW"], reg["UI"]
+    visible = np.ones((view[3], view[2]), bool)
+    visible[:, ui[0] - view[0]:] = False
+    new = strongly_red(crop(gui["shots"]["planned"], view)) & visible & \
+        ~strongly_red(crop(gui["shots"]["before"], view))
+    path = np.array(planned["trajectory_px"])
+    inside = (path[:, 0] >= 0) & (path[:, 0] < ui[0] - view[0]) & (path[:, 1] >= 0) & \
+        (path[:, 1] < view[3])
+    shown = path[inside]
+    length_px = np.linalg.norm(np.diff(shown, axis=0), axis=1).sum()
+    width_px = new.sum() / max(length_px, 1.0)
+    assert width_px <= scale["tube_px"] + 3.0, (width_px, scale, length_px)
+    assert width_px <= 0.05 * scale["arm_px"], (width_px, scale)
 
 
 #: ``uiBut.type`` of buttons showing the user's own data, not a label: a text field

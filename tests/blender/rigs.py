@@ -133,6 +133,42 @@ def rest_still(armature):
     bpy.context.view_layer.update()
 
 
+def height(armature) -> float:
+    """How tall the character is (world units): the vertical extent of the meshes it
+    deforms or carries, as Blender evaluates them."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    zs = []
+    for ob in armature.children_recursive if hasattr(armature, "children_recursive") \
+            else armature.children:
+        if ob.type != "MESH":
+            continue
+        ev = ob.evaluated_get(depsgraph)
+        mesh = ev.to_mesh()
+        co = np.array([v.co[:] for v in mesh.vertices]) @ np.array(ob.matrix_world)[:3, :3].T
+        zs += [co[:, 2].min() + ob.matrix_world.translation.z,
+               co[:, 2].max() + ob.matrix_world.translation.z]
+        ev.to_mesh_clear()
+    return float(max(zs) - min(zs))
+
+
+def small_scale(armature, tall=0.2, object_scale=0.0012):
+    """Make the character ``tall`` metres high the way a Mixamo import is small: its bones
+    and meshes in large units under an armature object scaled by ``object_scale`` (the
+    data scaled up and applied, then the object scaled down). Returns the armature."""
+    k = tall / (object_scale * height(armature))
+    bpy.ops.object.select_all(action="DESELECT")
+    for ob in [armature] + list(armature.children):
+        ob.select_set(True)
+    bpy.context.view_layer.objects.active = armature
+    armature.scale = (k, k, k)
+    bpy.context.view_layer.update()
+    bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
+    armature.scale = (object_scale,) * 3
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.update()
+    return armature
+
+
 # --- scenes ---------------------------------------------------------------------------------
 
 def add_box(name, center, size, rotation=None):
@@ -183,6 +219,21 @@ def plate_scene(info, armature):
     size = (0.36 * span, 0.36 * span, 0.05 * length)
     plate = add_box("Plate", wrist + 0.5 * path, size, rot)
     return add_target("Cup", target), plate
+
+
+def table_at_the_hand(info):
+    """A box "Table" round the end of the hand of ``info``'s arm as the rig rests (the hand
+    in it by a fifth of an arm length, the wrist out) and a target "Inside" in the box:
+    the shoulder of that arm is the nearer to it, so Arm: Auto takes that arm, whose
+    start pose is inside the box. Returns (table, target)."""
+    f, length = info.frame, info.arm.arm_length
+    wrist, elbow = info.joints_world["wrist"], info.joints_world["elbow"]
+    out = (wrist - elbow) / np.linalg.norm(wrist - elbow)
+    hand_end = wrist + out * info.arm.hand_length
+    centre = hand_end + out * 0.2 * length
+    rotation = np.column_stack([out, f.forward, np.cross(out, f.forward)])
+    table = add_box("Table", centre, (0.8 * length, 1.0 * length, 0.6 * length), rotation)
+    return table, add_target("Inside", centre + f.forward * 0.3 * length)
 
 
 def save_cli_scene(kind: str, rig_module, path: Path) -> dict:

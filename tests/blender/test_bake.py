@@ -234,6 +234,68 @@ def test_plan_previews_without_keys_and_clear_removes_the_display(fresh, addon):
     assert not any(ob.name.startswith("Reach ") for ob in bpy.data.objects)
 
 
+def test_trajectory_tube_scales_with_the_arm(fresh, addon):
+    """The drawn trajectory's tube is a share of the arm's length, as the target markers
+    are: on a 0.2 m character (armature scale 0.0012, as a Mixamo import) as thin beside
+    the hand as on the same character at full size, and thinner than the forearm."""
+    ratios = {}
+    for tall in (None, 0.2):
+        arm = rigs.load("quaternius")
+        rigs.rest_still(arm)
+        if tall:
+            rigs.small_scale(arm, tall)
+            assert rigs.height(arm) == pytest.approx(tall, rel=1e-3)
+        info = addon.blender.rig.build(arm, "right")
+        target, _plate = rigs.plate_scene(info, arm)
+        props = bpy.context.scene.reach
+        props.armature, props.target, props.arm = arm, target, "RIGHT"
+        assert bpy.ops.reach.plan() == {"FINISHED"}
+        length = info.arm.arm_length
+        tube = bpy.data.objects["Reach Trajectory"].data.bevel_depth
+        markers = bpy.data.objects["Reach Targets"].dimensions.x / 2
+        ratios[tall] = tube / length
+        assert tube < 0.5 * info.arm.forearm_radius, (tall, tube, info.arm.forearm_radius)
+        assert markers == pytest.approx(0.04 * length, rel=0.05)
+    assert ratios[0.2] == pytest.approx(ratios[None], rel=1e-3), ratios
+
+
+def test_auto_names_the_arm_it_chose_and_a_failure_shows_no_empty_statistics(fresh, addon):
+    """Arm: Auto on a target in a box round the resting left hand: Auto takes the left arm,
+    whose start pose is inside the box. Every message says so (the result's, the Bake's
+    refusal, Live's status), and the Result's lines hold the message but no statistics
+    of a search that never ran (no frames, nodes, path or f_R of zero)."""
+    arm = rigs.small_scale(rigs.load("quaternius"))
+    rigs.rest_still(arm)
+    left = addon.blender.rig.build(arm, "left")
+    _table, target = rigs.table_at_the_hand(left)
+    props = bpy.context.scene.reach
+    props.armature, props.target, props.arm = arm, target, "AUTO"
+    assert bpy.ops.reach.plan() == {"FINISHED"}
+    task = result()[0]
+    assert task["arm"] == "left" and task["auto"] and task["reason"] == "start_in_collision"
+    assert task["message"].startswith("Left arm (Auto): the start pose is inside 'Table' (at "
+                                      "the hand)"), task["message"]
+    lines = addon.ui.operators.result_lines(props)
+    assert lines[:2] == ["Inside: start in collision", "  " + task["message"]], lines
+    shown = "\n".join(lines)
+    for empty in ("frames", "nodes 0", "path 0.00", "f_R", "search 0 ms"):
+        assert empty not in shown, (empty, lines)
+    with pytest.raises(RuntimeError, match=r"Left arm \(Auto\): the start pose is inside"):
+        bpy.ops.reach.bake()
+    # chosen by the user: no note
+    props.arm = "LEFT"
+    assert bpy.ops.reach.plan() == {"FINISHED"}
+    assert result()[0]["message"].startswith("the start pose is inside 'Table'")
+    props.arm = "AUTO"
+    live = addon.blender.live
+    assert bpy.ops.reach.live() == {"FINISHED"}
+    for _ in range(200):
+        if not live.update(bpy.context).busy:
+            break
+    assert live.status_lines()[0].startswith("Inside (left arm, Auto): "), live.status_lines()
+    live.stop(push_undo=False)
+
+
 def test_sequence_from_a_collection_of_targets(fresh, addon):
     arm = rigs.load("metarig")
     info = addon.blender.rig.build(arm, "right")

@@ -127,28 +127,48 @@ def test_unreachable_target_reaches_closest_and_says_why(fresh, addon):
     live.stop(push_undo=False)
 
 
-def test_turning_live_off_is_one_undo_step(fresh, addon):
+def test_one_undo_after_live_restores_the_pose_from_before_live(fresh, addon):
+    """The user moves the target twice while Live is on, each move an undo step of its own
+    (as G pushes one, with the arm wherever the search had got to); then turns Live off.
+    One undo: the arm as it was before Live, the target where it was last moved. Redo: the
+    pose Live showed. Further undos go back through the moves' own steps."""
     arm, info, target, plate = set_up("metarig", addon)
     live = addon.blender.live
+    length, f = info.arm.arm_length, info.frame
     name, bones = arm.name, ("upper_arm.R", "forearm.R", "hand.R")
-    before = {b: tuple(arm.pose.bones[b].rotation_quaternion) for b in bones}
+
+    def rotations(ob):
+        return {b: tuple(ob.pose.bones[b].rotation_quaternion) for b in bones}
+
+    before = rotations(arm)
     bpy.ops.ed.undo_push(message="before Live")
     assert bpy.ops.reach.live() == {"FINISHED"}
-    settle(live, lambda: heads(arm, SKIN_CHAIN["metarig"]), addon.core.Settings(),
-           info.arm.arm_length)
-    posed = {b: tuple(arm.pose.bones[b].rotation_quaternion) for b in bones}
+    settle(live, lambda: heads(arm, SKIN_CHAIN["metarig"]), addon.core.Settings(), length)
+    moves = [np.array(target.location) + 0.1 * length * k * f.up for k in (1, 2)]
+    for p in moves:
+        target.location = p
+        live.update(bpy.context, budget_s=0.002)        # part of the way there
+        bpy.ops.ed.undo_push(message="Move")            # what G pushes when it ends
+    settle(live, lambda: heads(arm, SKIN_CHAIN["metarig"]), addon.core.Settings(), length)
+    posed = rotations(arm)
     assert posed != before
-    assert bpy.ops.reach.live() == {"FINISHED"}          # off: pushes "Reach Live"
-    assert {b: tuple(arm.pose.bones[b].rotation_quaternion) for b in bones} == posed
+    assert bpy.ops.reach.live() == {"FINISHED"}          # off
+    assert rotations(arm) == posed, "turning Live off leaves the pose on screen"
     bpy.ops.ed.undo()
     restored = bpy.data.objects[name]
     for b in bones:
         np.testing.assert_allclose(restored.pose.bones[b].rotation_quaternion, before[b],
                                    atol=1e-6)
+    np.testing.assert_allclose(bpy.data.objects[target.name].location, moves[-1], atol=1e-9)
     bpy.ops.ed.redo()
     for b in bones:
         np.testing.assert_allclose(bpy.data.objects[name].pose.bones[b].rotation_quaternion,
                                    posed[b], atol=1e-6)
+    bpy.ops.ed.undo()                                   # "Before Reach Live" again
+    bpy.ops.ed.undo()                                   # the last move's own step
+    np.testing.assert_allclose(bpy.data.objects["Cup"].location, moves[1], atol=1e-9)
+    bpy.ops.ed.undo()                                   # the first move's
+    np.testing.assert_allclose(bpy.data.objects["Cup"].location, moves[0], atol=1e-9)
 
 
 def test_undo_while_live_is_on_follows_the_restored_scene(fresh, addon):

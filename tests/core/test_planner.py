@@ -381,6 +381,47 @@ def test_a_target_too_high_is_out_of_reach_by_its_height(arm):
     assert f"{100 * 0.5 * arm.arm_length:.1f} cm" in p.message and "above" in p.message
 
 
+def test_a_target_too_low_near_the_feet_is_out_of_reach_by_its_height(arm):
+    """On the floor half an arm length in front: no step brings it within reach."""
+    target = shoulder_of(arm) + arm.arm_length * np.array([0.0, -0.5, -2.4])
+    p = plan(Task("reach", target[None], HANGING, names=("Shoe",)), arm, None)
+    assert not p.success and p.reason == OUT_OF_REACH, p.message
+    assert f"{100 * 1.4 * arm.arm_length:.1f} cm" in p.message and "below" in p.message
+
+
+def tilted(arm, degrees):
+    """``arm`` with its body's up axis leaning forward by ``degrees`` (as a spine bent in
+    the rest pose reads), the shoulder where it was."""
+    from dataclasses import replace
+
+    t = np.radians(degrees)
+    turn = np.eye(4)
+    turn[:3, :3] = [[1, 0, 0], [0, np.cos(t), -np.sin(t)], [0, np.sin(t), np.cos(t)]]
+    s = shoulder_of(arm)
+    about = np.eye(4)
+    about[:3, 3] = s
+    back = np.eye(4)
+    back[:3, 3] = -s
+    return replace(arm, to_world=about @ turn @ back @ arm.to_world)
+
+
+def test_a_far_target_is_a_step_away_whatever_the_body_axis_tilt(arm):
+    """88 arm lengths ahead (5 m on a 0.2 m figure), a little below the shoulder: a step
+    is what is missing, by the target's distance. The body's up axis leaning 3° forward
+    puts the target 4.6 arm lengths "above" along it, which is not a reason."""
+    for lean in (0.0, 3.0, -3.0):
+        bent = tilted(arm, lean)
+        up = bent.to_world[:3, 2]
+        assert np.degrees(np.arccos(up @ [0, 0, 1])) == pytest.approx(abs(lean))
+        shoulder = shoulder_of(bent)
+        target = shoulder + arm.arm_length * np.array([0.0, -88.0, -0.3])
+        p = plan(Task("reach", target[None], HANGING, names=("Far",)), bent, None)
+        assert not p.success and p.reason == NEEDS_STEP, (lean, p.message)
+        assert "above" not in p.message and "below" not in p.message
+        beyond = np.linalg.norm(target - shoulder) - arm.arm_length
+        assert f"a step of at least {100 * beyond:.1f} cm" in p.message, p.message
+
+
 def cubby(centre, opening, depth, wall=0.02):
     """An open-fronted box (toward +Y, the figure) with a square opening of side
     ``opening``, the front face at ``centre``."""

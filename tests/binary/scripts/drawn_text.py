@@ -135,30 +135,53 @@ def panel_buttons(region, idname):
     name = idname.encode() + b"\0"
     while block:
         if name in ctypes.string_at(block, BLOCK_NAME_SEARCH):
-            out = []
-            but = _pointer(block + 16)
-            while but:
-                given = _pointer(but + STR)
-                if not given:
-                    raise RuntimeError(f"{idname}: a button without text at {but:#x}")
-                text = _text(given)
-                inline = given == but + STRDATA
-                if inline != (len(text.encode()) < STRDATA_SIZE):
-                    raise RuntimeError(f"{idname}: uiBut layout not as expected "
-                                       f"(str {given:#x}, button {but:#x}, {text[:40]!r})")
-                out.append({"given": text, "drawn": _text(but + DRAWSTR, DRAWSTR_SIZE),
-                            "type": ctypes.c_int.from_address(but + TYPE).value,
-                            "rect": list(struct.unpack("<4f", ctypes.string_at(but + RECT, 16)))})
-                but = _pointer(but)
-            return out
+            return _buttons(block, idname)
         block = _pointer(block)
     return None
 
 
+def _buttons(block, what):
+    out = []
+    but = _pointer(block + 16)
+    while but:
+        given = _pointer(but + STR)
+        if not given:
+            raise RuntimeError(f"{what}: a button without text at {but:#x}")
+        text = _text(given)
+        inline = given == but + STRDATA
+        if inline != (len(text.encode()) < STRDATA_SIZE):
+            raise RuntimeError(f"{what}: uiBut layout not as expected "
+                               f"(str {given:#x}, button {but:#x}, {text[:40]!r})")
+        out.append({"given": text, "drawn": _text(but + DRAWSTR, DRAWSTR_SIZE),
+                    "type": ctypes.c_int.from_address(but + TYPE).value,
+                    "rect": list(struct.unpack("<4f", ctypes.string_at(but + RECT, 16)))})
+        but = _pointer(but)
+    return out
+
+
+def popups(screen):
+    """The screen's temporary regions (popups, menus, tooltips: DNA ``bScreen.regionbase``),
+    each {"rect": its ``winrct`` [xmin, xmax, ymin, ymax] in window pixels, "buttons": the
+    buttons of all its blocks, as :func:`panel_buttons` gives them}."""
+    region = _pointer(screen.as_pointer() + sdna_offset("bScreen", "regionbase"))
+    blocks, winrct = sdna_offset("ARegion", "uiblocks"), sdna_offset("ARegion", "winrct")
+    out = []
+    while region:
+        rect = list(struct.unpack("<4i", ctypes.string_at(region + winrct, 16)))
+        buttons, block = [], _pointer(region + blocks)
+        while block:
+            buttons += _buttons(block, "popup")
+            block = _pointer(block)
+        out.append({"rect": rect, "buttons": buttons})
+        region = _pointer(region)
+    return out
+
+
 def panels(region):
     """The region's panels (DNA ``Panel``, each followed by its sub-panels), each {"name":
-    the panel type's idname, "flag", "ofsy" and "sizey" (its box below the header, in the
-    region's view coordinates), "depth", "address"}."""
+    the panel type's idname, "flag", "ofsx", "ofsy" and "sizey" (its box below the header,
+    in the region's view coordinates: its buttons' rectangles are offset from it by
+    ``ofsx``, ``ofsy``), "depth", "address"}."""
     fields = sdna_struct("Panel")
     first = sdna_offset("ARegion", "panels")
     out = []
@@ -169,7 +192,8 @@ def panels(region):
     def walk(panel, depth):
         while panel:
             out.append({"name": _text(panel + fields["panelname"][0], 64),
-                        "flag": field(panel, "flag", "<h"), "ofsy": field(panel, "ofsy", "<i"),
+                        "flag": field(panel, "flag", "<h"), "ofsx": field(panel, "ofsx", "<i"),
+                        "ofsy": field(panel, "ofsy", "<i"),
                         "sizey": field(panel, "sizey", "<i"), "depth": depth, "address": panel})
             walk(_pointer(panel + fields["children"][0]), depth + 1)
             panel = _pointer(panel)

@@ -261,6 +261,32 @@ def trajectory_on_screen():
     return out
 
 
+def scale_on_screen():
+    """How big the trajectory's tube and the arm are drawn where the path is: the pixels
+    across the tube's diameter (its bevel) and across an arm's length, both measured at
+    the middle of the path, parallel to the screen; with the bevel and the arm length."""
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+    from mathutils import Vector
+
+    ob = bpy.data.objects.get("Reach Trajectory")
+    _win, area, regions = ui()
+    r3d = area.spaces.active.region_3d
+    points = ob.data.splines[0].points
+    middle = ob.matrix_world @ points[len(points) // 2].co.xyz
+    across = r3d.view_rotation @ Vector((1.0, 0.0, 0.0))
+    length = sys.modules["reach_addon"].blender.rig.build(bpy.data.objects[ARMATURE],
+                                                          "right").arm.arm_length
+
+    def pixels(size):
+        a = location_3d_to_region_2d(regions["WINDOW"], r3d, middle)
+        b = location_3d_to_region_2d(regions["WINDOW"], r3d, middle + size * across)
+        return (b - a).length
+
+    bevel = ob.data.bevel_depth
+    return {"bevel": bevel, "arm_length": length, "tube_px": pixels(2 * bevel),
+            "arm_px": pixels(length)}
+
+
 def frame_the_arm(distance=2.2, height=0.5):
     """Look at the reach from the front, close enough that the arm fills the viewport (or
     from ``distance`` arm lengths, ``height`` the share of the eye's direction upward)."""
@@ -426,7 +452,7 @@ def session():
     yield from settle("REACH_PT_result")
     planned = state()
     note("planned", trajectory="Reach Trajectory" in bpy.data.objects, keys=len(planned["keys"]),
-         trajectory_px=trajectory_on_screen(),
+         trajectory_px=trajectory_on_screen(), scale=scale_on_screen(),
          result=json.loads(props.last_result or "{}"))
     screenshot("planned")
 

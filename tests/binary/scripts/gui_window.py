@@ -42,3 +42,15 @@ def reach_tab(drawn, most=8):
         turns += 1
         yield 0.6
     return turns
+
+
+def button_xy(region, rect, cur, fx=0.5, fy=0.5):
+    """X screen coordinates of a point of a button drawn in ``region``: ``rect`` [xmin, xmax,
+    ymin, ymax] in the region's view (``drawn_text.panel_buttons``), ``cur`` the region's
+    View2D ``cur`` rectangle (``drawn_text.view2d_cur``)."""
+    x = rect[0] + fx * (rect[1] - rect[0])
+    y = rect[2] + fy * (rect[3] - rect[2])
+    px = (x - cur[0]) * region.width / (cur[1] - cur[0])
+    py = (y - cur[2]) * region.height / (cur[3] - cur[2])
+    win = ui()[0]
+    return int(region.x + px), int(win.height - (region.y + py))
