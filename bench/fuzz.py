@@ -47,7 +47,7 @@ hand's far end, carried by their bones — and the four segments (clavicle, uppe
 forearm, hand; the rig model's radii; the hand left out only where the bake was told not
 to check it, ``--no-check-hand``) are measured against the triangles of the evaluated
 meshes of the scene's obstacles by exact segment–triangle distance in numpy
-(:func:`bench.ompl_race.independent_check`). Which objects are obstacles comes from the
+(:func:`verification.clearance.independent_check`). Which objects are obstacles comes from the
 scene's description, by the README's rules (visible objects with faces, not the
 character, not a target), not from Reach's gathering. A start pose that already touches
 something may stay in contact only while the motion leaves it (the planner moves out of
@@ -1334,7 +1334,7 @@ def verify(manifest: dict, report: dict, output: Path, subframes: int) -> list:
     bpy = _bpy()
     from reach_addon.blender import rig as rig_mod
 
-    from bench.ompl_race import independent_check
+    from verification.clearance import independent_check
 
     tasks = [t for t in report["tasks"] if t["success"] and t["bones_keyed"]]
     if not tasks:

@@ -59,8 +59,9 @@ How the comparison is made fair
 The independent check
 ---------------------
 Every sample's four segments (clavicle, upper arm, forearm, hand, with the arm's radii)
-are measured against the obstacle triangles by exact segment–triangle distance, written
-here in numpy and sharing no code with the planner's BVH checker. A sample *collides* when
+are measured against the obstacle triangles by exact segment–triangle distance
+(:func:`verification.clearance.independent_check`, numpy, sharing no code with the
+planner's BVH checker). A sample *collides* when
 some segment comes closer to a triangle than its radius (no clearance margin: actual
 contact). The chain starts at the sternum, outside every obstacle, so a segment inside a
 closed obstacle implies a segment crossing its surface, which the test sees. The body's own
@@ -97,6 +98,7 @@ from reach_addon.core.sampling import (JOINT_NAMES, StateValidity, densify_rows,
                                       pose_row)
 from reach_addon.core.sampling import JointSpace as CoreJointSpace
 from reach_addon.core.strength import strength_category
+from verification.clearance import independent_check
 
 #: Keys of the dictionary :func:`race` returns (the numbers are plain Python floats/ints).
 KEYS = ("task", "reach_time_s", "ompl_time_s", "reach_path_length", "ompl_path_length",
@@ -145,126 +147,6 @@ class Validity(StateValidity):
 
     def __call__(self, state) -> bool:
         return self.valid([state[i] / k for i, k in enumerate(self.scale)])
-
-
-# --- the independent check -----------------------------------------------------------------
-
-def _dot(a, b):
-    return np.einsum("...i,...i->...", a, b)
-
-
-def _point_segment(p, a, b):
-    """Distances from points ``p`` to segments a-b (all (K, 3), pairwise)."""
-    ab = b - a
-    t = np.clip(_dot(p - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(p - a - t[:, None] * ab, axis=1)
-
-
-def _segment_segment(p1, q1, p2, q2):
-    """Pairwise distances between segments p1-q1 and p2-q2 ((K, 3) each).
-
-    |p1 + s d1 - p2 - t d2|² is a convex quadratic on the square [0, 1]²: its minimum is the
-    stationary point when that lies inside, else on an edge of the square, where it is the
-    distance from one segment's end to the other segment."""
-    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
-    a, b, e = _dot(d1, d1), _dot(d1, d2), _dot(d2, d2)
-    c, f = _dot(d1, r), _dot(d2, r)
-    det = a * e - b * b
-    ok = det > 1e-12 * np.maximum(a * e, 1e-300)
-    safe = np.where(ok, det, 1.0)
-    s = (b * f - c * e) / safe
-    t = (a * f - b * c) / safe
-    inside = ok & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)
-    gap = r + s[:, None] * d1 - t[:, None] * d2
-    best = np.where(inside, np.linalg.norm(gap, axis=1), np.inf)
-    for dist in (_point_segment(p1, p2, q2), _point_segment(q1, p2, q2),
-                 _point_segment(p2, p1, q1), _point_segment(q2, p1, q1)):
-        best = np.minimum(best, dist)
-    return best
-
-
-def _point_triangle(p, a, b, c):
-    """Pairwise distances from points ``p`` to triangles a, b, c ((K, 3) each): to the plane
-    if the foot of the perpendicular is inside the triangle, else to the nearest edge."""
-    n = np.cross(b - a, c - a)
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    height = _dot(p - a, n)
-    foot = p - height[:, None] * n
-    inside = ((_dot(np.cross(b - a, foot - a), n) >= 0) & (_dot(np.cross(c - b, foot - b), n) >= 0)
-              & (_dot(np.cross(a - c, foot - c), n) >= 0))
-    edges = np.minimum(np.minimum(_point_segment(p, a, b), _point_segment(p, b, c)),
-                       _point_segment(p, c, a))
-    return np.where(inside, np.abs(height), edges)
-
-
-def _segment_crosses(p, q, a, b, c):
-    """Pairwise: does segment p-q pass through triangle a, b, c? (Möller–Trumbore)"""
-    d, e1, e2 = q - p, b - a, c - a
-    h = np.cross(d, e2)
-    det = _dot(e1, h)
-    ok = np.abs(det) > 1e-15
-    inv = 1.0 / np.where(ok, det, 1.0)
-    s = p - a
-    u = inv * _dot(s, h)
-    k = np.cross(s, e1)
-    v = inv * _dot(d, k)
-    t = inv * _dot(e2, k)
-    return ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= 1)
-
-
-def segment_triangle_distance(p, q, tris):
-    """Exact pairwise distances between segments p-q ((K, 3)) and triangles ((K, 3, 3)):
-    zero if the segment crosses the triangle, else the least of its ends to the triangle and
-    of the segment to the triangle's three edges."""
-    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
-    best = np.minimum(_point_triangle(p, a, b, c), _point_triangle(q, a, b, c))
-    for x, y in ((a, b), (b, c), (c, a)):
-        best = np.minimum(best, _segment_segment(p, q, x, y))
-    return np.where(_segment_crosses(p, q, a, b, c), 0.0, best)
-
-
-def independent_check(arm, world_joints, tris, include_hand=True, horizon=math.inf,
-                      chunk=256):
-    """Contacts of poses ``world_joints`` (N, 5, 3) with triangles ``tris`` (T, 3, 3).
-
-    Returns (poses in which a segment comes closer to a triangle than its radius, the same
-    counting the arm only (clavicle, upper arm, forearm), least clearance over all poses:
-    distance minus radius, capped at ``horizon``). Segment–triangle pairs whose bounds are
-    farther apart than ``horizon`` (a sphere round the capsule, the triangle's box) are
-    not measured: they can neither touch nor set the least clearance."""
-    joints = np.asarray(world_joints, dtype=float)
-    tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
-    segs = [(0, 1, arm.upper_arm_radius), (1, 2, arm.upper_arm_radius),
-            (2, 3, arm.forearm_radius)]
-    if include_hand and arm.hand_length > 0:
-        segs.append((3, 4, arm.hand_radius))
-    if len(joints) == 0 or len(tris) == 0:
-        return 0, 0, horizon
-    box_lo, box_hi = tris.min(axis=1), tris.max(axis=1)
-    radii = np.array([r for _a, _b, r in segs])
-    n_seg = len(segs)
-    colliding, colliding_arm, least = 0, 0, horizon
-    for lo in range(0, len(joints), chunk):
-        j = joints[lo:lo + chunk]
-        n = len(j)
-        p = np.stack([j[:, a] for a, _b, _r in segs], 1).reshape(-1, 3)      # (n·S, 3)
-        q = np.stack([j[:, b] for _a, b, _r in segs], 1).reshape(-1, 3)
-        r = np.tile(radii, n)
-        mid, half = 0.5 * (p + q), 0.5 * np.linalg.norm(q - p, axis=1)
-        outside = np.maximum(np.maximum(box_lo[None] - mid[:, None], mid[:, None] - box_hi[None]),
-                             0.0)                                            # (n·S, T, 3)
-        near = np.linalg.norm(outside, axis=2) <= (half + r + horizon)[:, None]
-        si, ti = np.nonzero(near)
-        if si.size == 0:
-            continue
-        clearance = segment_triangle_distance(p[si], q[si], tris[ti]) - r[si]
-        per_segment = np.full(n * n_seg, np.inf)
-        np.minimum.at(per_segment, si, clearance)
-        per_segment = per_segment.reshape(n, n_seg)
-        colliding += int((per_segment.min(axis=1) < 0).sum())
-        colliding_arm += int((per_segment[:, :3].min(axis=1) < 0).sum())
-        least = min(least, float(per_segment.min()))
-    return colliding, colliding_arm, least
 
 
 def densify(space: JointSpace, path, spacing):

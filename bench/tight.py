@@ -94,12 +94,13 @@ if str(ROOT) not in sys.path:
 import bpy  # noqa: E402,F401  (mathutils for the obstacles' BVH)
 
 from bench.ompl_race import (CLEARANCE_HORIZON, DENSE_SPACING,  # noqa: E402
-                             JointSpace, Validity, densify, goal_rows, independent_check,
-                             joints_of, pose_row, prepare_query, rrt_connect, run_query)
+                             JointSpace, Validity, densify, goal_rows, joints_of, pose_row,
+                             prepare_query, rrt_connect, run_query)
 from reach_addon.core import Planner, Settings, Task  # noqa: E402
 from reach_addon.core.arm import ArmConfig, ArmModel, Capsule  # noqa: E402
 from reach_addon.core.collision import Obstacles  # noqa: E402
 from reach_addon.samples import HANGING, figure_transform, standard_arm  # noqa: E402
+from verification.clearance import independent_check  # noqa: E402
 
 FAMILIES = ("cubby", "slot", "hole", "gap")
 SYNTHETIC_ARMS = ("standard", "bulky", "robot")

@@ -1,21 +1,15 @@
-"""Triangle geometry in numpy for the refusal cross-check: exact tests, no BVH.
+"""Exact triangle geometry in numpy: the independent oracle's distances and tests.
 
-Written for :mod:`verification.refusal` and sharing no code with Reach's collision checker
-(:mod:`reach_addon.core.collision`, Blender's BVH). Every array is float64 in one frame
-(world space, the scene's units). Functions called *pairwise* take arrays of one length K
-and answer for row k of each; the others say what they broadcast.
+Shares no code with Reach's collision checker (:mod:`reach_addon.core.collision`, Blender's
+BVH). Every array is float64 in one frame (world space, the scene's units; distances in
+those units). *Pairwise* functions take arrays that broadcast against each other (points
+``(..., 3)``, triangles as their corners ``a``, ``b``, ``c``) and answer for each pair;
+the others say what they take.
 
-What is exact and what is not:
-
-* :func:`triangles_intersect` is exact for triangles in general position: two triangles
-  share a point if and only if an edge of one passes through the other, which is what
-  it tests (Möller–Trumbore with closed bounds, so touching counts). Two triangles lying
-  in one plane and overlapping are not detected; they share no volume (a contact of zero
-  depth), and a skin lying flat on a face is found by its other triangles or not at all.
-* :func:`points_inside` counts ray crossings (parity) along three fixed directions and
-  takes the majority, so a ray grazing an edge or a vertex (counted twice or not at all)
-  cannot decide alone. It is meaningful for a closed mesh (:func:`closed`).
-* :func:`point_triangle_distance` is exact (Ericson, *Real-Time Collision Detection* 5.1.5).
+Exact: every distance, and :func:`triangles_intersect` for triangles in general position
+(touching counts; two coplanar triangles that overlap are not found). :func:`points_inside`
+is ray parity, meaningful for a closed mesh (:func:`closed`). Why the oracle is written
+apart from the planner: ``docs/design.md``, *Verification*.
 """
 
 from __future__ import annotations
@@ -143,35 +137,100 @@ def points_inside(points, tris, chunk: int = 256) -> np.ndarray:
     return out
 
 
+def unit(v) -> np.ndarray:
+    """The vector ``v`` scaled to length 1 (float64)."""
+    v = np.asarray(v, dtype=float)
+    return v / np.linalg.norm(v)
+
+
+def point_segment_distance(p, a, b) -> np.ndarray:
+    """Pairwise distance from points ``p`` to the closed segments a–b."""
+    p, a, b = (np.asarray(x, dtype=float) for x in (p, a, b))
+    ab = b - a
+    t = np.clip(_dot(p - a, ab) / np.maximum(_dot(ab, ab), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(p - a - t[..., None] * ab, axis=-1)
+
+
 def point_triangle_distance(p, a, b, c) -> np.ndarray:
-    """Pairwise exact distance from points p to triangles a, b, c ((K, 3) each): to the
-    closest point of the triangle (Voronoi regions of its vertices, edges and face)."""
-    ab, ac, ap = b - a, c - a, p - a
-    d1, d2 = _dot(ab, ap), _dot(ac, ap)
-    bp = p - b
-    d3, d4 = _dot(ab, bp), _dot(ac, bp)
-    cp = p - c
-    d5, d6 = _dot(ab, cp), _dot(ac, cp)
-    vc = d1 * d4 - d3 * d2
-    vb = d5 * d2 - d1 * d6
-    va = d3 * d6 - d5 * d4
+    """Pairwise exact distance from points ``p`` to the closed triangles a, b, c: to the
+    plane where the foot of the perpendicular lies inside the triangle, else to its nearest
+    edge. A triangle without area (its corners in a line, or two of them one) is measured
+    by its edges."""
+    p, a, b, c = (np.asarray(x, dtype=float) for x in (p, a, b, c))
+    ab, ac = b - a, c - a
+    n = np.cross(ab, ac)
+    n_len = np.linalg.norm(n, axis=-1)
+    flat = n_len <= 1e-12 * np.linalg.norm(ab, axis=-1) * np.linalg.norm(ac, axis=-1)
+    n = n / np.where(flat, 1.0, n_len)[..., None]
+    height = _dot(p - a, n)
+    foot = p - height[..., None] * n
+    inside = ((_dot(np.cross(ab, foot - a), n) >= 0) & (_dot(np.cross(c - b, foot - b), n) >= 0)
+              & (_dot(np.cross(a - c, foot - c), n) >= 0) & ~flat)
+    edges = np.minimum(np.minimum(point_segment_distance(p, a, b), point_segment_distance(p, b, c)),
+                       point_segment_distance(p, c, a))
+    return np.where(inside, np.abs(height), edges)
 
-    def safe(x):
-        return np.where(np.abs(x) > 1e-300, x, 1e-300)
 
-    v_ab = d1 / safe(d1 - d3)
-    w_ac = d2 / safe(d2 - d6)
-    w_bc = (d4 - d3) / safe((d4 - d3) + (d5 - d6))
-    denom = 1.0 / safe(va + vb + vc)
-    face = a + ab * (vb * denom)[:, None] + ac * (vc * denom)[:, None]
-    conds = [(d1 <= 0) & (d2 <= 0), (d3 >= 0) & (d4 <= d3), (vc <= 0) & (d1 >= 0) & (d3 <= 0),
-             (d6 >= 0) & (d5 <= d6), (vb <= 0) & (d2 >= 0) & (d6 <= 0),
-             (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)]
-    choices = [a, b, a + ab * v_ab[:, None], c, a + ac * w_ac[:, None], b + (c - b) * w_bc[:, None]]
-    closest = face
-    for cond, choice in zip(reversed(conds), reversed(choices)):
-        closest = np.where(cond[:, None], choice, closest)
-    return np.linalg.norm(p - closest, axis=1)
+def segment_segment_distance(p1, q1, p2, q2) -> np.ndarray:
+    """Pairwise exact distance between the closed segments p1–q1 and p2–q2: the stationary
+    point of the squared distance where it lies inside both, else the least distance of an
+    end of one to the other (the square [0, 1]² of the two parameters has its minimum there)."""
+    p1, q1, p2, q2 = (np.asarray(x, dtype=float) for x in (p1, q1, p2, q2))
+    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
+    a, b, e = _dot(d1, d1), _dot(d1, d2), _dot(d2, d2)
+    c, f = _dot(d1, r), _dot(d2, r)
+    det = a * e - b * b
+    ok = det > 1e-12 * np.maximum(a * e, 1e-300)
+    safe = np.where(ok, det, 1.0)
+    s = (b * f - c * e) / safe
+    t = (a * f - b * c) / safe
+    inside = ok & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)
+    gap = r + s[..., None] * d1 - t[..., None] * d2
+    best = np.where(inside, np.linalg.norm(gap, axis=-1), np.inf)
+    for dist in (point_segment_distance(p1, p2, q2), point_segment_distance(q1, p2, q2),
+                 point_segment_distance(p2, p1, q1), point_segment_distance(q2, p1, q1)):
+        best = np.minimum(best, dist)
+    return best
+
+
+def segment_triangle_distance(p, q, a, b, c) -> np.ndarray:
+    """Pairwise exact distance between the closed segments p–q and triangles a, b, c: 0
+    where the segment crosses the triangle, else the least of its ends to the triangle and
+    of the segment to the triangle's three edges."""
+    p, q, a, b, c = (np.asarray(x, dtype=float) for x in (p, q, a, b, c))
+    best = np.minimum(point_triangle_distance(p, a, b, c), point_triangle_distance(q, a, b, c))
+    for x, y in ((a, b), (b, c), (c, a)):
+        best = np.minimum(best, segment_segment_distance(p, q, x, y))
+    return np.where(segments_cross_triangles(p, q, a, b, c), 0.0, best)
+
+
+def segment_triangle_distances(p, q, tris, horizon=np.inf) -> np.ndarray:
+    """Least distances (S,) from the segments p[i]–q[i] ((S, 3) each) to any of the
+    triangles (T, 3, 3), each at most ``horizon`` (segment–triangle pairs whose bounds,
+    a sphere round the segment and the triangle's box, are farther apart are not
+    measured)."""
+    p = np.asarray(p, dtype=float).reshape(-1, 3)
+    q = np.asarray(q, dtype=float).reshape(-1, 3)
+    tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
+    out = np.full(len(p), float(horizon))
+    if len(tris) == 0 or len(p) == 0:
+        return out
+    mid, half = 0.5 * (p + q), 0.5 * np.linalg.norm(q - p, axis=1)
+    gap = np.maximum(np.maximum(tris.min(axis=1)[None] - mid[:, None],
+                                mid[:, None] - tris.max(axis=1)[None]), 0.0)     # (S, T, 3)
+    si, ti = np.nonzero(np.linalg.norm(gap, axis=2) <= (half + horizon)[:, None])
+    if len(si):
+        tri = tris[ti]
+        np.minimum.at(out, si, segment_triangle_distance(p[si], q[si], tri[:, 0], tri[:, 1],
+                                                         tri[:, 2]))
+    return out
+
+
+def segment_crosses(p, q, tris) -> bool:
+    """Does the closed segment p–q (two points) meet any of the triangles (T, 3, 3)?"""
+    tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    return bool(segments_cross_triangles(p, q, tris[:, 0], tris[:, 1], tris[:, 2]).any())
 
 
 def least_distance(points, tris, horizon: float, chunk: int = 1024) -> float:

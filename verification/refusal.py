@@ -618,7 +618,7 @@ def _arm_skin(context, armature, bones: set):
             best = np.full(len(centres), np.inf)
             mine = np.zeros(len(centres), dtype=bool)
             for name, h, t in all_bones:
-                d = _point_segment(centres, h, t)
+                d = geometry.point_segment_distance(centres, h, t)
                 closer = d < best
                 best = np.where(closer, d, best)
                 mine = np.where(closer, name in bones, mine)
@@ -628,12 +628,6 @@ def _arm_skin(context, armature, bones: set):
             meshes.append(ob.name)
     tris = np.concatenate(parts) if parts else np.zeros((0, 3, 3))
     return tris[geometry.triangle_areas(tris) > 0.0], meshes
-
-
-def _point_segment(p, a, b):
-    ab = b - a
-    t = np.clip((p - a) @ ab / max(float(ab @ ab), 1e-300), 0.0, 1.0)
-    return np.linalg.norm(p - a - t[:, None] * ab, axis=1)
 
 
 def check_start(context, armature, info, exclude, collection=None, *, target: str = "",

@@ -63,7 +63,8 @@ def test_axis_distance_is_the_segments_least_distance_to_the_mesh_within_its_tol
     the exact segment–triangle distance of the tests' own geometry, on a table and a
     shelf: never more than the tolerance above it, never below it; and a pose's
     clearance is its segments' least distance minus their radii."""
-    from geometry import obstacles, segment_triangle_distance, shelf, standard_arm, table, triangles_of
+    from geometry import (obstacles, segment_triangle_distances, shelf, standard_arm, table,
+                          triangles_of)
 
     from reach_addon.core.collision import CollisionChecker
     from reach_addon.core.settings import Settings
@@ -80,7 +81,7 @@ def test_axis_distance_is_the_segments_least_distance_to_the_mesh_within_its_tol
     for _ in range(300):
         p = rng.uniform(lo, hi)
         q = p + rng.normal(size=3) * rng.uniform(0.05, 0.5)
-        exact = min(horizon, segment_triangle_distance(p, q, tris))
+        exact = min(horizon, segment_triangle_distances(p, q, tris)[0])
         measured = checker.axis_distance(p, q, horizon, tolerance)
         # (the BVH holds single-precision floats)
         assert exact - 1e-6 <= measured <= exact + tolerance + 1e-6, (p, q, exact, measured)
@@ -89,6 +90,6 @@ def test_axis_distance_is_the_segments_least_distance_to_the_mesh_within_its_tol
     joints = np.array([arm.sternum, arm.shoulder, [0.0, 0.2, -0.3], [0.1, 0.45, -0.3],
                        [0.1, 0.6, -0.3]])
     world = arm.to_world_points(joints)
-    expected = min(segment_triangle_distance(world[a], world[b], tris) - seg.radius
+    expected = min(segment_triangle_distances(world[a], world[b], tris)[0] - seg.radius
                    + checker.margin for seg in checker.segments for a, b in [(seg.a, seg.b)])
     assert abs(checker.pose_clearance(world, 1.0, tolerance) - min(1.0, expected)) <= tolerance

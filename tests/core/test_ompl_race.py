@@ -1,8 +1,9 @@
 """The OMPL race harness (bench/ompl_race.py) measures what it claims to, on real data.
 
 Its kinematics must be the core's, its validity test the core's acceptance, and its
-independent collision check must agree with the sampled point-to-triangle check of
-``tests/geometry.py`` (a separate implementation) and find real contacts. The race itself
+independent collision check (exact segment–triangle distances, verification/clearance.py)
+must agree with the sampled point-to-triangle check (points along each segment, a second
+method) and find real contacts. The race itself
 runs on the demo workplace when OMPL is installed (``requirements-bench.txt``). No timing
 is asserted.
 """
@@ -13,15 +14,16 @@ import numpy as np
 import pytest
 
 from bench import ompl_race as race_mod
-from bench.ompl_race import (JointSpace, Validity, densify, independent_check, joints_of,
-                             pose_row, race_targets, segment_triangle_distance,
-                             workplace_triangles)
-from reach_addon.core.sampling import joints_of_one
-from geometry import HANGING, arm_penetration, point_triangle_distance, segment_clearance
+from bench.ompl_race import JointSpace, Validity, densify, race_targets, workplace_triangles
+from geometry import HANGING
+
 from reach_addon.core import Planner, Settings, ik
 from reach_addon.core.arm import ArmConfig, pose_from_config
+from reach_addon.core.sampling import joints_of, joints_of_one, pose_row
 from reach_addon.demo import WORKPLACE, demo_tasks
 from reach_addon.samples import obstacles, standard_arm
+from verification.clearance import arm_penetration, independent_check, segment_clearance
+from verification.geometry import point_triangle_distance, segment_triangle_distance
 
 
 @pytest.fixture(scope="module")
@@ -109,24 +111,29 @@ def test_start_and_goal_poses_are_valid(planner, space):
         assert not validity.valid(row)
 
 
+def _pairs(p, q, tris):
+    return segment_triangle_distance(p, q, tris[:, 0], tris[:, 1], tris[:, 2])
+
+
 def test_segment_triangle_distance_matches_sampled_check():
-    """Exact segment–triangle distances agree with dense point sampling (tests/geometry.py)
-    to within half the sample spacing, and a segment through a triangle is at distance 0."""
+    """Exact segment–triangle distances agree with dense point sampling
+    (``clearance.segment_clearance``) to within half the sample spacing, and a segment
+    through a triangle is at distance 0."""
     rng = np.random.default_rng(4)
     tris = rng.normal(size=(60, 3, 3))
     p = rng.normal(size=(60, 3)) * 1.5
     q = p + rng.normal(size=(60, 3))
-    exact = segment_triangle_distance(p, q, tris)
+    exact = _pairs(p, q, tris)
     for k in range(60):
         sampled = segment_clearance(p[k], q[k], tris[k:k + 1], spacing=0.001)
         assert exact[k] <= sampled + 1e-9
         assert sampled - exact[k] <= 0.0005 + 1e-9
     tri = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]])
-    through = segment_triangle_distance(np.array([[0.2, 0.2, -1.0]]), np.array([[0.2, 0.2, 1.0]]), tri)
+    through = _pairs(np.array([[0.2, 0.2, -1.0]]), np.array([[0.2, 0.2, 1.0]]), tri)
     assert through[0] == 0.0
-    beside = segment_triangle_distance(np.array([[2.0, 0.0, -1.0]]), np.array([[2.0, 0.0, 1.0]]), tri)
+    beside = _pairs(np.array([[2.0, 0.0, -1.0]]), np.array([[2.0, 0.0, 1.0]]), tri)
     assert beside[0] == pytest.approx(1.0)
-    corner = point_triangle_distance(np.array([[2.0, 0.0, 0.0]]), tri)[0, 0]
+    corner = point_triangle_distance(np.array([[2.0, 0.0, 0.0]]), *tri[0])[0]
     assert corner == pytest.approx(1.0)
 
 
@@ -134,7 +141,7 @@ def test_independent_check_finds_a_hand_swept_through_an_obstacle(planner, space
     """The wrist in front of the shelf, the hand bent fully one way and then the other
     (turned sideways 25°): both ends are clear by the core's checker, the neutral hand in
     between is not. The check finds the sweep's contacts, for the hand alone, in agreement
-    with the sampled check of tests/geometry.py."""
+    with the sampled check (``clearance.arm_penetration``)."""
     arm, gen = planner.arm, planner.generator
     tris = workplace_triangles()
     base = pose_row(gen.solve(arm.to_canonical_points(np.array([-0.30, -0.45, 1.30]))))
