@@ -11,7 +11,7 @@ to ``bench/results.json`` and a readable ``bench/results.md``:
    **Table 1**: reaches baked over directions at both rows of Table 1 on the demo
    character, the chest's turn at arrival read from the evaluated bones and plotted against
    the table (``bench/table1.png``, :mod:`bench.table1`).
-2. **OMPL race** (:mod:`bench.ompl_race`): RRTConnect + simplification in the same joint
+2. **OMPL race** (:mod:`verification.race`): RRTConnect + simplification in the same joint
    space with the same collision test, start and goal region, at least 20 seeds a task,
    Reach's grid inside its time, both paths held to one independent check.
 3. **Chase / live re-plan**: time per target update (:mod:`bench.live_bench`); **reach
@@ -141,7 +141,7 @@ def ompl(runs: int):
     time and length ratios over the runs where both paths pass the independent check;
     both planners' BVH queries counted on seed 0."""
     try:
-        from bench import ompl_race
+        from verification import race
     except ImportError as exc:
         log(f"  OMPL race skipped: {exc} (pip install -r requirements-bench.txt)")
         return []
@@ -151,8 +151,8 @@ def ompl(runs: int):
         results = []
         for seed in range(max(runs, RACE_RUNS)):
             planner = Planner(standard_arm(), obstacles(WORKPLACE), Settings())
-            results.append(ompl_race.race(name, planner, tasks[name], seed=seed,
-                                          count_queries=seed == 0))
+            results.append(race.race(name, planner, tasks[name], seed=seed,
+                                     count_queries=seed == 0))
         keys = ("reach_time_s", "ompl_time_s", "reach_path_length", "ompl_path_length",
                 "reach_mean_f_r", "ompl_mean_f_r", "reach_collisions", "ompl_collisions",
                 "reach_arm_collisions", "ompl_arm_collisions", "ompl_validity_checks",
@@ -583,10 +583,9 @@ def everyday(runs: int):
     ``runs`` times: nodes searched against nodes in the path (the goal: at most 3×), the
     method that found the path, search and whole-plan times, and the tight bench's
     independent check of the baked frames (arm and hand)."""
-    from bench.ompl_race import JointSpace
-    from bench.tight import contacts
     from reach_addon.core.sampling import pose_row
     from reach_addon.samples import HANGING, everyday_scenes
+    from verification.race import JointSpace, path_contacts
 
     arm, settings = standard_arm(), Settings()
     rows = []
@@ -601,8 +600,8 @@ def everyday(runs: int):
             samples.append((plan, time.perf_counter() - t0))
         plan = samples[0][0]
         st = plan.stats
-        m = contacts(JointSpace(arm, settings), verts[tris],
-                     np.array([pose_row(p) for p in plan.poses]), True)
+        m = path_contacts(JointSpace(arm, settings), verts[tris],
+                          np.array([pose_row(p) for p in plan.poses]), True)
         search = [p.stats.search_time_s for p, _t in samples]
         whole = [t for _p, t in samples]
         row = {"scene": name, "success": bool(plan.success), "reason": plan.reason,

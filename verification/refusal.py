@@ -31,7 +31,7 @@ in the rig's start pose, with the core's own state test
 (:class:`reach_addon.core.sampling.StateValidity`: joint and elevation limits, Algorithm
 1's elbow side, the body's capsules, the obstacles with the clearance through the
 planner's ``CollisionChecker``), motions checked every ``Settings.step`` of the lever-arm
-metric (the core's search step), as ``bench/ompl_race.py`` races it.
+metric (the core's search step), as :mod:`verification.race` races it.
 
 **The goal region** is an OMPL ``GoalSampleableRegion`` subclassed in Python
 (:class:`WristGoal`; the bindings allow it): a state is in it when its wrist is within
@@ -88,11 +88,12 @@ from reach_addon.core import ik
 from reach_addon.core.errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH,
                                      OUT_OF_REACH, START_HELD, START_IN_COLLISION,
                                      TARGET_IN_OBSTACLE)
-from reach_addon.core.sampling import (JOINT_NAMES, JointSpace, StateValidity, joints_of,
-                                       joints_of_one)
+from reach_addon.core.sampling import JOINT_NAMES, JointSpace, StateValidity, joints_of, joints_of_one
 from reach_addon.core.settings import Settings
 
 from . import geometry
+from .race import JointSpace as OmplJointSpace
+from .race import seed_ompl
 
 #: The reasons whose claim is "no clear path": checked by OMPL (:func:`check_path_claim`).
 PATH_REASONS = (NO_PATH, ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, START_HELD)
@@ -251,21 +252,6 @@ def why_invalid(validity: StateValidity, q) -> str:
     return "the elbow is off its side"
 
 
-def _ompl_space(space: JointSpace):
-    """The joint space as OMPL's bounded ``RealVectorStateSpace`` whose motions are checked
-    every ``Settings.step`` of the metric (as ``bench/ompl_race.py`` builds it)."""
-    from ompl import base as ob
-
-    n = len(JOINT_NAMES)
-    out = ob.RealVectorStateSpace(n)
-    bounds = ob.RealVectorBounds(n)
-    bounds.low = space.coordinates(space.lo).tolist()
-    bounds.high = space.coordinates(space.hi).tolist()
-    out.setBounds(bounds)
-    out.setLongestValidSegmentFraction(space.settings.step / out.getMaximumExtent())
-    return out
-
-
 def _wrist_goal_class():
     from ompl import base as ob
 
@@ -300,19 +286,6 @@ def _wrist_goal_class():
     return WristGoal
 
 
-def _seed_ompl(seed: int) -> None:
-    """Seed OMPL's random numbers (it rejects 0, so seed + 1); its complaint about a
-    reseed after the first draw is silenced (the sequence is still the seed's)."""
-    from ompl import util as ou
-
-    level = ou.getLogLevel()
-    ou.setLogLevel(ou.LOG_NONE)
-    try:
-        ou.RNG.setSeed(int(seed) + 1)
-    finally:
-        ou.setLogLevel(level)
-
-
 #: Seconds OMPL's path simplifier may shorten a path found (its length is then the one
 #: reported; validity is checked again after it).
 SIMPLIFY_S = 1.0
@@ -332,8 +305,8 @@ def ompl_search(validity: StateValidity, start_row, target_c, goals, *, budget_s
 
     space = validity.space
     ou.setLogLevel(ou.LOG_ERROR)
-    _seed_ompl(seed)
-    state_space = _ompl_space(space)
+    seed_ompl(seed)
+    state_space = space.ompl_space()
     si = ob.SpaceInformation(state_space)
     scale = space.scale.tolist()
     calls0 = validity.calls
@@ -411,7 +384,7 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
     t0 = time.perf_counter()
     arm, s = planner.arm, planner.settings
     start_row = np.asarray(start_row, dtype=float)
-    space = JointSpace(arm, s, start_row)
+    space = OmplJointSpace(arm, s, start_row)
     validity = StateValidity(arm, s, planner.generator.checker, space)
     target_c = np.asarray(target_c, dtype=float)
     table1 = float(ik.solve(arm, target_c[None], s).body[0])

@@ -1,4 +1,4 @@
-"""The OMPL race harness (bench/ompl_race.py) measures what it claims to, on real data.
+"""The OMPL race harness (verification/race.py) measures what it claims to, on real data.
 
 Its kinematics must be the core's, its validity test the core's acceptance, and its
 independent collision check (exact segment–triangle distances, verification/clearance.py)
@@ -13,8 +13,6 @@ import math
 import numpy as np
 import pytest
 
-from bench import ompl_race as race_mod
-from bench.ompl_race import JointSpace, Validity, densify, race_targets, workplace_triangles
 from geometry import HANGING
 
 from reach_addon.core import Planner, Settings, ik
@@ -22,8 +20,10 @@ from reach_addon.core.arm import ArmConfig, pose_from_config
 from reach_addon.core.sampling import joints_of, joints_of_one, pose_row
 from reach_addon.demo import WORKPLACE, demo_tasks
 from reach_addon.samples import obstacles, standard_arm
+from verification import race as race_mod
 from verification.clearance import arm_penetration, independent_check, segment_clearance
 from verification.geometry import point_triangle_distance, segment_triangle_distance
+from verification.race import JointSpace, Validity, densify, race_targets, workplace_triangles
 
 
 @pytest.fixture(scope="module")

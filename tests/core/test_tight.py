@@ -1,4 +1,4 @@
-"""The tight-scene generator of bench/tight.py keeps its promises.
+"""The tight-scene generator (verification/tight.py) keeps its promises.
 
 A handful of scenes (every family, the three built-in body types): each opening is
 2 (R + c) f across, R the arm's thicker forearm or hand radius, c the planner's clearance,
@@ -10,9 +10,9 @@ scene. Nothing is planned here: Reach's success rate is the benchmark's business
 import numpy as np
 import pytest
 
-from bench import tight
 from reach_addon.core import Planner, Settings
 from reach_addon.core.collision import point_segment_distance
+from verification import tight
 
 CASES = [("standard", "cubby", 11), ("standard", "slot", 12), ("bulky", "hole", 13),
          ("robot", "gap", 14), ("robot", "slot", 15), ("bulky", "gap", 16)]
@@ -95,7 +95,7 @@ def test_a_search_path_the_hand_cannot_follow_is_repaired_by_the_sampling_planne
     reaches the target, but the hand cannot follow its path clear (the search left the hand
     to flip at the opening). Grown along that path from both ends, the sampling planner
     bridges the gap; without the fallback the reach fails. The motion is checked by the
-    bench's own segment-triangle test, and the same scene gives the same motion."""
+    independent check's segment-triangle test, and the same scene gives the same motion."""
     arm_name, family, seed = tight.scene_plan(240, 0)[2]
     assert (arm_name, family) == ("robot", "hole")
     arm = tight.make_arm(arm_name)
