@@ -9,7 +9,8 @@ under ``reach_addon/`` imports it; ``tests/`` and ``bench/`` both import it. The
   against obstacle triangles;
 - :mod:`verification.refusal`: the refusal cross-check (is a failed reach's reason true?);
 - :mod:`verification.race`: the harness racing Reach against OMPL on one problem;
-- :mod:`verification.tight`: tight scenes sized to an arm's own limbs.
+- :mod:`verification.tight`: tight scenes sized to an arm's own limbs;
+- :mod:`verification.table1`: Table 1 measured on baked motion.
 """
 
 import sys

@@ -3,7 +3,7 @@ bones, equals the paper's regression within 2°.
 
 On the standard synthetic adult (1.75 m) and a real shared rig (MakeHuman), reaches are
 baked over directions 60–150° to wrist positions whose hand lies at the distances that map
-to Table 1's 75 cm and 85 cm rows (``bench/table1.py`` places them in each figure's own body
+to Table 1's 75 cm and 85 cm rows (``verification/table1.py`` places them in each figure's own body
 frame, scaled by its own arm). The expected rotation is computed here from the paper's two
 rows, at the direction and distance of the wrist where Blender shows it, not from the
 planner's numbers; the chest's turn is read from the evaluated chest bone.
@@ -15,7 +15,7 @@ import pytest
 import rigs
 import synthetic
 
-from bench.table1 import sweep
+from verification.table1 import sweep
 
 DIRECTIONS = (60, 90, 120, 150)
 
