@@ -1,6 +1,7 @@
 """Write the README's Performance table from ``bench/results.json`` (``make bench`` runs
 this after ``bench/run.py``) and its fuzz campaign's counts from ``bench/fuzz.json``
-(``make fuzz`` runs it after ``bench/fuzz.py``), so the figures there are the bench's,
+(``make fuzz`` runs it after ``bench/fuzz.py``; the words are
+:func:`verification.fuzz.summary.fuzz_counts`), so the figures there are the bench's,
 never copied by hand.
 
     python bench/readme.py [--check]
@@ -18,6 +19,11 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from verification.fuzz.summary import fuzz_counts  # noqa: E402
+
 START, END = "<!-- bench:start -->", "<!-- bench:end -->"
 FUZZ_START, FUZZ_END = "<!-- fuzz:start -->", "<!-- fuzz:end -->"
 TASKS = ("collision_free", "rotation", "guided", "chase")
@@ -170,56 +176,6 @@ def table(r: dict) -> str:
             f"{_ms(tight.get('reach_median_search_s'))} / "
             f"{1000 * tight['ompl_median_s']:.0f} ms | goal ≥ 99 %, median well under OMPL's |")
     return "\n".join(lines)
-
-
-def fuzz_counts(f: dict) -> str:
-    """The campaign's outcomes from ``bench/fuzz.json``: every category (a bug category
-    too, at 0), the seeds that did not pass, the most frequent failure reasons, and the
-    refusal cross-check's counts (:func:`cross_check_counts`)."""
-    last = f["seed0"] + f["scenes"] - 1
-    lines = [f"From `bench/fuzz.json`: {f['scenes']:,} scenes (seeds {f['seed0']}–{last}; Reach "
-             f"{f['reach_version']}" + (f" at {f['reach_commit']}" if f.get("reach_commit") else "")
-             + f", bpy {f['blender_version']}, {f['jobs']} worker process"
-             + ("es" if f["jobs"] != 1 else "") + ", "
-             f"{f['wall_time_s'] / 60:.0f} min, median {f['seconds_per_scene_median']:.2f} s a "
-             f"scene): **{f['passed']:,} passed** ({100 * f['passed'] / f['scenes']:.2f} %).",
-             "", "| outcome | scenes | example seed |", "|---|---:|---|"]
-    for name, c in f["categories"].items():
-        lines.append(f"| `{name}` | {c['count']:,} | {c.get('example_seed', '')} |")
-    if f["not_passing"]:
-        lines += ["", "Not passing: " + "; ".join(
-            f"seed {r['seed']} (`{r['category']}`: {r['detail']})" for r in f["not_passing"])
-            + "."]
-    reasons = sorted(f["failure_reasons"].items(), key=lambda kv: (-kv[1]["count"], kv[0]))
-    lines += ["", "The most frequent failure reasons: " + "; ".join(
-        f"`{k}` {v['count']:,} (seed {v['example_seed']})" for k, v in reasons[:8]) + "."]
-    lines += ["", cross_check_counts(f)]
-    return "\n".join(lines)
-
-
-def cross_check_counts(f: dict) -> str:
-    """The refusal cross-check's counts from ``bench/fuzz.json``: refusals decided
-    (confirmed or contradicted) and false refusals, per reason with the check's median and
-    largest time; a campaign from before the cross-check says so."""
-    if "refusals_cross_checked" not in f:
-        return ("Refusals cross-checked: none — this campaign predates the cross-check "
-                "(`verification/refusal.py`), so its failures with a reason are unchecked "
-                "claims; `false_refusals` not counted.")
-    per = f.get("cross_check", {})
-    parts = [f"`{reason}` {e['confirmed']:,} confirmed, {e['false_refusal']:,} false, "
-             f"{e['inconclusive'] + e['unchecked']:,} undecided "
-             f"({e['seconds_median']:.2f}/{e['seconds_max']:.2f} s)"
-             for reason, e in per.items()]
-    seeds = "".join(f"; seed {x['seed']} `{x['reason']}` ('{x['target']}')"
-                    for x in f.get("false_refusal_list", [])[:10])
-    return (f"Refusals cross-checked (`verification/refusal.py`, OMPL "
-            f"{f.get('cross_check_budget_s', 10):g} s where a goal region exists): "
-            f"**{f['refusals_cross_checked']:,} decided**, **{f['false_refusals']:,} false "
-            f"refusals**{seeds}, {f.get('refusals_not_decided', 0):,} undecided (a chase's "
-            "pursuit, a later leg of a sequence, a target in the body, a start the core's "
-            f"test refuses); {f.get('cross_check_seconds', 0):,.0f} s of cross-check in all. "
-            "Per refused target and reason (median/largest seconds of the check): "
-            + "; ".join(parts) + ".")
 
 
 def _between(text: str, start: str, end: str, body: str) -> str | None:

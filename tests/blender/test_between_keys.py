@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 import rigs
 import synthetic
-from bench.fuzz import ArmReader
 
 from reach_addon.blender import rig as rig_mod
+from verification.fuzz.checks import ArmReader
 
 INSTANTS = (0.25, 0.5, 0.75)
 

@@ -1,4 +1,4 @@
-"""The fixed-seed subset of the fuzz campaign (``make fuzz``, ``bench/fuzz.py``): 200
+"""The fixed-seed subset of the fuzz campaign (``make fuzz``, ``verification/fuzz/``): 200
 generated scenes, each built in Blender, baked twice by the command line and checked
 independently, on worker processes (one per core). Every outcome must be a success that
 the independent check finds clear at every frame and sub-frame instant with the wrist on
@@ -15,15 +15,15 @@ import os
 
 import numpy as np
 
-from bench import fuzz
+from verification.fuzz import building, campaign, checks, scenes, summary
 
 SEEDS = range(200)
 
 
 def test_the_subset_has_every_feature_of_the_campaign():
-    seen = collections.Counter(f for seed in SEEDS for f in fuzz.generate(seed, quick=True)["features"])
-    assert not [f for f in fuzz.FEATURES if not seen[f]]
-    assert fuzz.generate(7, quick=True) == fuzz.generate(7, quick=True)
+    seen = collections.Counter(f for seed in SEEDS for f in scenes.generate(seed, quick=True)["features"])
+    assert not [f for f in scenes.FEATURES if not seen[f]]
+    assert scenes.generate(7, quick=True) == scenes.generate(7, quick=True)
 
 
 #: False refusals the cross-check finds among the subset's scenes: findings about the
@@ -42,11 +42,11 @@ def _false_reason(result):
 
 
 def test_every_generated_scene_is_a_verified_success_or_a_failure_with_a_reason():
-    results = fuzz.run_campaign(SEEDS, jobs=max(2, os.cpu_count() or 2), subframes=1,
+    results = campaign.run_campaign(SEEDS, jobs=max(2, os.cpu_count() or 2), subframes=1,
                                 timeout_s=300, quick=True)
     assert [r["seed"] for r in results] == list(SEEDS)
     false = {r["seed"]: _false_reason(r) for r in results if r["category"] == "false_refusal"}
-    bad = [r for r in results if r["category"] not in fuzz.GOOD + ("false_refusal",)]
+    bad = [r for r in results if r["category"] not in checks.GOOD + ("false_refusal",)]
     assert not bad, "\n".join(
         f"seed {r['seed']}: {r['category']}: {r['detail']} (rerun: python bench/fuzz.py "
         f"--quick --seed0 {r['seed']} --count 1 --keep DIR)" for r in bad)
@@ -70,7 +70,7 @@ def test_the_campaigns_grazes_between_keys_are_clear_now():
     campaign's own three instants between frames. The scenes are that campaign's own:
     its synthetic rigs as they were before rig shapes varied (``shapes=False``)."""
     seeds = [799, 849, 901, 3777]
-    results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300, shapes=False)
+    results = campaign.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300, shapes=False)
     assert [(r["seed"], r["category"]) for r in results] == [
         (s, "success_verified") for s in seeds], [r["detail"] for r in results]
 
@@ -88,7 +88,7 @@ def test_the_campaigns_chases_keep_the_hand_clear_between_keys():
     obstacle, so its NaN vertex is nothing to refuse. The scenes are that campaign's own
     (``shapes=False``: its synthetic rigs)."""
     seeds = [3820, 4217, 4716, 4456, 8867]
-    results = fuzz.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300, shapes=False)
+    results = campaign.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300, shapes=False)
     assert [(r["seed"], r["category"]) for r in results] == [
         (3820, "success_verified"), (4217, "success_verified"), (4716, "success_verified"),
         (4456, "failure_with_reason"), (8867, "failure_with_reason")], \
@@ -99,7 +99,7 @@ def test_refusals_are_counted_by_their_words_whatever_the_names_hold():
     """fuzz.json counts refusals by their words with names and numbers taken out; a name
     holding a quote (the generator's "Cup'") must not split a refusal into two keys."""
     def key(detail):
-        return fuzz._reason_key({"detail": detail})
+        return summary.reason_key({"detail": detail})
     plain = key("bad_input: target 'Cup' has a NaN or infinite transform; fix its location")
     quoted = key("bad_input: target 'Cup'' has a NaN or infinite transform; fix its location")
     assert plain == quoted == "bad_input: target '…' has a NaN or infinite transform"
@@ -114,7 +114,7 @@ def _first_seeds(kinds, quick=True, limit=600) -> dict:
     linked, non-uniformly scaled or NaN armature)."""
     found = {}
     for seed in range(limit):
-        spec = fuzz.generate(seed, quick=quick)
+        spec = scenes.generate(seed, quick=quick)
         shape = spec["rig"].get("shape")
         if not shape or spec["linked_armature"] or spec["non_uniform"] or spec["armature_nan"]:
             continue
@@ -126,7 +126,7 @@ def _first_seeds(kinds, quick=True, limit=600) -> dict:
 
 def test_the_independent_check_reads_the_new_rigs_right(tmp_path):
     """On generated rigs with fingers, a mitten, sibling palms and rigid parts: the
-    independent check's hand (``fuzz.ArmReader``) ends at least as far along the hand as its
+    independent check's hand (``checks.ArmReader``) ends at least as far along the hand as its
     farthest finger joint, which lies within a forearm of the wrist; rigid parts parented
     to bones are the character's (Reach leaves them out of the obstacles, so does the
     cross-check) and never among the harness's obstacles."""
@@ -139,14 +139,14 @@ def test_the_independent_check_reads_the_new_rigs_right(tmp_path):
     seeds = _first_seeds({"fingers", "mitten", "palms", "rigid"})
     assert set(seeds) == {"fingers", "mitten", "palms", "rigid"}, seeds
     library = tmp_path / "library.blend"
-    fuzz._make_library(library)
-    cache = fuzz.RigCache(tmp_path)
+    building.make_library(library)
+    cache = building.RigCache(tmp_path)
     for kind, seed in sorted(seeds.items()):
-        spec = fuzz.generate(seed, quick=True)
-        manifest = fuzz.build(spec, cache, tmp_path, library)
+        spec = scenes.generate(seed, quick=True)
+        manifest = building.build(spec, cache, tmp_path, library)
         arm = bpy.data.objects[manifest["armature"]]
         info = rig_mod.build(arm, spec["side"])
-        joints = fuzz.ArmReader(arm, info).joints(arm)
+        joints = checks.ArmReader(arm, info).joints(arm)
         wrist, tip = joints[3], joints[4]
         axis = (tip - wrist) / np.linalg.norm(tip - wrist)
         mw = np.array(arm.matrix_world)
@@ -174,10 +174,8 @@ def test_the_independent_check_reads_the_new_rigs_right(tmp_path):
 def test_a_contradicted_refusal_is_counted_as_a_false_refusal():
     """``false_refusal`` is a category that does not pass; fuzz.json counts the cross-check's
     verdicts per reason and lists every false refusal with its seed, and the README's
-    block says how many (bench/readme.py)."""
-    import sys
-
-    assert "false_refusal" in fuzz.CATEGORIES and "false_refusal" not in fuzz.GOOD
+    block says how many (``summary.cross_check_counts``, which bench/readme.py writes)."""
+    assert "false_refusal" in checks.CATEGORIES and "false_refusal" not in checks.GOOD
     base = {"features": [], "task": "reach", "rig": "synthetic/mixamo", "time_s": 1.0}
     results = [
         {**base, "seed": 1, "category": "failure_with_reason", "detail": "out_of_reach: x",
@@ -188,17 +186,12 @@ def test_a_contradicted_refusal_is_counted_as_a_false_refusal():
                           "method": "ompl", "seconds": 0.5, "detail": "found a path"},
                          {"target": "C", "reason": "no_path", "status": "unchecked",
                           "method": "ik", "seconds": 0.0, "detail": "later leg"}]}]
-    summary = fuzz.summarize(results, {"seed0": 1, "count": 2})
-    assert summary["passed"] == 1 and summary["categories"]["false_refusal"]["count"] == 1
-    assert (summary["refusals_cross_checked"], summary["false_refusals"],
-            summary["refusals_not_decided"]) == (2, 1, 1)
-    assert summary["cross_check"]["no_path"]["false_refusal"] == 1
-    assert summary["false_refusal_list"] == [
+    counts = summary.summarize(results, {"seed0": 1, "count": 2})
+    assert counts["passed"] == 1 and counts["categories"]["false_refusal"]["count"] == 1
+    assert (counts["refusals_cross_checked"], counts["false_refusals"],
+            counts["refusals_not_decided"]) == (2, 1, 1)
+    assert counts["cross_check"]["no_path"]["false_refusal"] == 1
+    assert counts["false_refusal_list"] == [
         {"seed": 2, "target": "B", "reason": "no_path", "detail": "found a path"}]
-    sys.path.insert(0, str(fuzz.ROOT / "bench"))
-    try:
-        import readme
-    finally:
-        sys.path.remove(str(fuzz.ROOT / "bench"))
-    line = readme.cross_check_counts(summary)
+    line = summary.cross_check_counts(counts)
     assert "**2 decided**" in line and "**1 false refusals**; seed 2 `no_path` ('B')" in line
