@@ -69,6 +69,43 @@ def test_the_readme_performance_figures_are_the_bench_results():
     assert fuzz_counts(fuzz) not in text
 
 
+def _imports(path: Path) -> list:
+    """(line, module) of every import in a Python file, wherever it is written; a relative
+    import's module is given with its leading dots."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            out.append((node.lineno, "." * node.level + (node.module or "")))
+    return out
+
+
+def test_no_test_imports_the_benchmarks():
+    """``bench/`` holds benchmarks only; what the tests use lives in ``verification/`` (or
+    the tests' own helpers). No test module imports ``bench`` or one of its modules by name
+    (as it could with ``bench/`` put on ``sys.path``)."""
+    names = {"bench"} | {f.stem for f in (ROOT / "bench").glob("*.py")} - {"__init__"}
+    found = [f"{path.relative_to(ROOT)}:{line}: {module}"
+             for path in sorted((ROOT / "tests").rglob("*.py"))
+             for line, module in _imports(path)
+             if not module.startswith(".") and module.split(".")[0] in names]
+    assert not found, "tests import from bench/: " + "; ".join(found)
+
+
+def test_the_verification_imports_neither_tests_nor_benchmarks_by_name():
+    """``verification/`` is imported by ``tests/`` and ``bench/``, never the other way
+    round: none of its modules imports ``bench`` or a test module. (It reaches the tests'
+    rig builders only through :func:`verification.rig_builders`.)"""
+    tests = {f.stem for f in (ROOT / "tests").rglob("*.py")} - {"__init__", "rigs", "synthetic"}
+    names = {"bench", "tests"} | {f.stem for f in (ROOT / "bench").glob("*.py")} | tests
+    found = [f"{path.relative_to(ROOT)}:{line}: {module}"
+             for path in sorted((ROOT / "verification").rglob("*.py"))
+             for line, module in _imports(path)
+             if not module.startswith(".") and module.split(".")[0] in names - {"__init__"}]
+    assert not found, found
+
+
 def _import_cycles(*args):
     return subprocess.run([sys.executable, str(ROOT / "tools" / "import_cycles.py"), *args],
                           cwd=ROOT, capture_output=True, text=True, timeout=60)
@@ -77,6 +114,12 @@ def _import_cycles(*args):
 def test_reach_has_no_import_cycles():
     """tools/import_cycles.py (run by make test too) finds no cycle in reach_addon."""
     done = _import_cycles()
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.strip() == "no import cycles"
+
+
+def test_the_verification_has_no_import_cycles():
+    done = _import_cycles(str(ROOT / "verification"))
     assert done.returncode == 0, done.stdout + done.stderr
     assert done.stdout.strip() == "no import cycles"
 
