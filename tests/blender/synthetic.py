@@ -68,6 +68,8 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
+from verification.geometry import unit
+
 SIDES = {"R": -1.0, "L": 1.0}   # the character's right is −X
 ARM_LENGTHS = (0.29, 0.25)      # upper arm, forearm
 HAND_LENGTH = 0.09
@@ -242,11 +244,6 @@ def decoy_name(names: dict, decoy: str, role: str, tag: str) -> str:
 
 # --- geometry ---------------------------------------------------------------------------------
 
-def _unit(v):
-    v = np.asarray(v, dtype=float)
-    return v / np.linalg.norm(v)
-
-
 def arm_joints(tag: str, proportions=None) -> dict:
     """Sternum, shoulder, elbow, wrist and hand tip of side ``tag`` (R/L), standing, metres
     (``proportions``: None for the standard adult, or a key of :data:`PROPORTIONS`)."""
@@ -259,8 +256,8 @@ def arm_joints(tag: str, proportions=None) -> dict:
     d1 = np.array([s * math.cos(drop), 0.0, -math.sin(drop)])
     bend = math.radians(p.get("elbow_bend_deg", ELBOW_BEND_DEG))
     toward = np.asarray(p.get("elbow_bend_dir", (0.0, -1.0, 0.0)), dtype=float)
-    toward = _unit(toward - (toward @ d1) * d1)
-    d2 = _unit(math.cos(bend) * d1 + math.sin(bend) * toward)
+    toward = unit(toward - (toward @ d1) * d1)
+    d2 = unit(math.cos(bend) * d1 + math.sin(bend) * toward)
     elbow = shoulder + lengths[0] * d1
     wrist = elbow + lengths[1] * d2
     return {"sternum": np.array([s * 0.02, -0.03, 1.40]), "clavicle_end": np.array([s * 0.05, -0.02, 1.42]),
@@ -288,9 +285,9 @@ def palm_joints(tag: str, n: int, fingers: int = 1, proportions=None) -> list:
     j = arm_joints(tag, proportions)
     wrist = j["wrist"]
     length = float(np.linalg.norm(j["hand_tip"] - wrist))
-    axis = _unit(j["hand_tip"] - wrist)
-    plane = np.cross(_unit(j["elbow"] - j["shoulder"]), axis)   # the elbow's hinge
-    across = _unit(np.cross(plane, axis))
+    axis = unit(j["hand_tip"] - wrist)
+    plane = np.cross(unit(j["elbow"] - j["shoulder"]), axis)   # the elbow's hinge
+    across = unit(np.cross(plane, axis))
     out = []
     for i in range(n):
         a = math.radians(PALM_FAN_DEG * (i - 0.5 * (n - 1)))
@@ -317,10 +314,10 @@ def hand_frame(tag: str, proportions=None) -> tuple:
     down and an A-posed one down and in. For a right hand n = a × d (a left hand is its
     mirror image: n = -(a × d) in world axes)."""
     j = arm_joints(tag, proportions)
-    d = _unit(j["hand_tip"] - j["wrist"])
+    d = unit(j["hand_tip"] - j["wrist"])
     a = np.array([0.0, -1.0, 0.0])
     a = a - (a @ d) * d
-    a = _unit(a if np.linalg.norm(a) > 1e-6 else np.array([0.0, 0.0, 1.0]) - d[2] * d)
+    a = unit(a if np.linalg.norm(a) > 1e-6 else np.array([0.0, 0.0, 1.0]) - d[2] * d)
     n = -SIDES[tag] * np.cross(a, d)
     return d, a, n
 
@@ -360,11 +357,11 @@ def hand_segments(tag: str, hand: str, names: dict, proportions=None) -> list:
     for i, (_word, share) in enumerate(FINGERS, 1):
         if i == 1:
             root = wrist + 0.2 * length * d + 0.3 * length * a + 0.12 * length * n
-            way = _unit(0.7 * d + 0.6 * a + 0.4 * n)
+            way = unit(0.7 * d + 0.6 * a + 0.4 * n)
             parent = top
         else:
             root = tip + (0.33 - 0.22 * (i - 2)) * length * a
-            way = _unit(d + (0.06 * (3.5 - i)) * a)
+            way = unit(d + (0.06 * (3.5 - i)) * a)
             parent = top
             if f"metacarpal_{tag}" in names:
                 base = wrist + 0.1 * length * d + 0.5 * (root - tip)   # nearer together
