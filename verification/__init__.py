@@ -13,6 +13,9 @@ under ``reach_addon/`` imports it; ``tests/`` and ``bench/`` both import it. The
 - :mod:`verification.table1`: Table 1 measured on baked motion;
 - :mod:`verification.fuzz`: the fuzz campaign's scenes, their building in Blender, the
   checks of each outcome, the campaign's workers and its summary.
+
+The rationale (why the oracle is written apart, the fuzz categories, the cross-check's
+design) is in ``docs/design.md``.
 """
 
 import sys

@@ -1,8 +1,7 @@
 """Is a refusal true? An independent cross-check of a failed reach's reason.
 
-A failed reach is a claim: "no clear motion takes this arm from its pose to that target".
-This module checks the claim by other means than the planner's search and answers, per
-refused target, with a :class:`Verdict` whose ``status`` is
+:func:`check_report` answers for every refused target of a bake's report, on the bake's
+input file, with a :class:`Verdict` whose ``status`` is one of :data:`STATUSES`:
 
 ``confirmed``
     the check agrees (no path within its budget, no valid pose at the target at all, the
@@ -11,69 +10,23 @@ refused target, with a :class:`Verdict` whose ``status`` is
     the check contradicts it: a clear path exists (its length and goal state are given),
     or the start's arm and hand skin are clear of every obstacle;
 ``inconclusive``
-    the check ran but cannot decide (the start pose is not valid by the core's own test,
-    so no search can leave it; an arm without skin and with its bones clear);
+    the check ran but cannot decide (a start the core's own test refuses; an arm without
+    skin whose bones are clear);
 ``unchecked``
-    the reason is not one this module checks (``target_in_obstacle`` not inside a closed
-    mesh, a chase's pursuit, a later leg of a sequence whose start only the planner
-    knows, a start inside the character's own body capsules, bad input).
+    the reason is not one this module checks (a chase's pursuit, a later leg of a
+    sequence, a start inside the character's own body capsules, ``target_in_obstacle``
+    outside every closed mesh, bad input).
 
-The path claim (``no_path``, ``arm_does_not_fit``, ``needs_lean``, ``needs_step``,
-``out_of_reach``, ``start_held``): :func:`check_path_claim`
--------------------------------------------------------------------------------------
-The problem is the planner's own, rebuilt by the pipeline's readers (:func:`rebuild`):
-the rig model of ``reach_addon.blender.rig.build`` at the start frame, the obstacles of
-the pipeline's gathering (every place a moving obstacle takes over its animation, swept
-twice a frame, where any moves), the settings of the report. On it, OMPL's RRTConnect
-searches the seven joints the core animates — chest rotation, α, β, γ, elbow flexion and
-the wrist's two angles — in :class:`reach_addon.core.sampling.JointSpace` widened to take
-in the rig's start pose, with the core's own state test
-(:class:`reach_addon.core.sampling.StateValidity`: joint and elevation limits, Algorithm
-1's elbow side, the body's capsules, the obstacles with the clearance through the
-planner's ``CollisionChecker``), motions checked every ``Settings.step`` of the lever-arm
-metric (the core's search step), as :mod:`verification.race` races it.
-
-**The goal region** is an OMPL ``GoalSampleableRegion`` subclassed in Python
-(:class:`WristGoal`; the bindings allow it): a state is in it when its wrist is within
-``Settings.goal_tolerance`` arm lengths of the target (``distanceGoal`` is that distance in
-arm lengths, the threshold the tolerance). Its samples are valid states found densely by
-the core's analytic IK (:func:`goal_region`): at the target, at every chest rotation of
-the space's range in :data:`CHEST_STEP_DEG` steps (with Table 1's value and the start's),
-over the whole swivel circle in :data:`SWIVEL_STEP_DEG` steps, each legal arm pose (joint
-limits; the elevation limit and elbow side by the state test) whose arm is clear given
-the first of the generator's hand samples, most relaxed first, that makes the state
-valid; at most :data:`GOAL_STATES`, spread over the chest rotations and the swivel
-circle. Where the target itself gives none, the same is tried at seven points of the
-tolerance ball (its six axis ends and its point nearest the shoulder). If no valid goal
-state exists at all, the refusal is confirmed without searching (milliseconds for a
-target out of reach: the IK has no legal pose). Otherwise RRTConnect runs for
-``budget_s`` seconds (default :data:`OMPL_BUDGET_S`; ``max_states``, if given, also
-stops it after that many states tested, the planner's own count): a path found is a
-false refusal, with its length (the wrist's travel along it, arm lengths) and its goal
-state (degrees, :data:`reach_addon.core.sampling.JOINT_NAMES`); the path is re-checked
-outside OMPL, every step of the metric, before it counts.
-
-The start claim (``start_in_collision``): :func:`check_start`
---------------------------------------------------------------
-Blender's evaluated skin against the obstacles' triangles, geometry in numpy
-(:mod:`verification.geometry`, no code shared with the planner's checker): the character's
-meshes — deformed by the armature through an Armature modifier, or parented to the
-armature or its bones — as Blender evaluates them at the start frame; of them the
-triangles of the reaching arm and hand (a vertex whose weights are mostly the arm's bones
-— the clavicle and every bone below it — makes its triangles the arm's; a mesh parented
-to such a bone is the arm's whole); and the obstacles' evaluated triangles by the README's
-rules (visible objects with faces, not the character, not a target, or the obstacle
-collection's), read by this module's own walk of the depsgraph (:func:`scene_obstacles`).
-Confirmed when an arm skin triangle intersects an obstacle triangle (exact
-triangle–triangle test) or a skin vertex lies inside a closed obstacle (ray parity), or a
-bone of the arm passes through an obstacle triangle or has a joint inside a closed one;
-false when the arm and hand skin and bones are clear; inconclusive when the arm has no
-skin and its bones are clear. A start inside the character's own body capsules and an
-obstacle moving into a chase are other claims (unchecked).
-
-``target_in_obstacle``: confirmed when the target lies inside a closed obstacle (ray
-parity), else unchecked (Reach also counts the character's body and treats meshes its
-own way). Bad input (exit status 2) is never a refusal of a target and is not checked.
+The path claim (:data:`PATH_REASONS`) is checked by :func:`check_path_claim`: OMPL's
+RRTConnect in the core's seven joints with the core's own state test, on the planner's
+problem rebuilt by the pipeline's readers (:func:`rebuild`), toward a goal region of valid
+states with the wrist within the goal tolerance (:func:`goal_region`); ``budget_s``
+seconds (and at most ``max_states`` states) where that region is not empty. The start
+claim (``start_in_collision``) by :func:`check_start`: Blender's evaluated skin of the
+reaching arm and hand against the obstacles' triangles (:mod:`verification.geometry`).
+``target_in_obstacle`` by :func:`check_target_inside`. Obstacles are this module's own
+reading of the README's rules (:func:`scene_obstacles`). The method in full, and why:
+``docs/design.md``, *The refusal cross-check*.
 """
 
 from __future__ import annotations
