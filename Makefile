@@ -98,7 +98,7 @@ dist: setup
 	@echo "built dist/reach_addon-$(VERSION).zip"
 
 lint: setup
-	$(VENV)/bin/ruff check reach_addon tests
+	$(VENV)/bin/ruff check reach_addon tests verification bench
 
 clean:
 	rm -rf $(VENV) .pytest_cache .ruff_cache .hypothesis out dist build
