@@ -54,7 +54,7 @@ from ..core import ReachError
 from ..core.arm import roll_frames
 from ..core.orient import FOREARM_SHARE
 from ..core.torso import spine_rotation_matrix
-from .rig import hand_group
+from .hand_reading import hand_group
 
 ROLE_ORDER = ("chest", "clavicle", "upper_arm", "forearm", "hand")
 

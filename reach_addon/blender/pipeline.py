@@ -48,8 +48,10 @@ from ..core.steps import drain, relay
 from ..core.tasks import chase_steps
 from . import bake as bake_mod
 from . import body as body_mod
+from . import hand_reading
 from . import rig as rig_mod
 from . import viz
+from .skin import skin_clearance
 from .scene import (KEPT, ObstacleCache, character_objects, finite, gather_pieces,
                     obstacles_from_pieces, visit_obstacles)
 
@@ -645,7 +647,7 @@ def _results(info, plans, keyed, request, baked_result=None):
 def _start_as_it_shows(armature, info, plans, obstacles) -> None:
     """Where a plan refuses its start as touching an obstacle (``start_in_collision``)
     while the arm's skin, as Blender shows it on the start frame, touches nothing
-    (:func:`.rig.skin_clearance`), the refusal is a claim about Reach's model of the arm,
+    (:func:`.skin.skin_clearance`), the refusal is a claim about Reach's model of the arm,
     not about what the user sees: it becomes ``start_held``, saying so. (A capsule has one
     radius along its segment, read from the skin's bulk; a tapering limb's is fuller than
     its skin near its thin end: CesiumMan's upper arm touched a plane its skin kept 5 cm
@@ -658,7 +660,7 @@ def _start_as_it_shows(armature, info, plans, obstacles) -> None:
             if seg.reason != START_IN_COLLISION or "already touches" not in seg.message:
                 continue
             if skin is None:
-                skin = rig_mod.skin_clearance(info, armature, obstacles, 0.5 * length)
+                skin = skin_clearance(info, armature, obstacles, 0.5 * length)
             if skin <= 0.0:
                 continue
             seg.reason = START_HELD
@@ -673,8 +675,9 @@ def _start_as_it_shows(armature, info, plans, obstacles) -> None:
 def measure_orientation(context, armature, info, results, settings) -> None:
     """Replace the planned ``orientation_error_deg`` and ``orientation_met`` of each baked
     result that has them by what Blender's evaluated bones show at its last frame: the
-    fingers' direction (:func:`.rig.finger_axis`) and the palm (:func:`.rig.palm_normal`), read from
-    the evaluated pose as they were read from the start pose, against the target's axes
+    fingers' direction (:func:`.hand_reading.finger_axis`) and the palm
+    (:func:`.hand_reading.palm_normal`), read from the evaluated pose as they were read
+    from the start pose, against the target's axes
     (:func:`~reach_addon.core.orient.wanted_axes`). A palm read wrongly, or a bake that
     turns the hand off its plan, then shows as an error instead of a success."""
     scene = context.scene
@@ -687,9 +690,9 @@ def measure_orientation(context, armature, info, results, settings) -> None:
         if target is None:
             continue
         scene.frame_set(r.frame_end)
-        axis, _l, _s = rig_mod.hand_shape(armature, hands[0], info.arm.forearm_length, hands)
-        d = rig_mod.finger_axis(armature, hands, axis)
-        n, _source = rig_mod.palm_normal(armature, hands, axis, info.frame.up, to_world.T)
+        axis, _l, _s = hand_reading.hand_shape(armature, hands[0], info.arm.forearm_length, hands)
+        d = hand_reading.finger_axis(armature, hands, axis)
+        n, _source = hand_reading.palm_normal(armature, hands, axis, info.frame.up, to_world.T)
         finger, palm = wanted_axes(np.array(target.matrix_world)[:3, :3], settings.finger_axis,
                                    settings.palm_axis)
         error = float(frame_angle(palm_frame(d, to_world @ n), palm_frame(finger, palm)))

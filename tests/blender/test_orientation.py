@@ -1,8 +1,8 @@
 """Match orientation on real and synthetic rigs: a reach baked to a rotated Empty, the palm
 measured from Blender's evaluated bones at the last frame.
 
-The measurement shares nothing with Reach's reading of the hand (``rig.finger_axis``,
-``rig.palm_normal``, which go by hierarchy and position): it goes by the names of each
+The measurement shares nothing with Reach's reading of the hand (``hand_reading.finger_axis``,
+``hand_reading.palm_normal``, which go by hierarchy and position): it goes by the names of each
 rig's finger bones, picked by hand here (:data:`KNUCKLES`). The fingers' direction d is
 the wrist (the hand bone's head) to the middle finger's first joint; the palm's normal is
 a × d with a the direction from the little finger's first joint to the index finger's
