@@ -40,7 +40,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import ReachError
-from . import bake as bake_mod
+from .bone_matrices import bone_roles, moves_chest
 
 #: a bone or the armature counts as moving where its matrix changes by more than this
 #: (translation as a share of the arm's length; rotation as the same share in radians)
@@ -50,7 +50,7 @@ MOVED = 1e-6
 def body_bones(armature, info, plans) -> tuple:
     """(chain, held): the bones from the root to the reaching upper arm's parent (root
     first), and the names among them the bake keys or whose place the plan describes."""
-    keyed, reference = bake_mod.bone_roles(info, bake_mod.moves_chest(plans))
+    keyed, reference = bone_roles(info, moves_chest(plans))
     held = set(keyed.values()) | set(reference.values())
     chain = []
     pb = armature.pose.bones[reference["upper_arm"]].parent

@@ -622,7 +622,7 @@ def _results(info, plans, keyed, request, baked_result=None):
     :class:`.bake.BakeResult`, in each baked task's statistics as
     ``rig_residual_arm_lengths`` (how far the rig put a planned joint; 0 on rigs whose keys
     carry the arm exactly), ``linear_spans`` (spans between keys made linear so that
-    Blender's curve keeps clear, :func:`.bake.straighten`) and ``close_spans`` (spans
+    Blender's curve keeps clear, :func:`.straighten.straighten`) and ``close_spans`` (spans
     still too close after it; 0 when every instant is clear)."""
     out = []
     index = -1           # the plan's place among the baked ones
