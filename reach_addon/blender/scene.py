@@ -63,6 +63,7 @@ import bpy
 import numpy as np
 
 from ..core import Obstacles, ReachError
+from ..core.sweep import obstacles_from_pieces as core_obstacles_from_pieces
 
 #: Object types whose evaluated geometry can have faces.
 SURFACE_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "FONT", "META"})
@@ -198,24 +199,14 @@ def gather_pieces(context, exclude=(), collection=None, depsgraph=None, only=Non
 
 def obstacles_from_pieces(pieces, collection=None) -> Obstacles:
     """One BVH of pieces [(label, world vertices, triangles)] (:func:`gather_pieces`; the
-    same label may come several times, as one obstacle at several instants)."""
-    if not pieces:
-        if collection is not None:
-            raise ReachError(
-                f"the obstacle collection '{collection.name}' has no visible objects with "
-                "faces; add meshes to it or plan against all visible objects")
-        return Obstacles(None)
-    labels: dict[str, int] = {}
-    verts, tris, owners = [], [], []
-    offset = 0
-    for label, v, t in pieces:
-        owner = labels.setdefault(label, len(labels))
-        verts.append(v)
-        tris.append(t + offset)
-        owners.append(np.full(len(t), owner))
-        offset += len(v)
-    return Obstacles.from_triangles(np.concatenate(verts), np.concatenate(tris),
-                                    np.concatenate(owners), list(labels))
+    same label may come several times, as one obstacle at several instants;
+    :func:`reach_addon.core.sweep.obstacles_from_pieces`). Raises ReachError for no pieces
+    from the obstacle ``collection`` (a Blender collection; None: all visible objects)."""
+    if not pieces and collection is not None:
+        raise ReachError(
+            f"the obstacle collection '{collection.name}' has no visible objects with "
+            "faces; add meshes to it or plan against all visible objects")
+    return core_obstacles_from_pieces(pieces)
 
 
 class ObstacleCache:
