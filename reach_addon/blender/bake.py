@@ -13,13 +13,38 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core import ReachError
+from ..core import Plan, ReachError
 from .bone_matrices import ROLE_ORDER, bone_roles, channel_values, local_matrices, moves_chest, \
     target_matrices
 from .fcurves import Channels, ensure_action, write_channel
 from .hand_reading import hand_group
 from .settle import settle
 from .straighten import straighten
+
+
+@dataclass
+class KeyedPlan:
+    """One plan as the pipeline hands it to the bake: ``plan`` (core Plan) keyed from
+    ``first_frame`` on; ``checkers``, the collision checkers of the obstacles it was
+    planned among (one per pose, or one for all; empty: its instants between keys are not
+    checked, :mod:`.straighten`); ``keyable``, whether a Bake keys it (it succeeded, or
+    the user bakes the closest approach)."""
+
+    plan: Plan
+    first_frame: int
+    checkers: tuple = ()
+    keyable: bool = True
+
+    @property
+    def pair(self) -> tuple:
+        """(plan, first frame), as :class:`.pipeline.Outcome` and :func:`.body.check` take
+        plans."""
+        return self.plan, self.first_frame
+
+    @classmethod
+    def of(cls, item) -> KeyedPlan:
+        """``item`` itself if it is a KeyedPlan, else one of a (Plan, first frame) pair."""
+        return item if isinstance(item, cls) else cls(*item)
 
 
 @dataclass
@@ -39,22 +64,23 @@ class BakeResult:
     close_spans: list = field(default_factory=list)
 
 
-def bake(context, armature, info, plans, new_action=False, checkers=None) -> BakeResult:
-    """Write keys for ``plans`` [(Plan, first frame)] on ``armature``, whose arm ``info``
-    (:class:`.rig.RigInfo`) describes: one key per frame on each keyed bone's rotation
-    channels, the hand's palm siblings and the chest (when a plan turns it) included, and
-    the IK/FK switch set to FK. ``new_action``: key a copy of the armature's action.
-    ``checkers``: per plan, the collision checkers of its obstacles (one per pose, or one
-    for all; their margin is not used); with them the instants between keys are checked
-    as Blender interpolates them (:func:`.straighten.straighten`). Raises ReachError if a
-    keyed bone is missing. Returns a :class:`BakeResult`."""
+def bake(context, armature, info, plans, new_action=False) -> BakeResult:
+    """Write keys for ``plans`` on ``armature``, whose arm ``info`` (:class:`.rig.RigInfo`)
+    describes: one key per frame on each keyed bone's rotation channels, the hand's palm
+    siblings and the chest (when a plan turns it) included, and the IK/FK switch set to
+    FK. ``plans``: :class:`KeyedPlan` records (or (Plan, first frame) pairs: no checkers),
+    in frame order; where every one has checkers, the instants between keys are checked
+    as Blender interpolates them (:func:`.straighten.straighten`). ``new_action``: key a
+    copy of the armature's action. Raises ReachError if a keyed bone is missing. Returns a
+    :class:`BakeResult`."""
+    plans = [KeyedPlan.of(p) for p in plans]
     bmap = info.bones
     pose = armature.pose.bones
     mw = np.array(armature.matrix_world)
     mw_inv = np.linalg.inv(mw)
     start_pose = {pb.name: np.array(pb.matrix) for pb in pose}
 
-    keyed, reference = bone_roles(info, moves_chest(plans))
+    keyed, reference = bone_roles(info, moves_chest([k.pair for k in plans]))
     for name in keyed.values():
         if name not in pose:
             raise ReachError(f"bone '{name}' is missing from armature '{armature.name}'")
@@ -62,7 +88,7 @@ def bake(context, armature, info, plans, new_action=False, checkers=None) -> Bak
     start_world = {role: mw @ start_pose[ref] for role, ref in reference.items()}
     chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
 
-    first = plans[0][1]
+    first = plans[0].first_frame
     # the FK/IK switch first: the arm's controls only move it in FK, and settling evaluates
     switches = [(bone_name, prop) for side, (bone_name, prop) in bmap.ik_fk.items()
                 if side == info.side]
@@ -73,7 +99,7 @@ def bake(context, armature, info, plans, new_action=False, checkers=None) -> Bak
     # touched (a newly assigned action or new keys would be evaluated over the pose being
     # measured)
     baked, residual = [], 0.0
-    for plan, frame0 in plans:
+    for plan, frame0 in (k.pair for k in plans):
         targets = target_matrices(info, plan, start_world, chest_head)
         targets_arm = {role: mw_inv[None] @ m for role, m in targets.items()}
         locals_ = local_matrices(armature, keyed, targets_arm, start_pose)
@@ -98,8 +124,8 @@ def bake(context, armature, info, plans, new_action=False, checkers=None) -> Bak
     order = [n for r in ROLE_ORDER if r in keyed
              for n in (hand_group(armature, keyed[r]) if r == "hand" else (keyed[r],))]
     result = BakeResult(action.name, order, (first, last), residual)
-    if checkers is not None:
+    if all(k.checkers for k in plans):
         curves = [channels.bag.fcurves.find(path, index=i) for path, i in dict.fromkeys(curves)]
         result.linear_spans, result.close_spans = straighten(
-            context, armature, info, plans, checkers, curves, reference)
+            context, armature, info, plans, curves, reference)
     return result

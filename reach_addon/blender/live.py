@@ -336,7 +336,8 @@ def key_pose(context=None) -> bake_mod.BakeResult:
     context.view_layer.update()
     frame = scene.frame_current
     plan = Plan(None, st.info.arm, st.session.settings, [pose], [], Stats())
-    result = bake_mod.bake(context, armature, st.info, [(plan, frame)], new_action=False)
+    result = bake_mod.bake(context, armature, st.info, [bake_mod.KeyedPlan(plan, frame)],
+                           new_action=False)
     start = st.info.start.body_rotation
     if abs(pose.config.body_rotation - start) > 1e-9:
         name = st.info.bones.keyed_chest

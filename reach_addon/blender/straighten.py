@@ -18,14 +18,14 @@ def _carriers(info, reference) -> tuple:
             reference["hand"], reference["hand"])
 
 
-def straighten(context, armature, info, plans, checkers, curves, reference) -> tuple:
+def straighten(context, armature, info, plans, curves, reference) -> tuple:
     """Check the instants between keys as Blender interpolates them, and make linear the
     spans that come too close.
 
-    Inputs: ``plans`` [(Plan, first frame)] as keyed; ``checkers`` per plan, the collision
-    checkers of its obstacles (one per pose, or one for all; their margin is not used);
-    ``curves`` the keyed F-curves; ``reference`` role → the bone whose place the plan
-    describes (:func:`.bone_matrices.bone_roles`).
+    Inputs: ``plans`` as keyed (:class:`.bake.KeyedPlan`), each with the collision
+    checkers of its obstacles (their margin is not used); ``curves`` the keyed F-curves;
+    ``reference`` role → the bone whose place the plan describes
+    (:func:`.bone_matrices.bone_roles`).
 
     Each span between two keys is evaluated by Blender at ``Settings.instants_per_frame``
     instants (``scene.frame_set(f, subframe=s)``); the arm's joints are carried by their
@@ -63,7 +63,7 @@ def straighten(context, armature, info, plans, checkers, curves, reference) -> t
     chest_head = (mw @ np.array(bones[carriers[0]].matrix))[:3, 3]
     now = (scene.frame_current, scene.frame_subframe)
     try:
-        return _straighten_plans(plans, checkers, keys, carried, local, turned, chest_head)
+        return _straighten_plans(plans, keys, carried, local, turned, chest_head)
     finally:
         scene.frame_set(now[0], subframe=now[1])
 
@@ -148,13 +148,13 @@ def _pose_clearance(checkers, joints, settings, horizon, share=STRAIGHTEN_TOLERA
                                 bool(settings.check_hand)) for c in checkers)
 
 
-def _straighten_plans(plans, checkers, keys, carried, local, turned, chest_head) -> tuple:
+def _straighten_plans(plans, keys, carried, local, turned, chest_head) -> tuple:
     """:func:`straighten`'s loop over every span of every plan."""
     linear, close = [], []
-    for (plan, frame0), own in zip(plans, checkers):
+    for keyed in plans:
+        plan, frame0, own = keyed.plan, keyed.first_frame, list(keyed.checkers)
         linear.append(0)
         close.append(0)
-        own = list(own)
         settings = plan.settings
         n = max(2, int(settings.instants_per_frame))
         joints = plan.world_joints()
