@@ -24,16 +24,11 @@ add-on is unregistered; none of them lets an exception reach Blender (an error s
 session and the panel shows why).
 
 Keys and undo: :func:`key_pose` keys the pose on screen at the current frame through
-:func:`.bake.bake` (the "Key Pose" operator, K in the 3D View while Live is on). Live
-itself pushes no undo step while it runs, but what the user does meanwhile does (a move
-of the target with G is one, saved with whatever pose the arm had reached by then). So
-stopping a session pushes two (:func:`_undo_steps`): "Before Reach Live", the scene as it
-is now but every bone Live posed back as it was when Live began, then "Reach Live", the
-pose on screen. One Ctrl+Z after Live therefore restores the arm's pose from before Live
-and keeps the target's moves; Ctrl+Shift+Z brings the live pose back; further Ctrl+Z go
-back through the steps pushed while Live was on (the target's moves, each with the arm
-as it was then). An undo or redo while Live is on restarts the session from the restored
-pose.
+:func:`.bake.bake` (the "Key Pose" operator, K in the 3D View while Live is on). Stopping
+a session pushes two undo steps (:func:`_undo_steps`): "Before Reach Live" (the scene as
+it is, every bone Live posed back as it was when Live began), then "Reach Live" (the pose
+on screen). An undo or redo while Live is on restarts the session from the restored pose.
+Why: ``docs/design/blender.md``.
 """
 
 from __future__ import annotations
