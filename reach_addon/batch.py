@@ -34,44 +34,16 @@ result records success and reason, the Table 2 statistics, the final pose's stre
 category f_R and angles, and the body rotation used — a reach-envelope study reads which
 points are reachable, at what strength, with and without body rotation.
 
-Execution. Blender's Python module must run on a process's main thread, so every task runs
-in a *Reach worker process*: a persistent child (``python -c ...`` with the bpy wheel, or
-``blender -b --python-expr ...`` under the Blender binary) that reads one task per line on
-stdin and answers with one JSON line. Locally, ``workers`` such children (default: the
-number of cores) take tasks as they free up. With ``dask="tls://HOST:PORT"`` the tasks are
-submitted to an existing Dask distributed cluster; each Dask worker process keeps one Reach
-worker child, so the work done per task is exactly the local one and the results are the
-same. Every machine needs Python 3.11, the bpy wheel, numpy, dask[distributed] and Reach
-importable — the scheduler too, it unpickles the task graph — and the scene files at the
-same paths.
-
-A Dask scheduler runs whatever it is sent: anyone who can connect to its port can run any
-code, as the user the cluster runs as, on the scheduler and every worker. So every
-connection uses TLS, each side showing a certificate of the farm's own CA
-(:func:`dask_security`: the CA, certificate and key from the flags or Dask's
-configuration), and a plain ``tcp://`` address beyond the loopback is refused unless
-``insecure_network`` accepts that risk. With a CA ``farm-ca.pem`` and a key and certificate
-signed by it, ``farm.key`` and ``farm.pem`` (the README's ``openssl`` commands make them),
-``SCHED`` the scheduler's address on the farm network and ``ME`` each worker machine's
-own (both 127.0.0.1 for a trial on one machine)::
-
-    TLS="--tls-ca-file farm-ca.pem --tls-cert farm.pem --tls-key farm.key"
-    PYTHONPATH=/path/to/reach dask scheduler --host $SCHED --port 8786 \
-        --dashboard-address 127.0.0.1:8787 $TLS
-    PYTHONPATH=/path/to/reach dask worker tls://$SCHED:8786 --host $ME --nworkers 4 \
-        --nthreads 1 --dashboard-address 127.0.0.1:0 $TLS
-    python -m reach_addon batch study.toml --dask tls://$SCHED:8786 $TLS
-
-``--host`` binds each process to the farm's interface alone, ``--dashboard-address`` keeps
-Dask's HTTP pages (no login) on the loopback. One thread per Dask worker process is
-enough: its Reach worker child does the work.
-
-Results are written by the submitting process as they arrive, one JSON file per task named
-by a hash of its specification, atomically (:mod:`.atomic`: a temporary file renamed into
-place); a re-run skips tasks whose result exists. At the end ``summary.csv`` (one row per task) and
-``summary.json`` (success rate, times, strength categories, per variant) are written. A run
-stopped early (SIGTERM, Ctrl+C: :class:`Progress` says what it did) stops its Reach worker
-processes or cancels its Dask futures, keeps every result it wrote and writes no summary.
+Execution: every task runs in a Reach worker process (:mod:`.batch_workers`), ``workers``
+of them locally (default: the number of cores), or one per Dask worker of a cluster
+(``dask="tls://HOST:PORT"``, :mod:`.batch_cluster`); the work done per task is the same
+either way. Results are written by the submitting process as they arrive, one JSON file
+per task named by a hash of its specification, atomically (:mod:`.atomic`); a re-run
+skips tasks whose result exists. At the end ``summary.csv`` (one row per task) and
+``summary.json`` (success rate, times, strength categories, per variant) are written. A
+run stopped early (SIGTERM, Ctrl+C: :class:`Progress` says what it did) stops its worker
+processes or cancels its Dask futures, keeps every result it wrote and writes no
+summary. Setting up a cluster safely: the README's *Batch studies*.
 """
 
 from __future__ import annotations
@@ -83,21 +55,16 @@ import io
 import itertools
 import json
 import os
-import queue
-import subprocess
 import sys
-import threading
 import time
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from . import atomic
+from .batch_cluster import connect, dask_security, run_on_cluster
+from .batch_workers import run_locally
 from .core import ReachError
-
-MARK = "@@reach-result "
-PACKAGE_PARENT = Path(__file__).resolve().parent.parent
-PACKAGE = __package__ or "reach_addon"
 
 
 # --- the study ---------------------------------------------------------------------------
@@ -234,171 +201,6 @@ def _apply_presets(names, settings):
     return out, bones
 
 
-# --- one task, inside a Reach worker process ---------------------------------------------------
-
-_open_file = None
-
-
-def run_task(spec: dict) -> dict:
-    """Plan one task in this process (Blender's main thread) and return its result."""
-    import bpy
-    import numpy as np
-
-    from . import __version__
-    from .blender import pipeline
-    from .blender import rig as rig_mod
-    from .core import Settings
-    from .core.envelope import CLASSES, shoulder_frame_to_canonical
-
-    global _open_file
-    t0 = time.perf_counter()
-    result = {"id": spec["id"], "scene": spec["scene"], "armature": spec["armature"],
-              "target": spec["target"], "point": spec["point"], "frame": spec["frame"],
-              "variant": spec["variant"], "task": spec["task"], "arm": spec["arm"],
-              "reach_version": __version__, "blender_version": bpy.app.version_string}
-    added = None
-    try:
-        if _open_file != spec["scene"]:
-            bpy.ops.wm.open_mainfile(filepath=spec["scene"], load_ui=False)
-            _open_file = spec["scene"]
-        context = bpy.context
-        settings = Settings.from_dict(spec["settings"])
-        target = spec["target"]
-        if target is None:
-            point = np.array(spec["point"], float)
-            if spec["frame"] == "shoulder":       # as the reach envelope places its points
-                armature = pipeline.find_object(spec["armature"], "armature")
-                arm = rig_mod.build(armature, spec["arm"], spec["bones"]).arm
-                point = arm.to_world_points(shoulder_frame_to_canonical(arm, point))
-            added = bpy.data.objects.new("Reach Study Target", None)
-            added.location = point.tolist()
-            context.scene.collection.objects.link(added)
-            context.view_layer.update()
-            target = added.name
-        request = pipeline.Request(
-            armature=spec["armature"], targets=[target], task=spec["task"], side=spec["arm"],
-            obstacles=spec["obstacles"], settings=settings, overrides=spec["bones"], draw=False)
-        outcome = pipeline.run(context, request, bake=False)
-        # the target's class in the reach envelope (same rig, obstacles and settings)
-        classed = pipeline.envelope(context, request, world=[np.array(
-            pipeline.find_object(target, "target").matrix_world.translation)]).envelope
-        plan, _first = outcome.plans[-1]
-        r = outcome.results[-1]
-        final = plan.poses[-1]
-        wrist = plan.wrist_trajectory()[-1]
-        goal = plan.task.targets[-1]
-        st = r.stats
-        result.update({
-            "target_position": [float(v) for v in goal],
-            "arm": r.arm, "success": r.success, "reason": r.reason, "message": r.message,
-            "arm_length": float(outcome.rig.arm.arm_length),
-            "envelope_class": CLASSES[int(classed.classes[0])],
-            "envelope_f_r": int(classed.f_r[0]),
-            "final_f_r": int(final.f_r),
-            "final_angles_deg": dict(zip(("body_rotation", "alpha", "beta", "gamma", "elbow"),
-                                         map(float, final.config.as_array()))),
-            "wrist_error_arm_lengths": float(np.linalg.norm(wrist - goal)
-                                             / outcome.rig.arm.arm_length),
-            **{k: st[k] for k in ("search_time_s", "preprocess_time_s", "planning_time_s",
-                                  "nodes_searched", "nodes_in_solution",
-                                  "path_length_arm_lengths", "mean_f_r", "frames")},
-            # Match orientation (settings = { match_orientation = true }): null when off
-            "orientation_error_deg": st["orientation_error_deg"],
-            "orientation_met": st["orientation_met"],
-        })
-    except ReachError as exc:
-        result.update(success=False, reason="bad_input", message=str(exc))
-    finally:
-        if added is not None:
-            bpy.data.objects.remove(added)
-    result["wall_time_s"] = time.perf_counter() - t0
-    return result
-
-
-def worker_loop(stdin=None, stdout=None):
-    """A Reach worker process: one task spec per line in, one result line out."""
-    stdin = stdin or sys.stdin
-    stdout = stdout or sys.stdout
-    for line in stdin:
-        if not line.strip():
-            continue
-        spec = json.loads(line)
-        try:
-            result = run_task(spec)
-        except Exception as exc:  # reported to the study, which keeps going
-            import traceback
-
-            result = {"id": spec.get("id"), "error": f"{type(exc).__name__}: {exc}",
-                      "traceback": traceback.format_exc()}
-        stdout.write(MARK + json.dumps(result) + "\n")
-        stdout.flush()
-
-
-def worker_command() -> list:
-    """The command line that starts a Reach worker process under the current host."""
-    import bpy
-
-    code = (f"import sys; sys.path.insert(0, {str(PACKAGE_PARENT)!r}); "
-            f"from {PACKAGE.rsplit('.', 1)[-1] if PACKAGE.startswith('bl_ext.') else PACKAGE}"
-            ".batch import worker_loop; worker_loop()")
-    if getattr(bpy.app, "module", False) or not bpy.app.binary_path:
-        return [sys.executable, "-c", code]
-    return [bpy.app.binary_path, "--background", "--factory-startup", "--python-expr", code]
-
-
-class WorkerProcess:
-    """One persistent Reach worker child and the pipe protocol to it."""
-
-    def __init__(self):
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        self.proc = subprocess.Popen(worker_command(), stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                     text=True, env=env, cwd=str(PACKAGE_PARENT))
-
-    def run(self, spec: dict) -> dict:
-        if self.proc.poll() is not None:
-            raise RuntimeError(f"Reach worker exited with status {self.proc.returncode}")
-        self.proc.stdin.write(json.dumps(spec) + "\n")
-        self.proc.stdin.flush()
-        for line in self.proc.stdout:
-            if line.startswith(MARK):
-                return json.loads(line[len(MARK):])
-        raise RuntimeError(f"Reach worker exited with status {self.proc.wait()} "
-                           f"while planning task {spec['id']}")
-
-    def terminate(self):
-        """Stop the child now (SIGTERM, then SIGKILL after 10 s), whatever it is doing."""
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-
-    def close(self):
-        """Let the child finish: end of input, then up to 30 s to exit."""
-        if self.proc.poll() is None:
-            self.proc.stdin.close()
-            try:
-                self.proc.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-
-
-_dask_worker = None
-_dask_lock = threading.Lock()
-
-
-def dask_task(spec: dict) -> dict:
-    """Run on a Dask worker: the task goes to this worker's own Reach worker child."""
-    global _dask_worker
-    with _dask_lock:
-        if _dask_worker is None or _dask_worker.proc.poll() is not None:
-            _dask_worker = WorkerProcess()
-        return _dask_worker.run(spec)
-
-
 # --- running a study ------------------------------------------------------------------------
 
 def result_path(output: Path, spec: dict) -> Path:
@@ -412,206 +214,6 @@ def finished(output: Path, spec: dict) -> dict | None:
     except (OSError, ValueError):
         return None
     return result if result.get("id") == spec["id"] and "success" in result else None
-
-
-def _local(specs, workers: int):
-    """Yield results of ``specs`` from ``workers`` Reach worker children, as they finish.
-    Closed or stopped early (a signal, an error), no further task starts and the children
-    are terminated."""
-    todo = queue.Queue()
-    for s in specs:
-        todo.put(s)
-    done = queue.Queue()
-    stop = threading.Event()
-    lock = threading.Lock()
-    children = []
-
-    def serve():
-        proc = None
-        try:
-            while not stop.is_set():
-                try:
-                    spec = todo.get_nowait()
-                except queue.Empty:
-                    return
-                try:
-                    if proc is None or proc.proc.poll() is not None:
-                        with lock:                  # no child starts once stop is set
-                            if stop.is_set():
-                                return
-                            proc = WorkerProcess()
-                            children.append(proc)
-                    done.put(proc.run(spec))
-                except Exception as exc:
-                    done.put({"id": spec["id"], "error": f"{type(exc).__name__}: {exc}"})
-        finally:
-            if proc is not None:
-                proc.close()
-
-    threads = [threading.Thread(target=serve, daemon=True) for _ in range(max(1, workers))]
-    for t in threads:
-        t.start()
-    try:
-        for _ in specs:
-            while True:         # a timed wait: the main thread sees a signal within 0.5 s
-                try:
-                    result = done.get(timeout=0.5)
-                    break
-                except queue.Empty:
-                    pass
-            yield result
-        for t in threads:
-            t.join()
-    finally:
-        with lock:
-            stop.set()
-        for proc in children:
-            proc.terminate()
-        for t in threads:
-            t.join(timeout=10)
-
-
-#: Dask's address schemes whose connections are encrypted and authenticated (TLS).
-ENCRYPTED_SCHEMES = ("tls", "wss")
-
-
-def is_loopback(host: str) -> bool:
-    """True when ``host`` (an address's host part) is this machine's loopback interface:
-    127.0.0.0/8, ::1 (or ::ffff:127.x.y.z) or ``localhost``. Other names are not looked
-    up: a name is taken for a network address, whatever it resolves to."""
-    import ipaddress
-
-    if host.lower().rstrip(".") == "localhost":
-        return True
-    try:
-        ip = ipaddress.ip_address(host)
-    except ValueError:
-        return False
-    mapped = getattr(ip, "ipv4_mapped", None)
-    return ip.is_loopback or bool(mapped and mapped.is_loopback)
-
-
-def insecure_address_message(address: str) -> str:
-    """The refusal of a plain (unencrypted) ``address`` that is not loopback: the risk, and
-    the two ways on."""
-    return (f"refusing --dask {address}: a plain connection is neither encrypted nor "
-            "authenticated, and a Dask scheduler runs whatever task graph it is sent, so "
-            "anyone who can reach that port can run any code on the scheduler and on "
-            "every worker, as the user they run as; use tls://HOST:PORT with "
-            "--tls-ca-file, --tls-cert and --tls-key (README: Batch studies), or accept "
-            "that risk with --insecure-network")
-
-
-def dask_security(address: str, tls_ca_file=None, tls_cert=None, tls_key=None,
-                  insecure_network: bool = False):
-    """How to connect to the Dask scheduler at ``address``; no connection is tried.
-
-    Inputs: the ``--dask`` address (``tls://HOST:PORT``, ``tcp://HOST:PORT``, or
-    ``HOST:PORT``, which Dask reads as its default scheme, tcp), the TLS files given as
-    flags (paths to PEM files; None: not given) and ``--insecure-network``.
-
-    Returns a ``distributed.security.Security`` for a ``tls://`` (or ``wss://``) address:
-    the CA file, the client certificate and its key are the flags where given, else Dask's
-    configuration (``distributed.comm.tls.ca-file``, ``distributed.comm.tls.client.cert``
-    and ``.key``: a YAML file in ``~/.config/dask/`` or ``DASK_DISTRIBUTED__COMM__TLS__...``
-    variables); encryption is required and the files are loaded here. Returns None for a
-    plain address on the loopback interface (:func:`is_loopback`), or anywhere with
-    ``insecure_network``.
-
-    Raises ReachError (one line) for a plain address elsewhere without
-    ``insecure_network`` (:func:`insecure_address_message`), TLS flags with a plain
-    address, a TLS address without a CA or certificate, or TLS files that are missing or
-    do not load; and when the distributed package is missing."""
-    try:
-        from distributed.comm.addressing import parse_address, parse_host_port
-        from distributed.security import Security
-    except ImportError:
-        raise ReachError("--dask needs the distributed package: pip install "
-                         "'dask[distributed]'") from None
-    try:
-        scheme, loc = parse_address(address)
-        host, _port = parse_host_port(loc, default_port=8786)
-    except ValueError as exc:
-        raise ReachError(f"--dask {address}: {exc}") from None
-    given = {"--tls-ca-file": tls_ca_file, "--tls-cert": tls_cert, "--tls-key": tls_key}
-    if scheme not in ENCRYPTED_SCHEMES:
-        if any(given.values()):
-            flags = ", ".join(k for k, v in given.items() if v)
-            raise ReachError(f"{flags} given, but --dask {address} is a plain {scheme}:// "
-                             "address: write it tls://HOST:PORT")
-        if not (insecure_network or is_loopback(host)):
-            raise ReachError(insecure_address_message(address))
-        return None
-    chosen = {k: v for k, v in (("tls_ca_file", tls_ca_file), ("tls_client_cert", tls_cert),
-                                ("tls_client_key", tls_key)) if v}
-    security = Security(require_encryption=True, **chosen)
-    missing = [(flag, key) for flag, key, value in (
-        ("--tls-ca-file", "distributed.comm.tls.ca-file", security.tls_ca_file),
-        ("--tls-cert", "distributed.comm.tls.client.cert", security.tls_client_cert))
-        if not value]
-    if missing:
-        raise ReachError(f"--dask {address} needs the cluster's CA and a certificate signed "
-                         "by it, with its key: give "
-                         + " and ".join(flag for flag, _ in missing) + " (and --tls-key), "
-                         "or set " + " and ".join(key for _, key in missing)
-                         + " (and .client.key) in Dask's configuration")
-    for flag, value in (("--tls-ca-file", security.tls_ca_file),
-                        ("--tls-cert", security.tls_client_cert),
-                        ("--tls-key", security.tls_client_key)):
-        if value and "\n" not in value and not Path(value).is_file():
-            raise ReachError(f"{flag}: file '{value}' not found")
-    try:
-        security.get_connection_args("client")      # loads the CA, certificate and key
-    except (OSError, ValueError) as exc:            # ssl.SSLError is an OSError
-        raise ReachError(f"the TLS files do not load (CA '{security.tls_ca_file}', "
-                         f"certificate '{security.tls_client_cert}', key "
-                         f"'{security.tls_client_key}'): {exc}") from None
-    return security
-
-
-def connect(address: str, security):
-    """A ``distributed.Client`` of the scheduler at ``address``, connected with
-    ``security`` (:func:`dask_security`); a ReachError (one line) if it cannot connect or
-    the TLS handshake fails."""
-    from distributed import Client
-
-    try:
-        return Client(address, security=security, timeout=20)
-    except OSError as exc:
-        raise ReachError(_connect_error(address, exc)) from None
-
-
-def _dask(client, specs):
-    """Yield results of ``specs`` from the cluster of ``client`` as they finish. Stopped
-    early (a signal, an error), the futures not yet done are cancelled."""
-    from distributed import as_completed
-
-    futures = []
-    try:
-        futures = client.map(dask_task, specs, key=[f"reach-{s['id']}" for s in specs],
-                             pure=False)
-        ids = {f.key: s["id"] for f, s in zip(futures, specs)}
-        for fut in as_completed(futures):
-            try:
-                yield fut.result()
-            except Exception as exc:
-                yield {"id": ids[fut.key], "error": f"{type(exc).__name__}: {exc}"}
-    finally:
-        if any(not f.done() for f in futures):
-            client.cancel(futures)
-
-
-def _connect_error(address: str, exc: OSError) -> str:
-    """One line for a failed connection to the scheduler: Dask's reason without its
-    connection description, and for a refused TLS handshake what to check."""
-    reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    reason = reason.rpartition(">: ")[2]
-    if "SSL" in reason or "certificate" in reason:
-        return (f"the Dask scheduler at {address} and this client did not accept each "
-                f"other's TLS certificates ({reason}): --tls-cert must be signed by the CA "
-                "the cluster trusts, and --tls-ca-file must be the CA that signed the "
-                "scheduler's certificate")
-    return f"cannot reach the Dask scheduler at {address}: {reason}"
 
 
 @dataclass
@@ -677,8 +279,8 @@ def _run(study, pending, results, workers, dask, client, out, progress) -> int:
           f"{len(pending)} to run on {where}", file=out, flush=True)
     t0 = time.perf_counter()
     errors = 0
-    source = (_dask(client, pending) if client is not None
-              else _local(pending, min(workers, max(1, len(pending)))))
+    source = (run_on_cluster(client, pending) if client is not None
+              else run_locally(pending, min(workers, max(1, len(pending)))))
     by_id = {s["id"]: s for s in pending}
     with contextlib.closing(source):   # stopped early: the workers stop now, not later
         for n, result in enumerate(source, 1):

@@ -241,19 +241,17 @@ def _key_rest(armature, rest, frame):
 
 def scene_demo(out_dir, render: bool = True, out=None) -> int:
     """``make demo``: the paper's four tasks on a real character in Blender, baked, saved
-    to ``out_dir/demo.blend``, rendered (a still per task with the red trajectory, one MP4),
-    reported (``report.json``) and compared with Table 2."""
-    import json
+    to ``out_dir/demo.blend``, rendered (a still per task with the red trajectory, one MP4)
+    unless ``render`` is off, reported (``report.json``) and compared with Table 2; progress
+    lines to ``out`` (default stdout). Returns 0 if every task reached, else 1."""
     import sys
     import time
     from pathlib import Path
 
     import bpy
 
-    from . import __version__, atomic
-    from .blender import pipeline
+    from . import __version__
     from .blender import rig as rig_mod
-    from .blender.render import render_outcome
 
     out = out or sys.stdout
     out_dir = Path(out_dir).resolve()
@@ -263,73 +261,114 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
           "workplace around Quaternius' Female Casual (CC0)", file=out, flush=True)
     armature = build_scene()
     scene = bpy.context.scene
-    tasks = demo_tasks(fps=24.0)
     frame = 1
     rows, reports, renders = [], [], {}
     bones = rig_mod.build(armature, "right").bones
     rest = _arm_rest(armature, {bones.keyed_chest, *(bones.arms["right"].keyed(role) for role in
                                                      ("clavicle", "upper_arm", "forearm", "hand"))}
                      - {None})
-    for name, task in tasks:
-        if task.kind == "chase":
-            ball = _empty("Ball", task.targets[0], size=0.04)
-            for i, p in enumerate(task.targets):
-                ball.location = tuple(map(float, p))
-                ball.keyframe_insert("location", frame=frame + i)
-            targets = [ball.name]
-        else:
-            targets = []
-            for label, p in zip(task.names, task.targets):
-                targets.append(_empty(f"Target {label}", p).name)
-        request = pipeline.Request(
-            armature=armature.name, targets=targets, task=task.kind, side="right",
-            frame_start=frame, show_guides=(name == "guided"))
-        t0 = time.perf_counter()
-        outcome = pipeline.run(bpy.context, request, bake=True)
-        results = outcome.results
-        end = max(r.frame_end for r in results)
-        ok = all(r.success for r in results)
-        print(f"{name:15s} {'reached' if ok else 'FAILED'}: frames {frame}-{end}, "
-              f"{sum(r.stats['nodes_searched'] for r in results)} nodes, "
-              f"{time.perf_counter() - t0:.1f} s" +
-              ("" if ok else "; " + "; ".join(r.message for r in results if not r.success)),
-              file=out, flush=True)
-        stats = {k: sum(r.stats[k] for r in results) for k in
-                 ("search_time_s", "preprocess_time_s", "nodes_searched", "nodes_in_solution",
-                  "path_length_arm_lengths")}
-        # the hand: its largest turn in one frame (relative to the forearm, and in space)
-        # and its mean bend, over the task's frames
-        for k in ("max_wrist_turn_deg_per_frame", "max_hand_turn_deg_per_frame"):
-            stats[k] = max(r.stats[k] for r in results)
-        frames = sum(r.stats["frames"] for r in results)
-        stats["mean_wrist_bend_deg"] = sum(r.stats["mean_wrist_bend_deg"] * r.stats["frames"]
-                                           for r in results) / max(frames, 1)
-        rows.append((name, ok, stats))
-        chest = _chest_against_table1(armature, outcome, frame) if name == "rotation" else []
-        for c in chest:
-            print(f"{'':15s} chest at '{c['target']}': {c['chest_yaw_deg']:5.1f}° "
-                  f"(Table 1: {c['table1_deg']:5.1f}° at {c['direction_deg']:.0f}°, "
-                  f"{100 * c['table1_distance_m']:.0f} cm)", file=out, flush=True)
-        reports.append({"task": name, "success": ok, "frame_start": frame, "frame_end": end,
-                        "targets": [r.to_dict() for r in results], **stats,
-                        **({"chest_vs_table1": chest} if chest else {})})
+    outcome = None
+    for name, task in demo_tasks(fps=24.0):
+        outcome, end, row, report = _demo_task(armature, name, task, frame, out)
+        rows.append(row)
+        reports.append(report)
         if render:
+            from .blender.render import render_outcome
+
             renders[name] = render_outcome(bpy.context, outcome, out_dir, still=f"{name}.png",
                                            video=None)["still"]
             print(f"{'':15s} rendered {name}.png", file=out, flush=True)
         _keep_display(scene, name)
         _key_rest(armature, rest, end + GAP)
         frame = end + GAP + 1
-    scene.frame_start, scene.frame_end = 1, frame - 1
+    _finish(armature, outcome, frame - 1, out_dir, render, rows, reports, renders, t_start, out)
+    return 0 if all(ok for _n, ok, _s in rows) else 1
+
+
+def _demo_target_names(task, frame) -> list:
+    """The targets of ``task`` as objects in the scene: a ball keyed along a chase's path
+    from ``frame`` on, else an Empty per target. Returns their names."""
+    if task.kind == "chase":
+        ball = _empty("Ball", task.targets[0], size=0.04)
+        for i, p in enumerate(task.targets):
+            ball.location = tuple(map(float, p))
+            ball.keyframe_insert("location", frame=frame + i)
+        return [ball.name]
+    return [_empty(f"Target {label}", p).name for label, p in zip(task.names, task.targets)]
+
+
+def _demo_task(armature, name, task, frame, out):
+    """Bake one of the demo's tasks from ``frame`` on with the right arm and print its
+    line; returns (outcome, last frame, Table 2 row (name, ok, stats), report entry)."""
+    import time
+
+    import bpy
+
+    from .blender import pipeline
+
+    request = pipeline.Request(
+        armature=armature.name, targets=_demo_target_names(task, frame), task=task.kind,
+        side="right", frame_start=frame, show_guides=(name == "guided"))
+    t0 = time.perf_counter()
+    outcome = pipeline.run(bpy.context, request, bake=True)
+    results = outcome.results
+    end = max(r.frame_end for r in results)
+    ok = all(r.success for r in results)
+    print(f"{name:15s} {'reached' if ok else 'FAILED'}: frames {frame}-{end}, "
+          f"{sum(r.stats['nodes_searched'] for r in results)} nodes, "
+          f"{time.perf_counter() - t0:.1f} s" +
+          ("" if ok else "; " + "; ".join(r.message for r in results if not r.success)),
+          file=out, flush=True)
+    stats = _demo_stats(results)
+    chest = _chest_against_table1(armature, outcome, frame) if name == "rotation" else []
+    for c in chest:
+        print(f"{'':15s} chest at '{c['target']}': {c['chest_yaw_deg']:5.1f}° "
+              f"(Table 1: {c['table1_deg']:5.1f}° at {c['direction_deg']:.0f}°, "
+              f"{100 * c['table1_distance_m']:.0f} cm)", file=out, flush=True)
+    report = {"task": name, "success": ok, "frame_start": frame, "frame_end": end,
+              "targets": [r.to_dict() for r in results], **stats,
+              **({"chest_vs_table1": chest} if chest else {})}
+    return outcome, end, (name, ok, stats), report
+
+
+def _demo_stats(results) -> dict:
+    """A task's Table 2 statistics summed over its results, and the hand's: its largest
+    turn in one frame (relative to the forearm, and in space) and its mean bend over the
+    task's frames (degrees)."""
+    stats = {k: sum(r.stats[k] for r in results) for k in
+             ("search_time_s", "preprocess_time_s", "nodes_searched", "nodes_in_solution",
+              "path_length_arm_lengths")}
+    for k in ("max_wrist_turn_deg_per_frame", "max_hand_turn_deg_per_frame"):
+        stats[k] = max(r.stats[k] for r in results)
+    frames = sum(r.stats["frames"] for r in results)
+    stats["mean_wrist_bend_deg"] = sum(r.stats["mean_wrist_bend_deg"] * r.stats["frames"]
+                                       for r in results) / max(frames, 1)
+    return stats
+
+
+def _finish(armature, outcome, last, out_dir, render, rows, reports, renders, t_start, out):
+    """Save ``demo.blend`` (frames 1..``last``), render the strip, the MP4 and the envelope
+    (with ``render``), write ``report.json`` and print Table 2."""
+    import json
+    import time
+
+    import bpy
+
+    from . import __version__, atomic
+
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, last
     scene.frame_set(1)
     blend = out_dir / "demo.blend"
     atomic.save_blend(blend)
     if render:
+        from .blender.render import render_outcome
+
         renders["strip"] = _strip(out_dir, [r["task"] for r in reports], "demo-strip.png")
         print(f"{'':15s} joined the stills into demo-strip.png", file=out, flush=True)
-        print(f"{'':15s} rendering demo.mp4 ({frame - 1} frames)", file=out, flush=True)
+        print(f"{'':15s} rendering demo.mp4 ({last} frames)", file=out, flush=True)
         renders["video"] = render_outcome(bpy.context, outcome, out_dir, still=None,
-                                          video="demo.mp4", frames=(1, frame - 1),
+                                          video="demo.mp4", frames=(1, last),
                                           size=(480, 270))["video"]
         renders["envelope"] = _envelope_still(armature, out_dir, out)
     report = {"reach_version": __version__, "blender_version": bpy.app.version_string,
@@ -344,7 +383,6 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     print(table2_text(rows), file=out)
     print(f"\nsaved {blend}, report.json" + (", stills and demo.mp4" if render else "") +
           f" in {out_dir} ({report['total_time_s']:.0f} s)", file=out, flush=True)
-    return 0 if all(ok for _n, ok, _s in rows) else 1
 
 
 def _envelope_still(armature, out_dir, out) -> str:

@@ -1,38 +1,14 @@
 """The body Reach does not key: does the rig's own animation move it during a reach?
 
-The planner plans in the world as it is on the start frame: the chest, the shoulder and
-every obstacle where they are then (:mod:`reach_addon.core` knows nothing of time beyond its
-own motion). The bake keys the arm's bones (upper arm, forearm, hand, the clavicle, the
-chest when the plan turns it), and Blender carries them by their parents. If something
-else moves those parents while the arm reaches — a walk cycle on the hips, an idle clip
-on the spine, keys or a constraint on the armature object or on an object it is parented
-to, an NLA strip — the baked arm is carried away from the planned one: the wrist misses
-the target and the arm may pass through what the plan went round. Importers leave such
-clips playing (the glTF sample CesiumMan walks 0.2 arm lengths in a fast reach).
-
-:func:`check` measures it before anything is keyed. The *body* is the armature object
-and the chain of bones from the root to the upper arm's parent, less the bones the bake
-keys (and their Rigify ORG counterparts, whose place the plan describes): those are
-replaced by Reach's keys over the reach, whatever they held. On every frame of every
-motion to bake (``scene.frame_set``, so keys, NLA, drivers, constraints and parents all
-count), the world matrix ``W_f`` of the upper arm's parent is composed from the armature's
-world matrix and each body bone's matrix relative to its parent, the keyed bones held at
-the start frame, where the rig was read (``W_0``: every plan assumes that body, a reach
-baked after a failed one that is not keyed included). The arm planned for that frame
-is carried by ``W_f W_0⁻¹``; how far its joints (sternum, shoulder, elbow, wrist, hand
-end) move is the *drift*. A drift above the goal tolerance (``Settings.goal_tolerance``:
-the baked wrist would miss the target), or a smaller one that carries the wrist farther
-than the tolerance from its target on a frame the plan arrives there (the drift adds to
-the plan's own error, itself up to the tolerance), refuses the bake with a
-:class:`~reach_addon.core.ReachError` naming what moves, by how much and on which frame,
-and what to do; nothing in the scene is changed.
-
-Where the keyed chest turns and an unkeyed bone sits between it and the clavicle, the
-composition holds the chest at its start: the drift is then measured about the start
-pose, a fraction of a degree's difference for the chest turns the planner makes.
-
-Cost: nothing on a rig nothing can move (:func:`may_move`, read from the animation data
-alone); else one scene evaluation per frame of the motion.
+:func:`check` measures it before anything is keyed. The *body* is the armature object and
+the chain of bones from the root to the upper arm's parent, less the bones the bake keys
+(and their Rigify ORG counterparts). On every frame of every motion to bake
+(``scene.frame_set``: keys, NLA, drivers, constraints and parents all count), the world
+matrix ``W_f`` of the upper arm's parent is composed from the armature's world matrix and
+each body bone's matrix relative to its parent, the keyed bones held at the start frame
+(``W_0``). The arm planned for that frame is carried by ``W_f W_0⁻¹``; how far its joints
+(sternum, shoulder, elbow, wrist, hand end) move is the *drift*. Why: ``docs/design/
+blender.md``.
 """
 
 from __future__ import annotations
@@ -40,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import ReachError
-from . import bake as bake_mod
+from .bone_matrices import bone_roles, moves_chest
 
 #: a bone or the armature counts as moving where its matrix changes by more than this
 #: (translation as a share of the arm's length; rotation as the same share in radians)
@@ -50,7 +26,7 @@ MOVED = 1e-6
 def body_bones(armature, info, plans) -> tuple:
     """(chain, held): the bones from the root to the reaching upper arm's parent (root
     first), and the names among them the bake keys or whose place the plan describes."""
-    keyed, reference = bake_mod.bone_roles(info, bake_mod.moves_chest(plans))
+    keyed, reference = bone_roles(info, moves_chest(plans))
     held = set(keyed.values()) | set(reference.values())
     chain = []
     pb = armature.pose.bones[reference["upper_arm"]].parent
@@ -132,12 +108,13 @@ def _curves(action) -> list:
 
 def check(context, armature, info, plans, settings, frame_start) -> float:
     """Refuse (ReachError) a bake of ``plans`` [(Plan, first frame)] that the rig's own
-    animation would carry off the plan by more than the goal tolerance, or carry a wrist
-    that arrives at its target farther than the tolerance from it (see the module doc);
-    returns the largest drift, world units (0 where nothing can move).
-    ``frame_start``: the frame the rig was read at, whose body every plan assumes (a plan
-    baked later, after a failed reach that is not baked, starts after it). The scene's
-    frame is put back."""
+    animation would carry off the plan by more than the goal tolerance
+    (``settings.goal_tolerance`` arm lengths), or carry a wrist that arrives at its target
+    farther than the tolerance from it; the message names what moves, by how much, on
+    which frame, and what to do. Returns the largest drift, world units (0 where nothing
+    can move, :func:`may_move`). ``info``: the :class:`.rig.RigInfo` the plans are for;
+    ``frame_start``: the frame the rig was read at, whose body every plan assumes. The
+    scene's frame is put back."""
     if not plans:
         return 0.0
     chain, held = body_bones(armature, info, plans)
@@ -145,90 +122,120 @@ def check(context, armature, info, plans, settings, frame_start) -> float:
     if not may_move(armature, free):
         return 0.0
     scene = context.scene
-    bones = armature.pose.bones
-    length = info.arm.arm_length
     now = (scene.frame_current, scene.frame_subframe)
+    try:
+        scene.frame_set(frame_start)
+        body = _Body(armature, chain, held, info.arm.arm_length)
+        worst, worst_frame, movers, miss = _drift(scene, body, plans, frame_start,
+                                                  settings.goal_tolerance * info.arm.arm_length)
+    finally:
+        scene.frame_set(now[0], subframe=now[1])
+    if worst > settings.goal_tolerance * info.arm.arm_length or miss is not None:
+        raise ReachError(_refusal(armature, info, plans, settings, frame_start,
+                                  (worst, worst_frame, movers), miss))
+    return worst
 
-    def read():
+
+class _Body:
+    """The armature object and its ``chain`` of body bones (root first) as they are now,
+    and as they were when made (the start frame): the bones of ``held`` (keyed by the
+    bake, or whose place the plan describes) count as held at the start."""
+
+    def __init__(self, armature, chain, held, length):
+        self.armature, self.chain, self.held, self.length = armature, chain, held, length
+        self.carrier = f" (carried by '{armature.parent.name}')" if armature.parent else ""
+        self.start_mw, self.start_rel = self.read()
+        self.scale = float(np.abs(np.linalg.det(self.start_mw[:3, :3])) ** (1 / 3))
+        self.inv0 = np.linalg.inv(self.compose(self.start_mw, self.start_rel))
+
+    def read(self):
+        """(the armature's world matrix, each chain bone's matrix relative to its parent)."""
+        bones = self.armature.pose.bones
         rel = []
-        for n in chain:
+        for n in self.chain:
             pb = bones[n]
             m = np.array(pb.matrix)
             rel.append(m if pb.parent is None else np.linalg.solve(np.array(pb.parent.matrix), m))
-        return np.array(armature.matrix_world), rel
+        return np.array(self.armature.matrix_world), rel
 
-    def compose(mw, rel):
+    def compose(self, mw, rel):
+        """The world matrix of the upper arm's parent, the held bones at the start."""
         w = mw
-        for n, r, r0 in zip(chain, rel, start_rel):
-            w = w @ (r0 if n in held else r)
+        for n, r, r0 in zip(self.chain, rel, self.start_rel):
+            w = w @ (r0 if n in self.held else r)
         return w
 
-    def changed(a, b, scale):
+    def carry(self, mw, rel):
+        """The matrix that carries the start's body to this one (world)."""
+        return self.compose(mw, rel) @ self.inv0
+
+    def _changed(self, a, b, scale):
         """Whether matrix ``a`` differs from ``b``; ``scale``: world units per unit of
         their space."""
         d = a - b
         return (np.abs(d[:3, :3]).max() > MOVED * scale
-                or np.linalg.norm(d[:3, 3]) * scale > MOVED * length)
+                or np.linalg.norm(d[:3, 3]) * scale > MOVED * self.length)
 
-    carrier = f" (carried by '{armature.parent.name}')" if armature.parent else ""
-    first = frame_start
-    try:
-        scene.frame_set(first)
-        start_mw, start_rel = read()
-        scale = float(np.abs(np.linalg.det(start_mw[:3, :3])) ** (1 / 3))
-        inv0 = np.linalg.inv(compose(start_mw, start_rel))
-        worst, worst_frame, movers = 0.0, first, []
-        miss = None     # (off, planned, frame, target, movers): the wrist carried off target
-        tolerance = settings.goal_tolerance * length
+    def moving(self, mw, rel) -> list:
+        """What moves the body now, against the start: the armature object, free bones."""
+        out = ([f"the armature object '{self.armature.name}'" + self.carrier]
+               if self._changed(mw, self.start_mw, 1.0) else [])
+        return out + [f"bone '{n}'" for n, r, r0 in zip(self.chain, rel, self.start_rel)
+                      if n not in self.held and self._changed(r, r0, self.scale)]
 
-        def moving(mw, rel):
-            out = ([f"the armature object '{armature.name}'" + carrier]
-                   if changed(mw, start_mw, 1.0) else [])
-            return out + [f"bone '{n}'" for n, r, r0 in zip(chain, rel, start_rel)
-                          if n not in held and changed(r, r0, scale)]
 
-        for plan, frame0 in plans:
-            joints = plan.world_joints()
-            arrivals = {s.frame_end: s for s in plan.segments if s.success}
-            for i in range(len(plan.poses)):
-                f = frame0 + i
-                scene.frame_set(f)
-                mw, rel = read()
-                carry = compose(mw, rel) @ inv0
-                p = np.c_[joints[i], np.ones(len(joints[i]))]
-                carried = (p @ carry.T)[:, :3]
-                drift = float(np.linalg.norm(carried - joints[i], axis=1).max())
-                if drift > worst:
-                    worst, worst_frame, movers = drift, f, moving(mw, rel)
-                seg = arrivals.get(i)
-                if seg is not None and drift > MOVED * length:
-                    # on a frame the wrist arrives, the drift adds to the plan's own error
-                    off = float(np.linalg.norm(carried[3] - seg.target))
-                    planned = float(np.linalg.norm(joints[i][3] - seg.target))
-                    if off > tolerance and (miss is None or off > miss[0]):
-                        miss = (off, planned, f, seg.name, moving(mw, rel))
-    finally:
-        scene.frame_set(now[0], subframe=now[1])
-    if worst > tolerance or miss is not None:
-        last = max(f0 + len(p.poses) - 1 for p, f0 in plans)
-        if worst > tolerance:
-            cm = 100 * worst * info.arm.metres_per_unit
-            effect = (f"carry the {info.side} arm {cm:.1f} cm away from its plan on frame "
-                      f"{worst_frame} ({worst / length:.2f} arm lengths), so the hand would "
-                      "miss the target and may pass through obstacles")
-        else:
-            off, planned, worst_frame, target, movers = miss
-            cm = 100 * off * info.arm.metres_per_unit
-            effect = (f"carry the {info.side} wrist {cm:.1f} cm from target '{target}' on "
-                      f"frame {worst_frame} ({off / length:.4f} arm lengths, more than the goal "
-                      f"tolerance of {settings.goal_tolerance:g}; the plan leaves it "
-                      f"{planned / length:.4f} away)")
-        what = ", ".join(movers[:4]) + (f" and {len(movers) - 4} more" if len(movers) > 4
-                                        else "") if movers else "the rig's own animation"
-        raise ReachError(
-            f"armature '{armature.name}': its own animation moves the body the arm hangs "
+def _drift(scene, body, plans, first, tolerance):
+    """Every frame of every plan evaluated (``frame_set``): (the largest drift of a planned
+    joint, world units; its frame; what moved then; the worst miss or None). A miss,
+    (off, planned, frame, target name, movers), is a frame a wrist arrives on, carried
+    farther than ``tolerance`` (world units) from its target."""
+    worst, worst_frame, movers = 0.0, first, []
+    miss = None
+    for plan, frame0 in plans:
+        joints = plan.world_joints()
+        arrivals = {s.frame_end: s for s in plan.segments if s.success}
+        for i in range(len(plan.poses)):
+            f = frame0 + i
+            scene.frame_set(f)
+            mw, rel = body.read()
+            carry = body.carry(mw, rel)
+            p = np.c_[joints[i], np.ones(len(joints[i]))]
+            carried = (p @ carry.T)[:, :3]
+            drift = float(np.linalg.norm(carried - joints[i], axis=1).max())
+            if drift > worst:
+                worst, worst_frame, movers = drift, f, body.moving(mw, rel)
+            seg = arrivals.get(i)
+            if seg is not None and drift > MOVED * body.length:
+                # on a frame the wrist arrives, the drift adds to the plan's own error
+                off = float(np.linalg.norm(carried[3] - seg.target))
+                planned = float(np.linalg.norm(joints[i][3] - seg.target))
+                if off > tolerance and (miss is None or off > miss[0]):
+                    miss = (off, planned, f, seg.name, body.moving(mw, rel))
+    return worst, worst_frame, movers, miss
+
+
+def _refusal(armature, info, plans, settings, first, drift, miss) -> str:
+    """The message of :func:`check`'s refusal: ``drift`` (worst, frame, movers) when it is
+    over the tolerance, else ``miss`` (:func:`_drift`)."""
+    length = info.arm.arm_length
+    worst, worst_frame, movers = drift
+    last = max(f0 + len(p.poses) - 1 for p, f0 in plans)
+    if worst > settings.goal_tolerance * length:
+        cm = 100 * worst * info.arm.metres_per_unit
+        effect = (f"carry the {info.side} arm {cm:.1f} cm away from its plan on frame "
+                  f"{worst_frame} ({worst / length:.2f} arm lengths), so the hand would "
+                  "miss the target and may pass through obstacles")
+    else:
+        off, planned, worst_frame, target, movers = miss
+        cm = 100 * off * info.arm.metres_per_unit
+        effect = (f"carry the {info.side} wrist {cm:.1f} cm from target '{target}' on "
+                  f"frame {worst_frame} ({off / length:.4f} arm lengths, more than the goal "
+                  f"tolerance of {settings.goal_tolerance:g}; the plan leaves it "
+                  f"{planned / length:.4f} away)")
+    what = ", ".join(movers[:4]) + (f" and {len(movers) - 4} more" if len(movers) > 4
+                                    else "") if movers else "the rig's own animation"
+    return (f"armature '{armature.name}': its own animation moves the body the arm hangs "
             f"from while it reaches (frames {first}–{last}): {what} would {effect}. Reach "
             f"plans with the body holding its pose of frame {first}: mute or clear those "
             "keys over these frames (or mute the NLA track, or unassign the clip an importer "
             "left playing), or start the reach where the body holds still")
-    return worst

@@ -12,9 +12,9 @@ caller uses — Blender's timer while Live is on, the tests, the benchmark. Each
    from the pose on screen);
 2. advances the core re-plan for at most the time budget (1/30 s by default);
 3. when the core shows a new pose, writes it to the pose bones' rotation channels, without
-   keys, through :mod:`.bake`'s own matrices (:func:`~.bake.target_matrices`,
-   :func:`~.bake.local_matrices`, :func:`~.bake.channel_values`), so a live pose and a
-   baked frame of the same plan pose are the same.
+   keys, through the bake's own matrices (:func:`~.bone_matrices.target_matrices`,
+   :func:`~.bone_matrices.local_matrices`, :func:`~.bone_matrices.channel_values`), so a
+   live pose and a baked frame of the same plan pose are the same.
 
 Blender calls: a ``depsgraph_update_post`` and a ``frame_change_post`` handler only wake a
 ``bpy.app.timers`` timer (cheap, and never while it runs); the timer calls :func:`update`
@@ -24,16 +24,11 @@ add-on is unregistered; none of them lets an exception reach Blender (an error s
 session and the panel shows why).
 
 Keys and undo: :func:`key_pose` keys the pose on screen at the current frame through
-:func:`.bake.bake` (the "Key Pose" operator, K in the 3D View while Live is on). Live
-itself pushes no undo step while it runs, but what the user does meanwhile does (a move
-of the target with G is one, saved with whatever pose the arm had reached by then). So
-stopping a session pushes two (:func:`_undo_steps`): "Before Reach Live", the scene as it
-is now but every bone Live posed back as it was when Live began, then "Reach Live", the
-pose on screen. One Ctrl+Z after Live therefore restores the arm's pose from before Live
-and keeps the target's moves; Ctrl+Shift+Z brings the live pose back; further Ctrl+Z go
-back through the steps pushed while Live was on (the target's moves, each with the arm
-as it was then). An undo or redo while Live is on restarts the session from the restored
-pose.
+:func:`.bake.bake` (the "Key Pose" operator, K in the 3D View while Live is on). Stopping
+a session pushes two undo steps (:func:`_undo_steps`): "Before Reach Live" (the scene as
+it is, every bone Live posed back as it was when Live began), then "Reach Live" (the pose
+on screen). An undo or redo while Live is on restarts the session from the restored pose.
+Why: ``docs/design/blender.md``.
 """
 
 from __future__ import annotations
@@ -50,8 +45,10 @@ import numpy as np
 from ..core import Plan, ReachError, Stats
 from ..core.live import DEFAULT_BUDGET_S, LiveSession, LiveStatus
 from . import bake as bake_mod
-from . import pipeline
+from . import bone_matrices, pipeline
 from . import rig as rig_mod
+from .fcurves import Channels, write_channel
+from .settle import settle
 from .scene import ObstacleCache, character_objects
 
 #: Seconds between timer ticks while a re-plan is under way (Blender handles events between).
@@ -138,7 +135,7 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
                           info.start_hand)
 
     bmap = info.bones
-    keyed, reference = bake_mod.bone_roles(info, chest=True)
+    keyed, reference = bone_matrices.bone_roles(info, chest=True)
     for name in keyed.values():
         if name not in armature.pose.bones:
             raise ReachError(f"bone '{name}' is missing from armature '{armature.name}'")
@@ -302,7 +299,7 @@ def _apply(st: LiveState, armature) -> None:
     """Write the session's pose to the bones' rotation channels (no keys)."""
     plan = Plan(None, st.info.arm, st.session.settings, [st.start_arm_pose, st.session.pose],
                 [], Stats())
-    targets = bake_mod.target_matrices(st.info, plan, st.start_world, st.chest_head)
+    targets = bone_matrices.target_matrices(st.info, plan, st.start_world, st.chest_head)
     targets_arm = {role: st.armature_inverse[None] @ m[1:] for role, m in targets.items()}
     pose = armature.pose.bones
     before = _before.get(armature.name)
@@ -312,13 +309,12 @@ def _apply(st: LiveState, armature) -> None:
                 before["switches"].setdefault((bone_name, prop), pose[bone_name].get(prop))
             pose[bone_name][prop] = 1.0
             armature.update_tag()
-    locals_ = bake_mod.local_matrices(armature, st.keyed, targets_arm, st.start_pose)
+    locals_ = bone_matrices.local_matrices(armature, st.keyed, targets_arm, st.start_pose)
     if before is not None:
         before["posed"].update(locals_)
-    bake_mod.settle(bpy.context, armature, st.keyed, st.reference, targets_arm, locals_,
-                    st.start_pose)
+    settle(bpy.context, armature, st.keyed, st.reference, targets_arm, locals_, st.start_pose)
     for name, mats in locals_.items():
-        path, values = bake_mod.channel_values(pose[name], mats)
+        path, values = bone_matrices.channel_values(pose[name], mats)
         setattr(pose[name], path, tuple(float(v) for v in values[-1]))
 
 
@@ -335,14 +331,15 @@ def key_pose(context=None) -> bake_mod.BakeResult:
     context.view_layer.update()
     frame = scene.frame_current
     plan = Plan(None, st.info.arm, st.session.settings, [pose], [], Stats())
-    result = bake_mod.bake(context, armature, st.info, [(plan, frame)], new_action=False)
+    result = bake_mod.bake(context, armature, st.info, [bake_mod.KeyedPlan(plan, frame)],
+                           new_action=False)
     start = st.info.start.body_rotation
     if abs(pose.config.body_rotation - start) > 1e-9:
         name = st.info.bones.keyed_chest
         pb = armature.pose.bones[name]
-        channels = bake_mod.Channels(armature, armature.animation_data.action)
-        path, values = bake_mod.channel_values(pb, [np.array(pb.matrix_basis)])
-        bake_mod.write_channel(channels, f'pose.bones["{name}"].{path}', values,
+        channels = Channels(armature, armature.animation_data.action)
+        path, values = bone_matrices.channel_values(pb, [np.array(pb.matrix_basis)])
+        write_channel(channels, f'pose.bones["{name}"].{path}', values,
                                np.array([float(frame)]), name)
         result.bones = [name] + [b for b in result.bones if b != name]
         context.view_layer.update()

@@ -1,35 +1,15 @@
 """The one pipeline: scene + armature → rig model → obstacles → core plan → bake / preview.
 
-The sidebar operators, the command line, batch workers and live mode all call
-:func:`run` (or consume :func:`steps`, the same work as a generator that yields progress, for
-callers that must stay responsive and may cancel). Nothing here plans or bakes on its own:
-planning is :mod:`reach_addon.core`, keys are :mod:`.bake`, drawing is :mod:`.viz`.
+The sidebar operators, the command line, batch workers and live mode all call :func:`run`
+(or consume :func:`steps`, the same work as a generator that yields progress, for callers
+that must stay responsive and may cancel). The work is done in named stages
+(:class:`PipelineRun`); planning is :mod:`reach_addon.core`, keys are :mod:`.bake`,
+drawing is :mod:`.viz`, the results :mod:`.results`.
 
 Bad input raises :class:`~reach_addon.core.ReachError` *before* anything in the scene is
-changed. The scene's current frame is restored when the work ends, however it ends.
-
-A chase samples the target on every frame of its motion (``frame_set``, so keys, parents
-and constraints all count) and the obstacles too: while none of them moves the chase is the
-core's chase task; when one does (keys, a parent, a deforming modifier), each frame is
-planned against the obstacles of that frame (:func:`reach_addon.core.tasks.chase_steps`), a
-new BVH being built only for frames where the obstacles' signature changed.
-
-A reach, sequence or guided task plans one motion: where obstacles are animated (keys on
-them, their data, parents or constraint targets) past the start frame, the motion is
-planned against every place they take while it lasts — each moving obstacle sampled
-:data:`SWEEP_SAMPLES` times a frame over the motion's frames, added to the obstacles of
-the start frame — and planned again if the new motion lasts longer than what was swept.
-
-Targets carried by the character's own bones: one on a bone of the reaching arm (upper
-arm, forearm, hand or below) would move with the hand, so the arm is refused (with
-``auto``, the other arm is taken); one on a bone the chest carries (the neck, the head, the
-other arm) would move as the chest turns, so the chest is kept still for that request.
-
-A bake is refused, before anything is keyed, where the rig's own animation (a walk on the
-hips, keys on the armature object, an NLA strip) would carry the arm off its plan by more
-than the goal tolerance while it reaches (:func:`.body.check`). A drawn preview (Plan)
-runs the same check on the plans a Bake would key and adds its message to
-:attr:`Outcome.warnings` instead: the preview is drawn, and says the Bake would stop.
+changed. The scene's current frame is restored when the work ends, however it ends. Why
+chases, moving obstacles and carried targets are read as they are:
+``docs/design/blender.md``.
 """
 
 from __future__ import annotations
@@ -40,28 +20,24 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..core import START_HELD, START_IN_COLLISION, Planner, ReachError, Settings, Task
+from ..core import Planner, ReachError, Settings, Task
 from ..core import envelope as envelope_mod
-from ..core.arm import REACH_SLACK, frame_angle, reach_sphere
-from ..core.orient import palm_frame, wanted_axes
+from ..core.arm import REACH_SLACK, reach_sphere
 from ..core.steps import drain, relay
+from ..core.sweep import plan_among_moving
 from ..core.tasks import chase_steps
 from . import bake as bake_mod
 from . import body as body_mod
 from . import rig as rig_mod
 from . import viz
+from .bake import KeyedPlan
+from .results import arm_note, measure_orientation, start_as_it_shows, task_results
 from .scene import (KEPT, ObstacleCache, character_objects, finite, gather_pieces,
-                    obstacles_from_pieces, visit_obstacles)
+                    visit_obstacles)
 
 TASKS = ("reach", "sequence", "guided", "chase")
 #: Instants per frame at which moving obstacles are sampled for a reach (frame, half way).
 SWEEP_SAMPLES = 2
-#: Most times a reach is planned again because its motion outlasted the swept frames.
-SWEEP_ROUNDS = 6
-#: Radius of the drawn trajectory's tube, in arm lengths (6 mm on a 0.6 m arm; the target
-#: markers are 0.04): it scales with the figure, as thin beside a 0.2 m figure's hand as
-#: beside a grown-up's.
-TUBE_RADIUS = 0.01
 
 
 @dataclass
@@ -81,29 +57,6 @@ class Request:
     bake_closest: bool = False
     show_guides: bool = False
     draw: bool = True                    # trajectory, markers (off for batch studies)
-
-
-@dataclass
-class TaskResult:
-    """One target's outcome, as the report and the panel show it."""
-
-    target: str
-    arm: str
-    success: bool
-    reason: str | None
-    message: str
-    frame_start: int
-    frame_end: int
-    bones_keyed: list
-    stats: dict
-    #: what found the path: "best-first" (the paper's search), "sampling" (the fallback
-    #: where it gave up) or "chase"
-    method: str = "best-first"
-    #: whether Arm: Auto chose ``arm`` (the message then names it, :func:`arm_note`)
-    auto: bool = False
-
-    def to_dict(self) -> dict:
-        return dict(self.__dict__)
 
 
 @dataclass
@@ -131,12 +84,6 @@ class Outcome:
             "obstacles": [{"name": n, "triangles": t} for n, t in self.obstacles],
             "warnings": list(self.warnings),
         }
-
-
-def arm_note(request: Request, info) -> str:
-    """What begins every message of a request whose arm Auto chose, naming that arm
-    ("Left arm (Auto): "); "" when the user chose the arm."""
-    return f"{info.side.capitalize()} arm (Auto): " if request.side == "auto" else ""
 
 
 def find_object(name, what):
@@ -237,191 +184,229 @@ def reach_bounds(arm, settings: Settings, targets) -> tuple:
     return centre, radius, np.array([np.array(t.matrix_world.translation) for t in targets])
 
 
+class PipelineRun:
+    """One run of the pipeline (:func:`steps`): the request, what each stage has read or
+    made, and the outcome. The stages are methods named for their job, run in this order:
+
+    1. :meth:`read_rig` — the rig at the start frame, and targets the character carries;
+    2. :meth:`gather_obstacles` — the obstacles within reach, and which of them move;
+    3. :meth:`make_tasks` — the core tasks (a chase's path sampled frame by frame);
+    4. :meth:`plan` — each task planned, among moving obstacles swept over its motion;
+    5. :meth:`check_body` — the rig's own animation must not carry the arm off its plan;
+    6. :meth:`bake_keys` — the keys (a Bake), or why nothing was keyed;
+    7. :meth:`report` — a :class:`.results.TaskResult` per target, the :class:`Outcome`;
+    8. :meth:`draw` — the trajectory, markers and guides.
+
+    Stages 1–5 only read the scene (they set its frame, which :meth:`restore_frame` puts
+    back); 6–8 change it and never yield. ``bake``: whether keys are wanted (a Bake) or a
+    preview (a Plan). Raises ReachError for bad input (:func:`validate`) before any stage."""
+
+    def __init__(self, context, request: Request, bake: bool):
+        self.context, self.request, self.bake = context, request, bake
+        self.armature, self.targets, self.collection = validate(context, request, bake)
+        scene = context.scene
+        self.original_frame = scene.frame_current
+        self.frame_start = scene.frame_current if request.frame_start is None \
+            else int(request.frame_start)
+        self.warnings = []            # what a Bake of this preview would refuse
+        self.outcome = None
+
+    def read_rig(self):
+        """Stage 1 (yields once): the rig read on the start frame (:func:`.rig.build`), with
+        the arm and settings :func:`_carried_targets` chooses: ``info``, ``settings`` and
+        ``still`` (the note for the results, or None)."""
+        scene = self.context.scene
+        if scene.frame_current != self.frame_start:
+            scene.frame_set(self.frame_start)
+        self.context.view_layer.update()
+        first = np.array(self.targets[0].matrix_world.translation)
+        info = rig_mod.build(self.armature, self.request.side, self.request.overrides,
+                             target=first)
+        self.info, self.settings, self.still = _carried_targets(
+            self.armature, self.targets, info, self.request, first)
+        yield 0.02, "reading the rig"
+
+    def gather_obstacles(self):
+        """Stage 2 (yields once): the obstacle pieces and their BVH on the start frame, the
+        character, its targets and whatever is beyond the arm's reach left out
+        (:meth:`.scene.KeptObstacles.get`, :func:`reach_bounds`): ``pieces``,
+        ``obstacles``; and the names of those animated after it (``moving``; none for a
+        chase, which samples every frame)."""
+        context = self.context
+        self.names = tuple(t.name for t in self.targets)
+        self.exclude = character_objects(self.armature, context.scene) | set(self.names)
+        self.pieces, self.obstacles, _built = KEPT.get(
+            context, self.exclude, self.collection,
+            within=reach_bounds(self.info.arm, self.settings, self.targets))
+        self.moving = set() if self.request.task == "chase" else \
+            _moving_owners(context, self.exclude, self.collection, self.frame_start)
+        yield 0.05, f"{self.obstacles.triangle_count} obstacle triangles"
+
+    def make_tasks(self):
+        """Stage 3: the core :class:`~reach_addon.core.Task` list (``tasks``): one per target
+        for a reach, one for a sequence or guided task, and for a chase the target's path
+        and the obstacles on every frame of it (``frame_obstacles``, :func:`_sample_chase`)."""
+        scene, info, request, names = self.context.scene, self.info, self.request, self.names
+        fps = scene.render.fps / scene.render.fps_base
+        self.frame_obstacles = None
+        if request.task == "chase":
+            f0, f1 = _chase_range(self.context, self.targets[0], self.frame_start)
+            path, self.frame_obstacles = _sample_chase(self.context, self.targets[0], self.exclude,
+                                                       self.collection, self.obstacles, f0, f1)
+            scene.frame_set(self.frame_start)
+            self.tasks = [Task("chase", np.array(path), info.start, fps, names=names[:1],
+                               start_hand=info.start_hand)]
+            return
+        positions = np.array([np.array(t.matrix_world.translation) for t in self.targets])
+        rotations = target_rotations(self.targets) if self.settings.match_orientation else None
+        if request.task == "reach":
+            self.tasks = [Task("reach", positions[i:i + 1], info.start, fps, request.duration_s,
+                               names=names[i:i + 1], start_hand=info.start_hand,
+                               orientations=None if rotations is None else rotations[i:i + 1],
+                               start_palm=info.start_palm, start_fingers=info.start_fingers)
+                          for i in range(len(self.targets))]
+        else:
+            self.tasks = [Task(request.task, positions, info.start, fps, request.duration_s,
+                               names=names, start_hand=info.start_hand, orientations=rotations,
+                               start_palm=info.start_palm, start_fingers=info.start_fingers)]
+
+    def plan(self):
+        """Stage 4 (yields the planners' progress): each task planned in turn, each one's
+        motion starting on the frame after the last one's: ``plans``, a
+        :class:`.bake.KeyedPlan` per task. A chase among obstacles that move is planned
+        frame by frame among each frame's obstacles (:func:`~reach_addon.core.tasks.
+        chase_steps`); any other task among the places moving obstacles take
+        (:func:`~reach_addon.core.sweep.plan_among_moving`). ``planner`` is the last
+        planner used; a start refused that the skin shows clear becomes ``start_held``
+        (:func:`.results.start_as_it_shows`)."""
+        self.planner = Planner(self.info.arm, self.obstacles, self.settings)
+        self.plans = []
+        frame = self.frame_start
+        for k, task in enumerate(self.tasks):
+            frame_planners = None
+            if self.frame_obstacles is not None and \
+                    any(o is not self.obstacles for o in self.frame_obstacles):
+                frame_planners = self._frame_planners()
+                plan = yield from _progress(chase_steps(frame_planners, task), k, len(self.tasks))
+            else:
+                plan, self.planner = yield from _progress(plan_among_moving(
+                    self.planner, task, frame, self.pieces, self.moving, self._sweep),
+                    k, len(self.tasks))
+            checkers = tuple(p.generator.checker for p in (frame_planners or [self.planner]))
+            self.plans.append(KeyedPlan(plan, frame, checkers,
+                                        plan.success or self.request.bake_closest))
+            frame += len(plan.poses)
+        start_as_it_shows(self.armature, self.info, [k.plan for k in self.plans], self.obstacles)
+
+    def _frame_planners(self) -> list:
+        """A planner per frame of a chase, one per distinct set of obstacles."""
+        planners = {id(self.obstacles): self.planner}
+        for o in self.frame_obstacles:
+            planners.setdefault(id(o), Planner(self.info.arm, o, self.settings))
+        return [planners[id(o)] for o in self.frame_obstacles]
+
+    def _sweep(self, f0: int, f1: int) -> dict:
+        """{frame: [pieces of the moving obstacles at each of :data:`SWEEP_SAMPLES` instants
+        of the frame, the frame itself first]} for frames f0..f1 (keys, parents and
+        constraints evaluated by ``frame_set``); the scene back on the start frame."""
+        scene = self.context.scene
+        out = {}
+        for f in range(f0, f1 + 1):
+            out[f] = []
+            for k in range(SWEEP_SAMPLES):
+                scene.frame_set(f, subframe=k / SWEEP_SAMPLES)
+                out[f].append(gather_pieces(self.context, self.exclude, self.collection,
+                                            only=self.moving))
+        scene.frame_set(self.frame_start)
+        return out
+
+    def check_body(self):
+        """Stage 5: the plans a Bake keys (``to_key``) checked against the rig's own
+        animation (:func:`.body.check`): a Bake it refuses raises ReachError; a drawn
+        preview records the refusal in ``warnings``."""
+        self.to_key = [k for k in self.plans if k.keyable]
+        if self.bake or self.request.draw:
+            try:
+                body_mod.check(self.context, self.armature, self.info,
+                               [k.pair for k in self.to_key], self.settings, self.frame_start)
+            except ReachError as exc:
+                if self.bake:
+                    raise
+                self.warnings.append(f"a Bake of this plan would stop: {exc}")
+
+    def bake_keys(self) -> None:
+        """Stage 6 (changes the scene): with ``bake``, the keyable plans keyed
+        (:func:`.bake.bake`; ``baked``), or, where there are none, ``failure`` saying why
+        and nothing drawn. ``drawing``: whether :meth:`draw` draws."""
+        self.baked, self.failure, self.drawing = None, None, self.request.draw
+        if not self.bake:
+            return
+        if self.to_key:
+            self.baked = bake_mod.bake(self.context, self.armature, self.info, self.to_key,
+                                       self.request.new_action)
+            return
+        # Nothing the user asked for can be baked: leave the scene as it was.
+        failed = next(k.plan for k in self.plans if not k.plan.success)
+        self.failure = (f"{arm_note(self.request, self.info)}{failed.message}; nothing was "
+                        "baked (turn on 'Bake closest approach' to bake the motion that gets "
+                        "closest)")
+        self.drawing = False
+
+    def report(self) -> None:
+        """Stage 7: the :class:`Outcome` (``outcome``), a result per target; a baked result's
+        orientation measured on the evaluated bones (:func:`.results.measure_orientation`);
+        the carried-target note added to every message."""
+        baked = self.baked
+        outcome = Outcome(self.request, self.info, [k.pair for k in self.plans], [],
+                          obstacles=self.obstacles.triangle_counts(), warnings=self.warnings)
+        outcome.failure = self.failure
+        if baked is not None:
+            outcome.baked, outcome.action = True, baked.action
+        outcome.results = task_results(self.info, self.plans, baked.bones if baked else [],
+                                       self.request, baked)
+        if outcome.baked:
+            measure_orientation(self.context, self.armature, self.info, outcome.results,
+                                self.settings)
+        for r in outcome.results if self.still else ():
+            r.message += f"; {self.still}"
+        self.outcome = outcome
+
+    def draw(self) -> None:
+        """Stage 8 (changes the scene): what was drawn before replaced by these plans
+        (:func:`.viz.draw_plans`), unless drawing is off or a Bake keyed nothing."""
+        if self.drawing:
+            viz.draw_plans(self.context.scene, self.info, [k.pair for k in self.plans],
+                           self.planner, self.request.show_guides)
+
+    def restore_frame(self) -> None:
+        """The scene back on the frame it was on before the run."""
+        scene = self.context.scene
+        if scene.frame_current != self.original_frame:
+            scene.frame_set(self.original_frame)
+
+
 def steps(context, request: Request, bake: bool = True):
     """The pipeline as a generator: yields (fraction, message), returns an :class:`Outcome`.
     Closing it early (a cancelled modal operator, at any of its yields) leaves the scene as
     it was: every yield comes before the first change to the scene (keys, drawing), and
-    the keys and the drawing are made in the one last step, which does not yield."""
-    scene = context.scene
-    armature, targets, collection = validate(context, request, bake)
-    original_frame = scene.frame_current
-    frame_start = scene.frame_current if request.frame_start is None else int(request.frame_start)
+    the keys and the drawing are made after the last yield. The stages:
+    :class:`PipelineRun`."""
+    run = PipelineRun(context, request, bake)
     try:
-        if scene.frame_current != frame_start:
-            scene.frame_set(frame_start)
-        context.view_layer.update()
-        first = np.array(targets[0].matrix_world.translation)
-        info = rig_mod.build(armature, request.side, request.overrides, target=first)
-        info, settings, still = _carried_targets(armature, targets, info, request, first)
-        yield 0.02, "reading the rig"
-
-        fps = scene.render.fps / scene.render.fps_base
-        names = tuple(t.name for t in targets)
-        exclude = character_objects(armature, scene) | set(names)
-        # Kept from the last run while nothing in them changed (scene.KeptObstacles);
-        # objects beyond every pose's reach are left out (core.arm.reach_sphere).
-        pieces, obstacles, _built = KEPT.get(context, exclude, collection,
-                                             within=reach_bounds(info.arm, settings, targets))
-        moving = set() if request.task == "chase" else \
-            _moving_owners(context, exclude, collection, frame_start)
-        yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
-
-        frame_obstacles = None
-        if request.task == "chase":
-            f0, f1 = _chase_range(context, targets[0], frame_start)
-            path, frame_obstacles = _sample_chase(context, targets[0], exclude, collection,
-                                                  obstacles, f0, f1)
-            scene.frame_set(frame_start)
-            tasks = [Task("chase", np.array(path), info.start, fps, names=names[:1],
-                          start_hand=info.start_hand)]
-        else:
-            positions = np.array([np.array(t.matrix_world.translation) for t in targets])
-            rotations = target_rotations(targets) if settings.match_orientation else None
-            if request.task == "reach":
-                tasks = [Task("reach", positions[i:i + 1], info.start, fps, request.duration_s,
-                              names=names[i:i + 1], start_hand=info.start_hand,
-                              orientations=None if rotations is None else rotations[i:i + 1],
-                              start_palm=info.start_palm, start_fingers=info.start_fingers)
-                         for i in range(len(targets))]
-            else:
-                tasks = [Task(request.task, positions, info.start, fps, request.duration_s,
-                              names=names, start_hand=info.start_hand, orientations=rotations,
-                              start_palm=info.start_palm, start_fingers=info.start_fingers)]
-
-        planner = Planner(info.arm, obstacles, settings)
-        plans = []
-        # per plan, the checkers of its obstacles (one per pose, or one for all), for the
-        # bake's check between keys (which measures without their margin)
-        checkers = []
-        frame = frame_start
-        for k, task in enumerate(tasks):
-            if frame_obstacles is not None and any(o is not obstacles for o in frame_obstacles):
-                # Obstacles that move: each frame of the chase against its own obstacles.
-                planners = {id(obstacles): planner}
-                for o in frame_obstacles:
-                    planners.setdefault(id(o), Planner(info.arm, o, settings))
-                frame_planners = [planners[id(o)] for o in frame_obstacles]
-                plan_steps = chase_steps(frame_planners, task)
-            else:
-                frame_planners = None
-                plan_steps = planner.plan_steps(task)
-            plan = yield from _progress(plan_steps, k, len(tasks))
-            if moving and any(seg.success for seg in plan.segments):
-                # Obstacles that move while the arm does: plan against every place they
-                # take over the motion's frames, again if the motion outlasts them; then
-                # check each frame's pose against that frame's obstacles. (A motion that
-                # fails among the still obstacles fails among more.) Any reach of the plan
-                # that succeeded counts: one target of a sequence may fail while the next
-                # succeeds, and with "bake closest" both are keyed.
-                swept, covered = {}, frame - 1
-                for _round in range(SWEEP_ROUNDS):
-                    last = frame + len(plan.poses) - 1
-                    if last <= covered:
-                        break
-                    upto = frame + 2 * (len(plan.poses) - 1)
-                    swept.update(_sweep(context, exclude, collection, moving, covered + 1, upto))
-                    covered = upto
-                    scene.frame_set(frame_start)
-                    union = pieces + [p for ps in swept.values() for p in ps]
-                    planner = Planner(info.arm, obstacles_from_pieces(union), settings)
-                    plan = yield from _progress(planner.plan_steps(task), k, len(tasks))
-                _check_moving(plan, frame, swept, covered, moving, settings)
-            checkers.append([p.generator.checker
-                            for p in (frame_planners or [planner])])
-            plans.append((plan, frame))
-            frame += len(plan.poses)
-
-        _start_as_it_shows(armature, info, plans, obstacles)
-        outcome = Outcome(request, info, plans, [], obstacles=obstacles.triangle_counts())
-        keyed, baked_result = [], None
-        draw = request.draw
-        keyable = [p.success or request.bake_closest for p, _f in plans]
-        to_key = [pf for pf, k in zip(plans, keyable) if k]
-        baked = to_key if bake else []
-        checkers = [c for c, k in zip(checkers, keyable) if k]
-        # the rig's own animation must not carry the arm off the plan (body.check refuses);
-        # a drawn preview (Plan) says so beforehand, for the plans a Bake would key
-        if bake or draw:
-            try:
-                body_mod.check(context, armature, info, to_key, settings, frame_start)
-            except ReachError as exc:
-                if bake:
-                    raise
-                outcome.warnings.append(f"a Bake of this plan would stop: {exc}")
+        yield from run.read_rig()
+        yield from run.gather_obstacles()
+        run.make_tasks()
+        yield from run.plan()
+        run.check_body()
         # The last yield: from here on the scene changes (keys, drawing), so nothing below
         # yields and a caller that stops at any yield has changed nothing.
-        yield 0.92, "baking keys" if baked else "drawing"
-        if bake:
-            if baked:
-                result = bake_mod.bake(context, armature, info, baked, request.new_action,
-                                       checkers=checkers)
-                outcome.baked, outcome.action, keyed = True, result.action, result.bones
-                baked_result = result
-            else:
-                # Nothing the user asked for can be baked: leave the scene as it was.
-                failed = next(p for p, _f in plans if not p.success)
-                outcome.failure = (f"{arm_note(request, info)}{failed.message}; nothing was "
-                                   "baked (turn on 'Bake closest approach' to bake the motion "
-                                   "that gets closest)")
-                draw = False
-        outcome.results = _results(info, plans, keyed, request, baked_result)
-        if outcome.baked:
-            measure_orientation(context, armature, info, outcome.results, settings)
-        for r in outcome.results if still else ():
-            r.message += f"; {still}"
-        if draw:
-            _draw(scene, info, plans, planner, request)
-        return outcome
+        yield 0.92, "baking keys" if bake and run.to_key else "drawing"
+        run.bake_keys()
+        run.report()
+        run.draw()
+        return run.outcome
     finally:
-        if scene.frame_current != original_frame:
-            scene.frame_set(original_frame)
-
-
-@dataclass
-class EnvelopeOutcome:
-    """The reach envelope of one arm (:mod:`reach_addon.core.envelope`) with where its points
-    are: ``world`` (n, 3) and ``shoulder`` (n, 3), the shoulder-frame coordinates (forward,
-    outward, up; arm lengths) a batch study's shoulder grid uses."""
-
-    request: Request
-    rig: rig_mod.RigInfo
-    envelope: envelope_mod.Envelope
-    world: np.ndarray
-    shoulder: np.ndarray
-
-
-def envelope_steps(context, request: Request, chunk: int = 64, world=None):
-    """The reach envelope of the request's arm at the current frame, as a generator like
-    :func:`steps` (yields (fraction, message), returns an :class:`EnvelopeOutcome`). The
-    same rig adapter, obstacles and planner as a plan (the request's obstacles, the
-    character and its targets left out); the grid and its classes are the core's
-    (:func:`reach_addon.core.envelope.envelope_steps`). ``world``: classify these points
-    (k, 3) instead of the grid (a batch task's target). Changes nothing in the scene."""
-    armature, targets, collection = validate(context, request, bake=False, need_targets=False)
-    context.view_layer.update()
-    first = np.array(targets[0].matrix_world.translation) if targets else None
-    info = rig_mod.build(armature, request.side, request.overrides, target=first)
-    yield 0.02, "reading the rig"
-    exclude = character_objects(armature, context.scene) | {t.name for t in targets}
-    _pieces, obstacles, _built = KEPT.get(context, exclude, collection)
-    yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
-    s = request.settings
-    if world is None:
-        coords = envelope_mod.grid_coordinates(s.envelope_resolution, s.envelope_extent)
-        points = envelope_mod.shoulder_frame_to_canonical(info.arm, coords)
-    else:
-        points = info.arm.to_canonical_points(np.atleast_2d(np.asarray(world, dtype=float)))
-        coords = envelope_mod.canonical_to_shoulder_frame(info.arm, points)
-    planner = Planner(info.arm, obstacles, envelope_mod.exhaustive(s))
-    env = yield from relay(envelope_mod.envelope_steps(planner.generator, points, chunk),
-                           lambda done: (0.05 + 0.95 * done, f"{round(done * len(points))} of "
-                                         f"{len(points)} points"))
-    return EnvelopeOutcome(request, info, env, info.arm.to_world_points(points), coords)
-
-
-def envelope(context, request: Request, world=None) -> EnvelopeOutcome:
-    """:func:`envelope_steps` run to its end."""
-    return drain(envelope_steps(context, request, world=world))
+        run.restore_frame()
 
 
 def target_rotations(targets) -> np.ndarray:
@@ -483,10 +468,14 @@ def _under(armature, bone_name, names) -> bool:
 
 
 def _carried_targets(armature, targets, info, request, first):
-    """Targets carried by the character's bones (see the module doc). Returns the rig
-    (the other arm's, with ``auto``, when the chosen one carries a target) and the
-    settings (chest rotation off when the chest carries a target) and a note saying so for
-    the results (else None)."""
+    """The rig and settings for ``targets`` carried by the character's own bones: one on
+    a bone of the reaching arm (upper arm, forearm, hand or below) would move with the
+    hand, so that arm is refused (ReachError; with ``auto``, the other arm's rig is taken
+    if it carries none); one on a bone the chest carries (the neck, the head, the other
+    arm) would move as the chest turns, so chest rotation is turned off. ``info``: the
+    rig read for the request; ``first``: the first target's world position. Returns
+    (info, settings, note): the note for the results when the chest is kept still, else
+    None."""
     settings = request.settings
     carried = [(t, b) for t in targets if (b := _carrying_bone(t, armature)) is not None]
     if not carried:
@@ -535,62 +524,6 @@ def _moving_owners(context, exclude, collection, frame) -> set:
     return moving
 
 
-def _sweep(context, exclude, collection, moving, f0, f1) -> dict:
-    """{(frame, sample): pieces of the ``moving`` obstacles} at :data:`SWEEP_SAMPLES`
-    instants of every frame f0..f1."""
-    scene = context.scene
-    out = {}
-    for f in range(f0, f1 + 1):
-        for k in range(SWEEP_SAMPLES):
-            scene.frame_set(f, subframe=k / SWEEP_SAMPLES)
-            out[(f, k)] = gather_pieces(context, exclude, collection, only=moving)
-    return out
-
-
-def _check_moving(plan, frame, swept, covered, moving, settings):
-    """Fail a successful ``plan`` (first frame ``frame``) whose pose on some frame touches
-    a moving obstacle where that obstacle is on that frame, or whose motion outlasted the
-    swept frames (what it meets after them is unknown). Contact on the first frames is
-    allowed while the arm leaves a contact it starts in, as with still obstacles. Only the
-    frames of the reaches that succeeded are checked (a failed one's closest motion is
-    reported as failed already)."""
-    done = [seg for seg in plan.segments if seg.success]
-    if not done:
-        return
-    checked = {i for seg in done for i in range(seg.frame_start, seg.frame_end + 1)}
-    from ..core import NO_PATH
-    from ..core.collision import CollisionChecker
-
-    touching = settings.replace(clearance=0.0)
-    problem = None
-    if frame + max(checked) > covered:
-        problem = "outlasts every frame swept"
-    else:
-        leaving = True
-        for i, joints in enumerate(plan.world_joints()):
-            if i not in checked:
-                leaving = False
-                continue
-            at = swept.get((frame + i, 0), [])
-            hit = (CollisionChecker(plan.arm, obstacles_from_pieces(at), touching)
-                   .first_hit(joints) if at else None)
-            if hit is None:
-                leaving = False
-            elif not leaving:
-                problem = f"meets '{hit[1]}' at frame {frame + i} (its {hit[0]})"
-                break
-    if problem is None:
-        return
-    names = ", ".join(f"'{n}'" for n in sorted(moving))
-    for seg in plan.segments:
-        if seg.success:
-            seg.success, seg.reason = False, NO_PATH
-            seg.message = (f"{names} {'moves' if len(moving) == 1 else 'move'} while the arm "
-                           f"reaches for '{seg.name}' and the "
-                           f"best motion clear of every place they take {problem}; stop "
-                           "their animation during the reach, or move the target")
-
-
 def _sample_chase(context, target, exclude, collection, obstacles, f0, f1):
     """The target's world position on every frame f0..f1 (keys, parents, constraints all
     evaluated by ``frame_set``), and the obstacles on every frame: the same
@@ -614,106 +547,48 @@ def run(context, request: Request, bake: bool = True) -> Outcome:
     return drain(steps(context, request, bake))
 
 
-def _results(info, plans, keyed, request, baked_result=None):
-    """A :class:`TaskResult` per target; a failed one's message begins with the arm when
-    Auto chose it (:func:`arm_note`). ``baked_result``: the bake's
-    :class:`.bake.BakeResult`, in each baked task's statistics as
-    ``rig_residual_arm_lengths`` (how far the rig put a planned joint; 0 on rigs whose keys
-    carry the arm exactly), ``linear_spans`` (spans between keys made linear so that
-    Blender's curve keeps clear, :func:`.bake.straighten`) and ``close_spans`` (spans
-    still too close after it; 0 when every instant is clear)."""
-    out = []
-    index = -1           # the plan's place among the baked ones
-    for plan, first in plans:
-        baked = plan.success or request.bake_closest
-        index += baked
-        for seg in plan.segments:
-            stats = seg.stats.to_dict()
-            if baked and baked_result is not None:
-                stats["rig_residual_arm_lengths"] = float(baked_result.residual)
-                if index < len(baked_result.linear_spans):
-                    stats["linear_spans"] = baked_result.linear_spans[index]
-                    stats["close_spans"] = baked_result.close_spans[index]
-            message = seg.message if seg.success else arm_note(request, info) + seg.message
-            out.append(TaskResult(
-                seg.name, info.side, seg.success, seg.reason, message,
-                first + seg.frame_start, first + seg.frame_end,
-                list(keyed) if baked else [], stats, seg.method, request.side == "auto"))
-    return out
+@dataclass
+class EnvelopeOutcome:
+    """The reach envelope of one arm (:mod:`reach_addon.core.envelope`) with where its points
+    are: ``world`` (n, 3) and ``shoulder`` (n, 3), the shoulder-frame coordinates (forward,
+    outward, up; arm lengths) a batch study's shoulder grid uses."""
+
+    request: Request
+    rig: rig_mod.RigInfo
+    envelope: envelope_mod.Envelope
+    world: np.ndarray
+    shoulder: np.ndarray
 
 
-def _start_as_it_shows(armature, info, plans, obstacles) -> None:
-    """Where a plan refuses its start as touching an obstacle (``start_in_collision``)
-    while the arm's skin, as Blender shows it on the start frame, touches nothing
-    (:func:`.rig.skin_clearance`), the refusal is a claim about Reach's model of the arm,
-    not about what the user sees: it becomes ``start_held``, saying so. (A capsule has one
-    radius along its segment, read from the skin's bulk; a tapering limb's is fuller than
-    its skin near its thin end: CesiumMan's upper arm touched a plane its skin kept 5 cm
-    from.) The character's own body, an enclosed chest and an obstacle moving into a
-    chase are left as they are."""
-    length = info.arm.arm_length
-    skin = None
-    for plan, _first in plans:
-        for seg in plan.segments:
-            if seg.reason != START_IN_COLLISION or "already touches" not in seg.message:
-                continue
-            if skin is None:
-                skin = rig_mod.skin_clearance(info, armature, obstacles, 0.5 * length)
-            if skin <= 0.0:
-                continue
-            seg.reason = START_HELD
-            seg.message = (f"{seg.message.split(';')[0]} as Reach models the arm (one capsule "
-                           f"per segment, fuller than the skin there), although its skin is "
-                           f"{100.0 * skin * info.arm.metres_per_unit:.1f} cm "
-                           f"({skin / length:.3f} arm lengths) clear, and no move of the model "
-                           "leaves it: the arm cannot move from its start pose; move the arm or "
-                           "the obstacle a little apart, or lower the clearance")
+def envelope_steps(context, request: Request, chunk: int = 64, world=None):
+    """The reach envelope of the request's arm at the current frame, as a generator like
+    :func:`steps` (yields (fraction, message), returns an :class:`EnvelopeOutcome`). The
+    same rig adapter, obstacles and planner as a plan (the request's obstacles, the
+    character and its targets left out); the grid and its classes are the core's
+    (:func:`reach_addon.core.envelope.envelope_steps`). ``world``: classify these points
+    (k, 3) instead of the grid (a batch task's target). Changes nothing in the scene."""
+    armature, targets, collection = validate(context, request, bake=False, need_targets=False)
+    context.view_layer.update()
+    first = np.array(targets[0].matrix_world.translation) if targets else None
+    info = rig_mod.build(armature, request.side, request.overrides, target=first)
+    yield 0.02, "reading the rig"
+    exclude = character_objects(armature, context.scene) | {t.name for t in targets}
+    _pieces, obstacles, _built = KEPT.get(context, exclude, collection)
+    yield 0.05, f"{obstacles.triangle_count} obstacle triangles"
+    s = request.settings
+    if world is None:
+        coords = envelope_mod.grid_coordinates(s.envelope_resolution, s.envelope_extent)
+        points = envelope_mod.shoulder_frame_to_canonical(info.arm, coords)
+    else:
+        points = info.arm.to_canonical_points(np.atleast_2d(np.asarray(world, dtype=float)))
+        coords = envelope_mod.canonical_to_shoulder_frame(info.arm, points)
+    planner = Planner(info.arm, obstacles, envelope_mod.exhaustive(s))
+    env = yield from relay(envelope_mod.envelope_steps(planner.generator, points, chunk),
+                           lambda done: (0.05 + 0.95 * done, f"{round(done * len(points))} of "
+                                         f"{len(points)} points"))
+    return EnvelopeOutcome(request, info, env, info.arm.to_world_points(points), coords)
 
 
-def measure_orientation(context, armature, info, results, settings) -> None:
-    """Replace the planned ``orientation_error_deg`` and ``orientation_met`` of each baked
-    result that has them by what Blender's evaluated bones show at its last frame: the
-    fingers' direction (:func:`.rig.finger_axis`) and the palm (:func:`.rig.palm_normal`), read from
-    the evaluated pose as they were read from the start pose, against the target's axes
-    (:func:`~reach_addon.core.orient.wanted_axes`). A palm read wrongly, or a bake that
-    turns the hand off its plan, then shows as an error instead of a success."""
-    scene = context.scene
-    hands = info.hand_bones or (info.bones.arms[info.side].hand,)
-    to_world = info.arm.to_world[:3, :3]
-    for r in results:
-        if r.stats.get("orientation_error_deg") is None or not r.bones_keyed:
-            continue
-        target = bpy.data.objects.get(r.target)
-        if target is None:
-            continue
-        scene.frame_set(r.frame_end)
-        axis, _l, _s = rig_mod.hand_shape(armature, hands[0], info.arm.forearm_length, hands)
-        d = rig_mod.finger_axis(armature, hands, axis)
-        n, _source = rig_mod.palm_normal(armature, hands, axis, info.frame.up, to_world.T)
-        finger, palm = wanted_axes(np.array(target.matrix_world)[:3, :3], settings.finger_axis,
-                                   settings.palm_axis)
-        error = float(frame_angle(palm_frame(d, to_world @ n), palm_frame(finger, palm)))
-        r.stats["orientation_error_deg"] = error
-        r.stats["orientation_met"] = error <= settings.orientation_tolerance
-
-
-def _draw(scene, info, plans, planner, request):
-    viz.clear(scene)
-    wrists = [p.wrist_trajectory() for p, _f in plans]
-    if wrists:
-        viz.trajectory(scene, np.concatenate(wrists), TUBE_RADIUS * info.arm.arm_length)
-    targets = np.concatenate([p.task.targets[-1:] if p.task.kind == "chase" else p.task.targets
-                              for p, _f in plans])
-    viz.markers(scene, targets, radius=0.04 * info.arm.arm_length)
-    guides = np.concatenate([p.guiding_nodes() for p, _f in plans] + [np.zeros((0, 3))])
-    if len(guides):
-        viz.markers(scene, guides, name="Reach Guiding Nodes", radius=0.03 * info.arm.arm_length)
-    if request.show_guides:
-        ws = planner.workspace
-        if ws.valid.any():
-            centres = info.arm.to_world_points(ws.valid_centers())
-            viz.wire_cubes(scene, centres, _cell_size_world(info, ws), name="Reach Workspace")
-
-
-def _cell_size_world(info, ws):
-    return np.abs(info.arm.to_world[:3, :3]) @ ws.cell
+def envelope(context, request: Request, world=None) -> EnvelopeOutcome:
+    """:func:`envelope_steps` run to its end."""
+    return drain(envelope_steps(context, request, world=world))

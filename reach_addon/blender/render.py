@@ -17,13 +17,13 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 from .. import atomic
-from . import rig
+from . import skin
 from .scene import VIZ_TAG
 
 
 def _skinned(armature, scene):
     """Does the figure show: a mesh the armature deforms, or rigid parts on its bones?"""
-    return any(rig.deformed_by(ob, armature) or rig.rigid_part(ob, armature)
+    return any(skin.deformed_by(ob, armature) or skin.rigid_part(ob, armature)
                for ob in scene.objects)
 
 

@@ -15,42 +15,12 @@ probes, speakers, lattices, armatures. Left out too: the character's own meshes 
 by or parented under the armature), the targets, Reach's own display (tagged
 :data:`VIZ_TAG`), hidden objects, and — when a collection is given — objects outside it.
 
-Safety
-------
-``depsgraph.object_instances`` yields objects that exist only during their iteration step
-(reading them later crashed Blender). :func:`visit_obstacles` is the one place that walks
-it: everything — the instance's matrix, its triangles, a signature — is read inside the
-step by a callback and copied to numpy. The rules above are written once there, for
-:func:`gather_obstacles` and for :class:`ObstacleCache` alike.
-
-Obstacles that change
----------------------
+:func:`visit_obstacles` is the one place that walks ``depsgraph.object_instances``: every
+instance is read inside its iteration step (it exists only then) and copied to numpy.
 :class:`ObstacleCache` keeps one BVH and rebuilds it only when a cheap signature of the
-obstacles changes: live mode reads it on every update, a chase on every frame.
-:data:`KEPT` keeps the obstacles of Plan, Bake and the envelope between runs, and rebuilds
-them only when the content of some piece changed (:class:`KeptObstacles`).
-
-Cost, and the choice made
--------------------------
-Measured with the bpy 5.0.1 wheel on one mesh object of 1,000,000 triangles (500k
-vertices, quads) on the bench's 2 shared cores, where every figure moves by a factor of
-two with the load: reading it took ~360 ms (``vertices.foreach_get("co")`` 23 ms,
-``loop_triangles.foreach_get("vertices")`` 150–180 ms), then
-``Obstacles.from_triangles`` 1.6–2.0 s, of which ``ndarray.tolist`` of the vertices and
-triangles was ~1.3 s and ``BVHTree.FromPolygons`` itself 0.33–1.0 s; 2.3 s in all.
-``FromPolygons`` given arrays instead of lists is slower (1.9–2.9 s: it reads them element
-by element). ``BVHTree.FromObject`` builds the same object's tree in 0.30–0.65 s, about
-what ``FromPolygons`` takes once it has its lists, but in the object's own space: one tree
-per object would make every collision query a transform and a query per object, which
-the planner's checker cannot afford, and it needs one world-space tree. So the first build
-here reads positions through the ``position`` attribute (0.7 ms instead of 23 ms) and a
-mesh of triangles through its corners (1 ms instead of 150 ms), and pauses Python's
-cyclic collector while the lists are made (:meth:`Obstacles.from_triangles`: ``tolist`` ~1.8 s →
-0.3–0.6 s); and a Plan on obstacles that did not change builds nothing: :data:`KEPT`
-compares a signature of every piece's content (world matrix, checksums of its positions,
-corners and triangulation: ~15–30 ms for 1M triangles) and hands back the tree it built
-last time. The BVH build itself stays the floor of a first build (~0.3–1 s for 1M
-triangles here).
+obstacles changes (live mode, a chase's frames); :data:`KEPT` keeps the obstacles of Plan,
+Bake and the envelope between runs, rebuilt only when the content of some piece changed.
+Why, and what a first build costs: ``docs/design/blender.md``.
 """
 
 from __future__ import annotations
@@ -63,6 +33,7 @@ import bpy
 import numpy as np
 
 from ..core import Obstacles, ReachError
+from ..core.sweep import obstacles_from_pieces as core_obstacles_from_pieces
 
 #: Object types whose evaluated geometry can have faces.
 SURFACE_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "FONT", "META"})
@@ -198,24 +169,14 @@ def gather_pieces(context, exclude=(), collection=None, depsgraph=None, only=Non
 
 def obstacles_from_pieces(pieces, collection=None) -> Obstacles:
     """One BVH of pieces [(label, world vertices, triangles)] (:func:`gather_pieces`; the
-    same label may come several times, as one obstacle at several instants)."""
-    if not pieces:
-        if collection is not None:
-            raise ReachError(
-                f"the obstacle collection '{collection.name}' has no visible objects with "
-                "faces; add meshes to it or plan against all visible objects")
-        return Obstacles(None)
-    labels: dict[str, int] = {}
-    verts, tris, owners = [], [], []
-    offset = 0
-    for label, v, t in pieces:
-        owner = labels.setdefault(label, len(labels))
-        verts.append(v)
-        tris.append(t + offset)
-        owners.append(np.full(len(t), owner))
-        offset += len(v)
-    return Obstacles.from_triangles(np.concatenate(verts), np.concatenate(tris),
-                                    np.concatenate(owners), list(labels))
+    same label may come several times, as one obstacle at several instants;
+    :func:`reach_addon.core.sweep.obstacles_from_pieces`). Raises ReachError for no pieces
+    from the obstacle ``collection`` (a Blender collection; None: all visible objects)."""
+    if not pieces and collection is not None:
+        raise ReachError(
+            f"the obstacle collection '{collection.name}' has no visible objects with "
+            "faces; add meshes to it or plan against all visible objects")
+    return core_obstacles_from_pieces(pieces)
 
 
 class ObstacleCache:

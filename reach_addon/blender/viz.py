@@ -19,6 +19,9 @@ COLLECTION = "Reach"
 RED = (0.9, 0.02, 0.02, 1.0)
 GREEN = (0.1, 0.8, 0.1, 1.0)
 ORANGE = (1.0, 0.45, 0.0, 1.0)
+#: Radius of the drawn trajectory's tube, in arm lengths (6 mm on a 0.6 m arm; the target
+#: markers are 0.04): it scales with the figure.
+TUBE_RADIUS = 0.01
 
 
 def collection(scene, create=True):
@@ -76,7 +79,7 @@ def _remove_data(data):
 
 def trajectory(scene, points, radius, name="Reach Trajectory"):
     """A red poly curve through ``points`` (world, (n, 3)), bevelled to a tube of ``radius``
-    (world units; the pipeline gives a share of the arm's length, :data:`.pipeline.TUBE_RADIUS`,
+    (world units; the pipeline gives a share of the arm's length, :data:`TUBE_RADIUS`,
     so that it is as thin beside a small figure's hand as beside a tall one's) so that it
     shows in solid shading and in renders."""
     remove(name)
@@ -156,3 +159,27 @@ def clear(scene) -> int:
         if mat.get(VIZ_TAG) and mat.users == 0:
             bpy.data.materials.remove(mat)
     return removed
+
+
+def draw_plans(scene, info, plans, planner, show_guides: bool) -> None:
+    """Draw ``plans`` [(Plan, first frame)] of the arm of ``info`` (:class:`.rig.RigInfo`)
+    in place of what was drawn before (:func:`clear`): the wrist trajectory, the target
+    markers (a chase's last target), the guiding nodes and, with ``show_guides``, the
+    valid cells of ``planner``'s workspace (built if it was not)."""
+    clear(scene)
+    length = info.arm.arm_length
+    wrists = [p.wrist_trajectory() for p, _f in plans]
+    if wrists:
+        trajectory(scene, np.concatenate(wrists), TUBE_RADIUS * length)
+    targets = np.concatenate([p.task.targets[-1:] if p.task.kind == "chase" else p.task.targets
+                              for p, _f in plans])
+    markers(scene, targets, radius=0.04 * length)
+    guides = np.concatenate([p.guiding_nodes() for p, _f in plans] + [np.zeros((0, 3))])
+    if len(guides):
+        markers(scene, guides, name="Reach Guiding Nodes", radius=0.03 * length)
+    if show_guides:
+        ws = planner.workspace
+        if ws.valid.any():
+            centres = info.arm.to_world_points(ws.valid_centers())
+            wire_cubes(scene, centres, np.abs(info.arm.to_world[:3, :3]) @ ws.cell,
+                       name="Reach Workspace")

@@ -29,7 +29,7 @@ import time
 
 import bpy
 
-from ..blender import live, pipeline, rig, viz
+from ..blender import live, pipeline, rig_detect, viz
 from ..core import ReachError
 from ..core.steps import drain
 from .properties import BONE_PREFIX, last_result, request_from, set_live
@@ -317,7 +317,7 @@ class REACH_OT_detect_bones(bpy.types.Operator):
     def execute(self, context):
         props = context.scene.reach
         try:
-            bmap = rig.detect_bones(props.armature)
+            bmap = rig_detect.detect_bones(props.armature)
         except ReachError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}

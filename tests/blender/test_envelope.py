@@ -140,7 +140,7 @@ def test_cached_until_the_pose_the_scene_or_the_settings_change(addon, plate):
 
 
 def rigs_bone(addon, armature, role):
-    return getattr(addon.blender.rig.detect_bones(armature).arms["right"], role)
+    return getattr(addon.blender.rig_detect.detect_bones(armature).arms["right"], role)
 
 
 def test_mesh_holds_every_drawn_point_in_its_class_colour(addon, plate):

@@ -1,8 +1,8 @@
 """Match orientation on real and synthetic rigs: a reach baked to a rotated Empty, the palm
 measured from Blender's evaluated bones at the last frame.
 
-The measurement shares nothing with Reach's reading of the hand (``rig.finger_axis``,
-``rig.palm_normal``, which go by hierarchy and position): it goes by the names of each
+The measurement shares nothing with Reach's reading of the hand (``hand_reading.finger_axis``,
+``hand_reading.palm_normal``, which go by hierarchy and position): it goes by the names of each
 rig's finger bones, picked by hand here (:data:`KNUCKLES`). The fingers' direction d is
 the wrist (the hand bone's head) to the middle finger's first joint; the palm's normal is
 a × d with a the direction from the little finger's first joint to the index finger's
@@ -233,6 +233,7 @@ def test_a_batch_study_records_the_orientation_error(fresh, addon, tmp_path):
     import importlib
 
     batch = importlib.import_module(addon.__name__ + ".batch")
+    workers = importlib.import_module(addon.__name__ + ".batch_workers")
     armature = rigs.load("metarig")
     rigs.rest_still(armature)
     info = addon.blender.rig.build(armature, "right")
@@ -244,7 +245,7 @@ def test_a_batch_study_records_the_orientation_error(fresh, addon, tmp_path):
         '[[variants]]\nname = "off"\n'
         f'[[scenes]]\nfile = "scene.blend"\narmature = "{armature.name}"\ntargets = ["Goal"]\n')
     study = batch.load_study(tmp_path / "study.toml")
-    results = {spec["variant"]: batch.run_task(spec) for spec in study.specs}
+    results = {spec["variant"]: workers.run_task(spec) for spec in study.specs}
     on, off = results["on"], results["off"]
     assert on["success"] and on["orientation_met"] and on["orientation_error_deg"] <= 10.0
     assert off["success"] and off["orientation_error_deg"] is None and off["orientation_met"] is None

@@ -1,12 +1,12 @@
 """A hand of several sibling palm bones: no single hand bone, but ``Palm1.R`` … ``Palm3.R``
 directly under the forearm, each carrying a finger (a robot's rigid hand).
 
-The rig adapter takes the group as one hand (``rig.hand_group``, ``rig.hand_shape``) and the
-bake keys every palm with the same turn. Checked on Blender's evaluated bones after a
-baked reach whose wrist bends: at every keyed frame the palms' heads stay on the forearm's
-tail and their rotations relative to each other stay the rest ones (the hand does not
-split), and the hand points where the plan put it. Rigs with one hand bone are groups of
-one, so their bakes are as before (``test_bake.py``).
+The rig adapter takes the group as one hand (``hand_reading.hand_group``,
+``hand_reading.hand_shape``) and the bake keys every palm with the same turn. Checked on
+Blender's evaluated bones after a baked reach whose wrist bends: at every keyed frame the
+palms' heads stay on the forearm's tail and their rotations relative to each other stay
+the rest ones (the hand does not split), and the hand points where the plan put it. Rigs
+with one hand bone are groups of one, so their bakes are as before (``test_bake.py``).
 """
 
 from __future__ import annotations
@@ -27,6 +27,16 @@ PALM_MAPS = {"plain": syn.PLAIN, "mixamo": syn.MIXAMO, "robot": syn.ROBOT_NAMES}
 @pytest.fixture
 def rig(addon):
     return addon.blender.rig
+
+
+@pytest.fixture
+def rig_detect(addon):
+    return addon.blender.rig_detect
+
+
+@pytest.fixture
+def hand_reading(addon):
+    return addon.blender.hand_reading
 
 
 def palm_rig(key, **kw):
@@ -50,13 +60,13 @@ def world(armature, p):
 # --- detection ----------------------------------------------------------------------------
 
 @pytest.mark.parametrize("key", PALM_MAPS)
-def test_the_palms_are_one_hand(fresh, rig, key):
+def test_the_palms_are_one_hand(fresh, rig, rig_detect, hand_reading, key):
     arm, names, palms = palm_rig(key)
-    bmap = rig.detect_bones(arm)
+    bmap = rig_detect.detect_bones(arm)
     for side in ("right", "left"):
         hand = bmap.arms[side].hand
         assert hand in palms[side]
-        group = rig.hand_group(arm, hand)
+        group = hand_reading.hand_group(arm, hand)
         assert group[0] == hand and sorted(group) == sorted(palms[side])
     info = rig.build(arm, "right")
     assert set(info.hand_bones) == set(palms["right"])
@@ -79,7 +89,7 @@ def test_a_long_palm_hand_reaches_to_the_fingertips(fresh, rig):
 
 
 @pytest.mark.parametrize("key", ("mixamo", "unreal", "makehuman", "numbered"))
-def test_a_hand_bone_is_a_group_of_one(fresh, rig, key):
+def test_a_hand_bone_is_a_group_of_one(fresh, rig_detect, hand_reading, key):
     """Twist bones beside the hand (Unreal's) or decoys do not join it."""
     names = syn.MAPS[key]
     for kw in ({"twist": True}, {"decoy": "driver"}):
@@ -87,17 +97,17 @@ def test_a_hand_bone_is_a_group_of_one(fresh, rig, key):
             continue
         bpy.ops.wm.read_homefile(use_empty=True)
         arm = syn.humanoid(names, clavicle=key != "numbered", **kw)
-        for side, a in rig.detect_bones(arm).arms.items():
+        for side, a in rig_detect.detect_bones(arm).arms.items():
             for hand in {a.hand, a.keyed("hand")}:
-                assert rig.hand_group(arm, hand) == (hand,), (key, kw, side)
+                assert hand_reading.hand_group(arm, hand) == (hand,), (key, kw, side)
 
 
 @pytest.mark.parametrize("kind", rigs.RIGS)
-def test_real_rigs_have_one_hand_bone(addon, rig, kind):
+def test_real_rigs_have_one_hand_bone(addon, rig_detect, hand_reading, kind):
     arm = rigs.load(kind)
-    for side, a in rig.detect_bones(arm).arms.items():
+    for side, a in rig_detect.detect_bones(arm).arms.items():
         for hand in {a.hand, a.keyed("hand")}:
-            assert rig.hand_group(arm, hand) == (hand,), (kind, side)
+            assert hand_reading.hand_group(arm, hand) == (hand,), (kind, side)
 
 
 # --- the bake ------------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""The rotation channels a bake writes (:func:`reach_addon.blender.bake.channel_values`, on
+"""The rotation channels a bake writes (:func:`reach_addon.blender.bone_matrices.channel_values`, on
 mathutils' ``to_quaternion``, ``make_compatible`` and ``to_euler``), checked against numpy
 arithmetic of their own on a few hundred seeded rotations: random ones, rotations within a
 thousandth of a radian of 180°, and a steady turn through 720° whose raw quaternion changes
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from mathutils import Euler, Quaternion
 
-from reach_addon.blender.bake import channel_values
+from reach_addon.blender.bone_matrices import channel_values
 
 SEED = 20240611
 #: Current rotations of the bone: at rest, a half turn, a turn of 216° (w < 0).

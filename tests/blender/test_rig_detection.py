@@ -39,6 +39,21 @@ def rig(addon):
 
 
 @pytest.fixture
+def rig_detect(addon):
+    return addon.blender.rig_detect
+
+
+@pytest.fixture
+def skin(addon):
+    return addon.blender.skin
+
+
+@pytest.fixture
+def body_frame(addon):
+    return addon.blender.body_frame
+
+
+@pytest.fixture
 def ReachError(addon):
     return addon.core.ReachError
 
@@ -98,9 +113,9 @@ def assert_synthetic_frame(info, *, facing="-Y", lying=False, side="right"):
 # --- synthetic rigs: names ---------------------------------------------------------------------
 
 @pytest.mark.parametrize("key", with_numbered())
-def test_detects_arms_chest_and_body_frame(fresh, rig, key):
+def test_detects_arms_chest_and_body_frame(fresh, rig, rig_detect, key):
     arm, names = build_map(key)
-    bmap = rig.detect_bones(arm)
+    bmap = rig_detect.detect_bones(arm)
     assert bmap.to_dict() == expected_bones(names, clavicle=key != "numbered")
     assert bmap.neck == names["neck"]
     assert bmap.ik_fk == {}
@@ -109,33 +124,33 @@ def test_detects_arms_chest_and_body_frame(fresh, rig, key):
 
 
 @pytest.mark.parametrize("key", with_numbered(("mixamo", "unity", "plain", "makehuman")))
-def test_clavicle_is_optional(fresh, rig, key):
+def test_clavicle_is_optional(fresh, rig, rig_detect, key):
     arm, names = build_map(key, clavicle=False)
-    assert rig.detect_bones(arm).to_dict() == expected_bones(names, clavicle=False)
+    assert rig_detect.detect_bones(arm).to_dict() == expected_bones(names, clavicle=False)
     assert_synthetic_frame(rig.build(arm, "right"))
 
 
-def test_numbered_rig_with_clavicles(fresh, rig):
+def test_numbered_rig_with_clavicles(fresh, rig_detect):
     """A short first bone followed by a long one is taken as the clavicle."""
     arm, names = build_map("numbered", clavicle=True)
-    assert rig.detect_bones(arm).to_dict() == expected_bones(names)
+    assert rig_detect.detect_bones(arm).to_dict() == expected_bones(names)
 
 
 @pytest.mark.parametrize("key", ("mixamo", "vrm", "plain", "unreal", "makehuman", "numbered"))
-def test_twist_bones_are_not_arm_joints(fresh, rig, key):
+def test_twist_bones_are_not_arm_joints(fresh, rig, rig_detect, key):
     arm, names = build_map(key, twist=True)
     twists = [b.name for b in arm.data.bones if b.name.endswith("_twist") or "twist_01" in b.name]
     assert len(twists) == 4
     clavicle = BUILD.get(key, {}).get("clavicle", True)
-    assert rig.detect_bones(arm).to_dict() == expected_bones(names, clavicle=clavicle)
+    assert rig_detect.detect_bones(arm).to_dict() == expected_bones(names, clavicle=clavicle)
     assert_synthetic_frame(rig.build(arm, "right"))
 
 
 @pytest.mark.parametrize("key", with_numbered())
-def test_names_suffice_without_skin(fresh, rig, key):
+def test_names_suffice_without_skin(fresh, rig, skin, rig_detect, key):
     arm, names = build_map(key, skin=False)
-    assert not rig.skin_bones(arm)
-    assert rig.detect_bones(arm).to_dict() == expected_bones(names, clavicle=key != "numbered")
+    assert not skin.skin_bones(arm)
+    assert rig_detect.detect_bones(arm).to_dict() == expected_bones(names, clavicle=key != "numbered")
     assert_synthetic_frame(rig.build(arm, "right"))
 
 
@@ -143,24 +158,24 @@ def test_names_suffice_without_skin(fresh, rig, key):
 
 @pytest.mark.parametrize("facing, lying", (("+Y", False), ("-Y", True), ("+Y", True)))
 @pytest.mark.parametrize("key", with_numbered())
-def test_body_frame_follows_the_rig(fresh, rig, key, facing, lying):
+def test_body_frame_follows_the_rig(fresh, rig, rig_detect, key, facing, lying):
     """Nothing about orientation is assumed: the frame comes out of the bones whether the
     object is turned round or the rest pose itself lies on its back (up +Y, front +Z)."""
     arm, names = build_map(key, facing=facing, lying=lying)
-    assert rig.detect_bones(arm).to_dict() == expected_bones(names, clavicle=key != "numbered")
+    assert rig_detect.detect_bones(arm).to_dict() == expected_bones(names, clavicle=key != "numbered")
     assert_synthetic_frame(rig.build(arm, "right"), facing=facing, lying=lying)
     assert_synthetic_frame(rig.build(arm, "left"), facing=facing, lying=lying, side="left")
 
 
 @pytest.mark.parametrize("scale", (0.01, 100.0))
 @pytest.mark.parametrize("key", with_numbered(("mixamo", "makehuman", "unreal")))
-def test_scaled_armature_is_measured_in_world_units(fresh, rig, key, scale):
+def test_scaled_armature_is_measured_in_world_units(fresh, rig, rig_detect, key, scale):
     """Object scale 0.01 with bones 100× longer (an FBX from centimetres) is the same figure:
     every length, radius and joint of the arm model equals the unscaled rig's."""
     plain = rig.build(build_map(key)[0], "right")
     bpy.ops.wm.read_homefile(use_empty=True)
     arm, names = build_map(key, scale=scale)
-    assert rig.detect_bones(arm).to_dict() == expected_bones(names, clavicle=key != "numbered")
+    assert rig_detect.detect_bones(arm).to_dict() == expected_bones(names, clavicle=key != "numbered")
     info = rig.build(arm, "right")
     assert_synthetic_frame(info)
     for attr in ("upper_arm_length", "forearm_length", "hand_length", "upper_arm_radius",
@@ -175,24 +190,24 @@ def test_scaled_armature_is_measured_in_world_units(fresh, rig, key, scale):
 
 @pytest.mark.parametrize("decoy", ("ik", "twin"))
 @pytest.mark.parametrize("key", NAMED)
-def test_skin_chain_beats_a_decoy_on_the_same_joints(fresh, rig, key, decoy):
+def test_skin_chain_beats_a_decoy_on_the_same_joints(fresh, rig, rig_detect, key, decoy):
     """An IK-style chain, or one named just as well (and first by name), lying exactly on the
     arm: the chain that moves the skin is the arm, and it keeps its own keys."""
     arm, names = build_map(key, decoy=decoy)
     decoys = {syn.decoy_name(names, decoy, "upper_arm", t) for t in syn.SIDES}
     assert decoys <= set(arm.data.bones.keys())
-    bmap = rig.detect_bones(arm)
+    bmap = rig_detect.detect_bones(arm)
     assert bmap.to_dict() == expected_bones(names)
     assert all(a.key == {} for a in bmap.arms.values())
     assert_synthetic_frame(rig.build(arm, "right"))
 
 
 @pytest.mark.parametrize("key", NAMED)
-def test_controls_driving_the_skin_chain_get_the_keys(fresh, rig, key):
+def test_controls_driving_the_skin_chain_get_the_keys(fresh, rig, rig_detect, key):
     """Deform bones that Copy Transforms from a control chain on the same joints: the joints
     are read from the deform chain, the keys go to the controls."""
     arm, names = build_map(key, decoy="driver")
-    bmap = rig.detect_bones(arm)
+    bmap = rig_detect.detect_bones(arm)
     assert bmap.to_dict() == expected_bones(names, keys="driver")
     for side, tag in (("right", "R"), ("left", "L")):
         a = bmap.arms[side]
@@ -202,11 +217,11 @@ def test_controls_driving_the_skin_chain_get_the_keys(fresh, rig, key):
     assert_synthetic_frame(rig.build(arm, "right"))
 
 
-def test_a_muted_or_partial_constraint_does_not_hand_over_the_keys(fresh, rig):
+def test_a_muted_or_partial_constraint_does_not_hand_over_the_keys(fresh, rig_detect):
     arm, names = build_map("plain", decoy="driver")
     arm.pose.bones[names["upper_arm_R"]].constraints[0].mute = True
     arm.pose.bones[names["forearm_R"]].constraints[0].influence = 0.5
-    d = rig.detect_bones(arm).to_dict()
+    d = rig_detect.detect_bones(arm).to_dict()
     assert (d["upper_arm_right"], d["forearm_right"], d["hand_right"]) == \
         (names["upper_arm_R"], names["forearm_R"], "c_hand.R")
     assert d["upper_arm_left"] == "c_upper_arm.L"
@@ -214,29 +229,30 @@ def test_a_muted_or_partial_constraint_does_not_hand_over_the_keys(fresh, rig):
 
 # --- overrides --------------------------------------------------------------------------------
 
-def test_overrides_win_over_detection(fresh, rig):
+def test_overrides_win_over_detection(fresh, rig, rig_detect):
     arm, names = build_map("plain", decoy="ik")
     chain = {"upper_arm_right": "upper_arm_ik.R", "forearm_right": "forearm_ik.R",
              "hand_right": "hand_ik.R"}
     expected = {**expected_bones(names), **chain}
-    assert rig.detect_bones(arm, chain).to_dict() == expected
-    assert rig.detect_bones(arm, {**chain, "chest": "Spine"}).to_dict() == {**expected, "chest": "Spine"}
+    assert rig_detect.detect_bones(arm, chain).to_dict() == expected
+    assert rig_detect.detect_bones(arm, {**chain, "chest": "Spine"}).to_dict() == \
+        {**expected, "chest": "Spine"}
     info = rig.build(arm, "right", overrides=chain)
     assert info.bones.to_dict() == expected
     assert_synthetic_frame(info)   # the IK chain lies on the same joints
 
 
-def test_override_beats_a_driving_control(fresh, rig):
+def test_override_beats_a_driving_control(fresh, rig_detect):
     arm, names = build_map("mixamo", decoy="driver")
-    d = rig.detect_bones(arm, {"upper_arm_right": names["upper_arm_R"]}).to_dict()
+    d = rig_detect.detect_bones(arm, {"upper_arm_right": names["upper_arm_R"]}).to_dict()
     assert d["upper_arm_right"] == names["upper_arm_R"]
     assert (d["forearm_right"], d["hand_right"], d["upper_arm_left"]) == \
         ("c_forearm.R", "c_hand.R", "c_upper_arm.L")
 
 
-def test_empty_overrides_are_ignored(fresh, rig):
+def test_empty_overrides_are_ignored(fresh, rig_detect):
     arm, names = build_map("vrm")
-    bmap = rig.detect_bones(arm, {"upper_arm_right": "", "chest": None})
+    bmap = rig_detect.detect_bones(arm, {"upper_arm_right": "", "chest": None})
     assert bmap.to_dict() == expected_bones(names)
 
 
@@ -245,9 +261,9 @@ def test_empty_overrides_are_ignored(fresh, rig):
 TELLS_WHAT_TO_DO = re.compile(r"\b(set|pick|choose|clear|check)\b")
 
 
-def test_unknown_override_bone_is_a_reach_error(fresh, rig, ReachError):
+def test_unknown_override_bone_is_a_reach_error(fresh, rig, rig_detect, ReachError):
     arm, _names = build_map("unity")
-    for call in (lambda: rig.detect_bones(arm, {"hand_right": "NoSuchBone"}),
+    for call in (lambda: rig_detect.detect_bones(arm, {"hand_right": "NoSuchBone"}),
                  lambda: rig.build(arm, "right", overrides={"hand_right": "NoSuchBone"})):
         with pytest.raises(ReachError) as err:
             call()
@@ -256,10 +272,10 @@ def test_unknown_override_bone_is_a_reach_error(fresh, rig, ReachError):
         assert TELLS_WHAT_TO_DO.search(msg), msg
 
 
-def test_overrides_that_are_not_a_chain_are_a_reach_error(fresh, rig, ReachError):
+def test_overrides_that_are_not_a_chain_are_a_reach_error(fresh, rig_detect, ReachError):
     arm, names = build_map("mixamo")
     with pytest.raises(ReachError) as err:
-        rig.detect_bones(arm, {"forearm_right": names["forearm_L"]})
+        rig_detect.detect_bones(arm, {"forearm_right": names["forearm_L"]})
     msg = str(err.value)
     assert f"'{arm.name}'" in msg and names["forearm_L"] in msg and "right" in msg, msg
     assert TELLS_WHAT_TO_DO.search(msg), msg
@@ -269,9 +285,9 @@ def test_overrides_that_are_not_a_chain_are_a_reach_error(fresh, rig, ReachError
     (("Bone", "Bone.001", "Bone.002"), "right or left"),
     (("upper_arm.R", "forearm.R", "hand.R"), "left"),
 ))
-def test_armature_without_arms_is_a_reach_error(fresh, rig, ReachError, bones, missing):
+def test_armature_without_arms_is_a_reach_error(fresh, rig, rig_detect, ReachError, bones, missing):
     arm = syn.bone_chain(bones, name="Stick")
-    for call in (lambda: rig.detect_bones(arm), lambda: rig.build(arm, "right")):
+    for call in (lambda: rig_detect.detect_bones(arm), lambda: rig.build(arm, "right")):
         with pytest.raises(ReachError) as err:
             call()
         msg = str(err.value)
@@ -327,9 +343,9 @@ REAL_JOINTS = {
 
 
 @pytest.mark.parametrize("kind", rigs.RIGS)
-def test_real_rig_bones(addon, rig, kind):
+def test_real_rig_bones(addon, rig_detect, kind):
     arm = rigs.load(kind)
-    bmap = rig.detect_bones(arm)
+    bmap = rig_detect.detect_bones(arm)
     assert bmap.to_dict() == REAL_BONES[kind]
     if kind == "rigify":
         # joints are read from the ORG chain; keys go to the FK controls with the switch at FK
@@ -358,13 +374,13 @@ def test_real_rig_faces_minus_y_with_right_at_minus_x(addon, rig, kind):
     assert info.arm.arm_length == pytest.approx(length, abs=5e-3)
 
 
-def test_rigify_switch_at_fk_lets_the_keyed_controls_move_the_arm(addon, rig):
+def test_rigify_switch_at_fk_lets_the_keyed_controls_move_the_arm(addon, rig_detect, body_frame):
     """Setting the recorded IK_FK switch to 1 (FK) makes the keyed FK upper arm drive the
     joints Reach reads (the ORG hand); at 0 (IK, Rigify's default) it does not."""
     from mathutils import Quaternion
 
     arm = rigs.load("rigify")
-    bmap = rig.detect_bones(arm)
+    bmap = rig_detect.detect_bones(arm)
     bone, prop = bmap.ik_fk["right"]
     upper = arm.pose.bones[bmap.arms["right"].keyed("upper_arm")]
     hand = bmap.arms["right"].hand
@@ -374,11 +390,11 @@ def test_rigify_switch_at_fk_lets_the_keyed_controls_move_the_arm(addon, rig):
         upper.rotation_quaternion = (1, 0, 0, 0)
         arm.update_tag()
         bpy.context.view_layer.update()
-        before = rig.pose_heads(arm, [hand])[hand]
+        before = body_frame.pose_heads(arm, [hand])[hand]
         upper.rotation_quaternion = Quaternion((1, 0, 0), np.radians(60))
         arm.update_tag()
         bpy.context.view_layer.update()
-        return float(np.linalg.norm(rig.pose_heads(arm, [hand])[hand] - before))
+        return float(np.linalg.norm(body_frame.pose_heads(arm, [hand])[hand] - before))
 
     assert hand_moves(1.0) > 0.1
     assert hand_moves(0.0) < 1e-4

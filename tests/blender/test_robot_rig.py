@@ -48,6 +48,11 @@ def rig(addon):
     return addon.blender.rig
 
 
+@pytest.fixture
+def skin(addon):
+    return addon.blender.skin
+
+
 def robot():
     return syn.humanoid(syn.ROBOT_NAMES, proportions="robot", palms=3, fingers=2, name="Robot")
 
@@ -138,7 +143,7 @@ def test_the_robot_is_read_with_its_proportions(fresh, rig):
     assert sorted(info.hand_bones) == ["Palm1R", "Palm2R", "Palm3R"]
 
 
-def test_rigid_parts_are_read_like_a_skin(fresh, rig):
+def test_rigid_parts_are_read_like_a_skin(fresh, rig, skin):
     """The same robot built of rigid parts (one box object per bone, parented to it, no
     Armature modifier) is read with the thickness of its parts, as the skinned one is (it
     was read with the fallback radii, half as thick, and planned through what it hits)."""
@@ -150,7 +155,7 @@ def test_rigid_parts_are_read_like_a_skin(fresh, rig):
     a = rig.build(rigid, "right").arm
     for key in ("upper_arm_radius", "forearm_radius", "hand_radius"):
         assert getattr(a, key) == pytest.approx(getattr(skinned, key), rel=1e-3), key
-    assert "UpperArmR" in rig.skin_bones(rigid)
+    assert "UpperArmR" in skin.skin_bones(rigid)
 
 
 def start_joints(addon, info):

@@ -1,0 +1,131 @@
+"""What a pipeline run reports per target (:class:`TaskResult`), and the readings that
+correct a plan's own account by what Blender shows: a start the skin shows clear
+(:func:`start_as_it_shows`) and the hand's orientation on the baked bones
+(:func:`measure_orientation`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from ..core import START_HELD, START_IN_COLLISION
+from ..core.arm import frame_angle
+from ..core.orient import palm_frame, wanted_axes
+from . import hand_reading
+from .skin import skin_clearance
+
+
+@dataclass
+class TaskResult:
+    """One target's outcome, as the report and the panel show it."""
+
+    target: str
+    arm: str
+    success: bool
+    reason: str | None
+    message: str
+    frame_start: int
+    frame_end: int
+    bones_keyed: list
+    stats: dict
+    #: what found the path: "best-first" (the paper's search), "sampling" (the fallback
+    #: where it gave up) or "chase"
+    method: str = "best-first"
+    #: whether Arm: Auto chose ``arm`` (the message then names it, :func:`arm_note`)
+    auto: bool = False
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+def arm_note(request, info) -> str:
+    """What begins every message of a request whose arm Auto chose, naming that arm
+    ("Left arm (Auto): "); "" when the user chose the arm."""
+    return f"{info.side.capitalize()} arm (Auto): " if request.side == "auto" else ""
+
+
+def task_results(info, plans, keyed, request, baked_result=None) -> list:
+    """A :class:`TaskResult` per target of ``plans`` (:class:`.bake.KeyedPlan`, in order),
+    for the arm of ``info`` (:class:`.rig.RigInfo`) and the ``request``
+    (:class:`.pipeline.Request`); ``keyed``: the bones the bake keyed (each keyable
+    plan's results list them). A failed one's message begins with the arm when Auto chose
+    it (:func:`arm_note`). ``baked_result``: the bake's :class:`.bake.BakeResult`, in
+    each baked task's statistics as ``rig_residual_arm_lengths`` (how far the rig put a
+    planned joint, arm lengths), ``linear_spans`` (spans between keys made linear,
+    :func:`.straighten.straighten`) and ``close_spans`` (spans still too close after it)."""
+    out = []
+    index = -1           # the plan's place among the baked ones
+    for k in plans:
+        plan, first, baked = k.plan, k.first_frame, k.keyable
+        index += baked
+        for seg in plan.segments:
+            stats = seg.stats.to_dict()
+            if baked and baked_result is not None:
+                stats["rig_residual_arm_lengths"] = float(baked_result.residual)
+                if index < len(baked_result.linear_spans):
+                    stats["linear_spans"] = baked_result.linear_spans[index]
+                    stats["close_spans"] = baked_result.close_spans[index]
+            message = seg.message if seg.success else arm_note(request, info) + seg.message
+            out.append(TaskResult(
+                seg.name, info.side, seg.success, seg.reason, message,
+                first + seg.frame_start, first + seg.frame_end,
+                list(keyed) if baked else [], stats, seg.method, request.side == "auto"))
+    return out
+
+
+def start_as_it_shows(armature, info, plans, obstacles) -> None:
+    """Turn, in place, each segment of ``plans`` (core Plans) refused as touching an
+    obstacle at its start (``start_in_collision``, "already touches") into ``start_held``,
+    saying so, where the arm's skin as Blender shows it now touches nothing
+    (:func:`.skin.skin_clearance` against ``obstacles``, looking half an arm length
+    out): the refusal is then a claim about Reach's model of the arm, not about what the
+    user sees. The character's own body, an enclosed chest and an obstacle moving into a
+    chase are left as they are."""
+    length = info.arm.arm_length
+    skin = None
+    for plan in plans:
+        for seg in plan.segments:
+            if seg.reason != START_IN_COLLISION or "already touches" not in seg.message:
+                continue
+            if skin is None:
+                skin = skin_clearance(info, armature, obstacles, 0.5 * length)
+            if skin <= 0.0:
+                continue
+            seg.reason = START_HELD
+            seg.message = (f"{seg.message.split(';')[0]} as Reach models the arm (one capsule "
+                           f"per segment, fuller than the skin there), although its skin is "
+                           f"{100.0 * skin * info.arm.metres_per_unit:.1f} cm "
+                           f"({skin / length:.3f} arm lengths) clear, and no move of the model "
+                           "leaves it: the arm cannot move from its start pose; move the arm or "
+                           "the obstacle a little apart, or lower the clearance")
+
+
+def measure_orientation(context, armature, info, results, settings) -> None:
+    """Replace, in place, the planned ``orientation_error_deg`` and ``orientation_met`` of
+    each baked result of ``results`` (:class:`TaskResult`) that has them by what
+    Blender's evaluated bones show at its last frame: the fingers' direction
+    (:func:`.hand_reading.finger_axis`) and the palm (:func:`.hand_reading.palm_normal`),
+    read as they were read from the start pose, against the target's axes
+    (:func:`~reach_addon.core.orient.wanted_axes`; degrees, met within
+    ``settings.orientation_tolerance``). Changes the scene's frame (to each result's last)."""
+    scene = context.scene
+    hands = info.hand_bones or (info.bones.arms[info.side].hand,)
+    to_world = info.arm.to_world[:3, :3]
+    for r in results:
+        if r.stats.get("orientation_error_deg") is None or not r.bones_keyed:
+            continue
+        target = bpy.data.objects.get(r.target)
+        if target is None:
+            continue
+        scene.frame_set(r.frame_end)
+        axis, _l, _s = hand_reading.hand_shape(armature, hands[0], info.arm.forearm_length, hands)
+        d = hand_reading.finger_axis(armature, hands, axis)
+        n, _source = hand_reading.palm_normal(armature, hands, axis, info.frame.up, to_world.T)
+        finger, palm = wanted_axes(np.array(target.matrix_world)[:3, :3], settings.finger_axis,
+                                   settings.palm_axis)
+        error = float(frame_angle(palm_frame(d, to_world @ n), palm_frame(finger, palm)))
+        r.stats["orientation_error_deg"] = error
+        r.stats["orientation_met"] = error <= settings.orientation_tolerance

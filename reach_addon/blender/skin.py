@@ -1,0 +1,125 @@
+"""The skin an armature moves: which bones move it, where its vertices are, how thick it
+is round a segment, and how close the reaching arm's skin is to the obstacles.
+
+Skin is the meshes whose Armature modifier uses the armature (vertices weighted to a
+bone's vertex group) and the rigid parts parented to its bones (every vertex of the part).
+Positions are world space, as Blender evaluates them at the current frame.
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+
+def deformed_by(ob, armature) -> bool:
+    """Is ``ob`` a mesh whose Armature modifier uses ``armature`` (its skin)?"""
+    return ob.type == "MESH" and any(m.type == "ARMATURE" and m.object == armature
+                                     for m in ob.modifiers)
+
+
+def rigid_part(ob, armature) -> str | None:
+    """The bone a mesh is parented to, if it is a rigid part of ``armature`` (a robot's or
+    a prop-built character's body: no skin, each part carried by one bone), else None."""
+    if ob.type == "MESH" and ob.parent == armature and ob.parent_type == "BONE" and \
+            ob.parent_bone in armature.data.bones and not deformed_by(ob, armature):
+        return ob.parent_bone
+    return None
+
+
+def skin_bones(armature) -> set:
+    """Names of bones that move skin: vertex groups with weighted vertices in meshes whose
+    Armature modifier uses this armature, and bones that carry rigid parts (meshes
+    parented to them)."""
+    out = set()
+    for ob in _scene_objects(armature):
+        bone = rigid_part(ob, armature)
+        if bone is not None and len(ob.data.vertices):
+            out.add(bone)
+        if not deformed_by(ob, armature):
+            continue
+        names = {vg.index: vg.name for vg in ob.vertex_groups}
+        weighted = set()
+        for v in ob.data.vertices:
+            for g in v.groups:
+                if g.weight > 0.0:
+                    weighted.add(g.group)
+        out |= {names[i] for i in weighted if i in names}
+    return out
+
+
+def skin_points(armature, bone_names, weight: float = 0.5) -> np.ndarray:
+    """World positions (n, 3) of the skin that ``bone_names`` move, as Blender evaluates it
+    now: the vertices weighted at least ``weight`` to their vertex groups in the meshes the
+    armature deforms, and every vertex of the rigid parts parented to them. Empty (0, 3)
+    where these bones move no skin."""
+    out = []
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for ob in _scene_objects(armature):
+        rigid = rigid_part(ob, armature)
+        if rigid is None and not deformed_by(ob, armature):
+            continue
+        if rigid is not None:
+            if rigid not in bone_names:
+                continue
+            chosen = None
+        else:
+            idx = {vg.index for vg in ob.vertex_groups if vg.name in bone_names}
+            if not idx:
+                continue
+            chosen = [v.index for v in ob.data.vertices
+                      if any(g.group in idx and g.weight >= weight for g in v.groups)]
+            if not chosen:
+                continue
+        ev = ob.evaluated_get(depsgraph)
+        mesh = ev.data
+        if len(mesh.vertices) != len(ob.data.vertices) or not len(mesh.vertices):
+            continue
+        co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3).astype(float)
+        if chosen is not None:
+            co = co[chosen]
+        mw = np.array(ev.matrix_world)
+        out.append(co @ mw[:3, :3].T + mw[:3, 3])
+    return np.concatenate(out) if out else np.zeros((0, 3))
+
+
+def _scene_objects(armature):
+    scenes = armature.users_scene
+    return scenes[0].objects if scenes else [armature]
+
+
+def skin_radius(armature, group_names, a, b, fallback):
+    """75th percentile distance from segment a-b (world) of the skin the bones
+    ``group_names`` move (:func:`skin_points`: weighted ≥ 0.5, or rigid parts parented to
+    them); ``fallback`` if there is no such skin."""
+    pts = skin_points(armature, set(group_names))
+    if not len(pts):
+        return fallback
+    ab = b - a
+    t = np.clip((pts - a) @ ab / max(ab @ ab, 1e-12), 0, 1)
+    return float(np.percentile(np.linalg.norm(pts - (a + t[:, None] * ab), axis=1), 75))
+
+
+def skin_clearance(info, armature, obstacles, horizon: float) -> float:
+    """The least distance (figure units) between the reaching arm's skin as Blender shows it
+    now and ``obstacles`` (:class:`~reach_addon.core.Obstacles`), looking no farther than
+    ``horizon`` (figure units).
+
+    ``info``: the :class:`.rig.RigInfo` whose arm is measured: the skin of its upper arm,
+    forearm and hand bones and of every bone below the hand, weighted 0.5 or more
+    (:func:`skin_points`). Returns ``horizon`` where nothing is that near or the arm has
+    no skin, and 0 where a point of the skin is inside a closed obstacle."""
+    tree = getattr(obstacles, "tree", None)
+    bones = info.bones.arms[info.side]
+    names = {bones.upper_arm, bones.forearm} | set(info.hand_bones or (bones.hand,))
+    names |= {b.name for h in tuple(names - {bones.upper_arm, bones.forearm})
+              for b in armature.pose.bones[h].children_recursive}
+    if tree is None:
+        return horizon
+    points = skin_points(armature, names)
+    if any(obstacles.point_inside(p) for p in points):
+        return 0.0                                   # the skin is inside a closed obstacle
+    near = [tree.find_nearest(p.tolist(), horizon) for p in points]
+    return min((hit[3] for hit in near if hit[0] is not None), default=horizon)
