@@ -112,10 +112,16 @@ def test_target_out_of_reach_and_baking_the_closest_approach(addon, metarig):
 
 
 def test_a_target_just_beyond_the_arm_says_leaning_would_reach_it_in_scene_units(addon, metarig):
-    # 1.25 arm lengths straight ahead of the shoulder: a quarter arm length too far
-    target, info = target_at(addon, metarig, (0.0, 1.25, 0.0), name="Lamp")
-    length = info.arm.arm_length
-    beyond_cm = 100 * 0.25 * length                  # Blender units are metres by default
+    # 1.45 arm lengths straight ahead of the shoulder: beyond the arm even with the chest
+    # turned its 60° (which brings the shoulder forward), by what the geometry gives
+    target, info = target_at(addon, metarig, (0.0, 1.45, 0.0), name="Lamp")
+    arm = info.arm
+    s = np.asarray(arm.shoulder, dtype=float)
+    turns = np.radians([-60.0, 60.0])                # the turn's ends, about the spine (z)
+    turned = np.stack([s[0] * np.cos(turns) - s[1] * np.sin(turns),
+                       s[0] * np.sin(turns) + s[1] * np.cos(turns), np.full(2, s[2])], -1)
+    goal = arm.to_canonical_points(np.array(target.location))
+    beyond_cm = 100 * (np.linalg.norm(turned - goal, axis=1).min() - arm.arm_length)
     text = expect_error("'Lamp' is out of reach by", f"{beyond_cm:.1f} cm", "leaning",
                         armature=metarig, target=target)
     assert "arm lengths" in text
