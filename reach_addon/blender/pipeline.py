@@ -45,7 +45,7 @@ from ..core import envelope as envelope_mod
 from ..core.arm import REACH_SLACK, frame_angle, reach_sphere
 from ..core.orient import palm_frame, wanted_axes
 from ..core.steps import drain, relay
-from ..core.tasks import chase_steps
+from ..core.chase import chase_steps
 from . import bake as bake_mod
 from . import body as body_mod
 from . import rig as rig_mod

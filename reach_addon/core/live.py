@@ -1,6 +1,6 @@
 """Live reach: re-planning while the target (or the scene) moves, in time-budgeted slices.
 
-A :class:`LiveSession` keeps one :class:`~reach_addon.core.tasks.Planner` (its
+A :class:`LiveSession` keeps one :class:`~reach_addon.core.planner.Planner` (its
 configuration generator, collision checker, BVH and, once built, its workspace grid) and
 the pose the user currently sees. When the target moves it starts a re-plan from that pose;
 :meth:`LiveSession.advance` runs the re-plan for at most a time budget (default
@@ -18,7 +18,7 @@ What we chose, and why
   (a fast drag), the progress is kept: the arm moves to the closest position found so far
   and the new search starts there.
 * **Re-plan = the reach task's search.** The same code as a ``reach`` task
-  (:meth:`~reach_addon.core.tasks.Planner.route_steps`): through the guiding nodes where
+  (:meth:`~reach_addon.core.planner.Planner.route_steps`): through the guiding nodes where
   the straight line is blocked, the same fallbacks, the same shorter leash for a target
   diagnosed unreachable. Only the diagnosis waits: it is worked out when the first slice
   of the search does not settle the re-plan. Shortcut smoothing and frame timing are
@@ -42,7 +42,7 @@ What we chose, and why
 Chase with moving obstacles
 ---------------------------
 A chase against animated obstacles is the chase task with one planner per frame:
-:func:`reach_addon.core.tasks.chase_steps`.
+:func:`reach_addon.core.chase.chase_steps`.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ from .collision import Obstacles
 from .errors import START_IN_COLLISION, require_finite
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
-from .tasks import Planner
+from .planner import Planner
 
 #: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
 DEFAULT_BUDGET_S = 1.0 / 30.0

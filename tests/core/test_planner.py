@@ -539,8 +539,8 @@ def test_a_chase_frame_skips_the_free_search_only_where_it_could_not_be_taken(ar
     where it may reach the target (within the frame's steps) or where the kept hand is
     stuck. The premise: a free search of ``steps`` steps never carries the wrist farther
     than a step per move, so a target beyond that is never reached."""
-    from reach_addon.core.search import BestFirstSearch, chase_step
-    from reach_addon.core.tasks import chase_steps_per_frame
+    from reach_addon.core.chase import chase_step, chase_steps_per_frame
+    from reach_addon.core.search import BestFirstSearch
 
     s = Settings()
     planner = Planner(arm, obstacles({"Table": table((-0.3, -0.6), (1.0, 0.5), 0.95)}), s)
