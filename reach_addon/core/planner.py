@@ -125,84 +125,66 @@ class Planner:
         count yielded is the route's so far, every search of it together: it never falls.
 
         ``diagnosis``: the target's, if the caller has it; else (:data:`UNDIAGNOSED`) it is
-        worked out only when needed (live mode: most moves of the target are caught within
-        the first slice, and the diagnosis costs a few ms) — after the first slice of the
-        search, which restarts on the shorter leash if the target is unreachable."""
+        worked out only when needed: after the first slice of the search, which restarts
+        on the shorter leash if the target is unreachable."""
         s, gen = self.settings, self.generator
-        leash = {"stall_budget": max(20, s.stall_budget // 4)}
-        spent = [0]                     # nodes of the searches before the one running
-
-        def counted(steps):
-            return relay(steps, lambda nodes: spent[0] + nodes)
-
-        def search(guided_, **limits_):
-            return counted(self.search_steps(start, target_c, guided_, chunk, keep, **limits_))
-
+        run = _Searches(self, start, target_c, chunk, keep)
         blocked = not guided and s.guide_when_blocked and not self.line_clear(start.wrist, target_c)
         if blocked and diagnosis is UNDIAGNOSED:
             diagnosis = gen.diagnose_target(target_c)
         if blocked and diagnosis is None:
-            # something lies across the straight line: the paper's guiding nodes lead round
-            # it (a straight best-first search would fill the space in front of it first)
-            guided = True
+            guided = True           # the paper's guiding nodes lead round what is in the way
         if guided:
-            yield from counted(self.workspace_steps(chunk))
-        limits = {} if diagnosis in (None, UNDIAGNOSED) else leash
-        steps = search(guided, **limits)
-        if diagnosis is UNDIAGNOSED:
-            try:
-                nodes = next(steps)
-            except StopIteration as done:
-                result = done.value
-            else:
-                diagnosis = gen.diagnose_target(target_c)
-                if diagnosis is not None:
-                    steps.close()
-                    limits = leash
-                    steps = search(guided, **limits)
-                yield nodes
-                result = yield from steps
-            if not result.success:
-                diagnosis = gen.diagnose_target(target_c)
-        else:
-            result = yield from steps
-        spent[0] = result.nodes_searched
+            yield from run.workspace()
+        result, diagnosis, limits = yield from self._first_search(run, guided, diagnosis)
+        run.spent = result.nodes_searched
         if not result.success and diagnosis is None and s.guided_fallback:
-            # The other route, the hand still continuous: through the guiding nodes after a
-            # straight search, straight after a guided one (a guided search can pass every
-            # guiding node and still stall in the last approach, which the straight one
-            # makes from another side).
+            # the other route, the hand still continuous
             if not guided:
-                yield from counted(self.workspace_steps(chunk))
-            retry = yield from search(not guided)
-            retry.nodes_searched += result.nodes_searched
-            retry.search_time_s += result.search_time_s
-            if retry.success or retry.closest_distance < result.closest_distance:
-                result = retry
-            else:
-                result.nodes_searched = retry.nodes_searched
-                result.search_time_s = retry.search_time_s
-            spent[0] = result.nodes_searched
+                yield from run.workspace()
+            retry = yield from run.search(not guided)
+            result = _better(result, retry)
+            run.spent = result.nodes_searched
         left = s.node_budget - result.nodes_searched
         if not result.success and left > 0:
-            # The hand kept continuous can shut the search out of a way the arm has (a hand
-            # caught in a pocket of clear directions): search once more with the hand free,
-            # with what is left of the node budget, and keep that if it does better; the
-            # hand pass then reports what it could not make smooth and clear.
-            free = yield from search(guided, hand_continuity=False,
-                                     **{**limits, "node_budget": left})
-            free.nodes_searched += result.nodes_searched
-            free.search_time_s += result.search_time_s
-            if free.success or free.closest_distance < result.closest_distance - gen.step_length:
-                result = free
-            else:
-                result.nodes_searched, result.search_time_s = free.nodes_searched, free.search_time_s
-            spent[0] = result.nodes_searched
-        sampled = False
-        if not result.success and diagnosis is None and s.sampling_fallback:
-            result = yield from counted(self._sampling(start, target_c, chunk, result))
-            sampled = True
+            # the hand free, with what is left of the node budget
+            free = yield from run.search(guided, hand_continuity=False,
+                                         **{**limits, "node_budget": left})
+            result = _better(result, free, gen.step_length)
+            run.spent = result.nodes_searched
+        sampled = bool(not result.success and diagnosis is None and s.sampling_fallback)
+        if sampled:
+            result = yield from run.counted(self._sampling(start, target_c, chunk, result))
         return Route(result, None if diagnosis is UNDIAGNOSED else diagnosis, sampled)
+
+    def _first_search(self, run: _Searches, guided: bool, diagnosis):
+        """The first search of :meth:`route_steps` (a generator like it), on the shorter
+        leash for a target diagnosed unreachable. An :data:`UNDIAGNOSED` target is diagnosed
+        after the first slice (the search restarts on the leash if it is unreachable) and
+        again if the search fails. Returns (the search's result, the diagnosis, the limits
+        the search ran with)."""
+        gen = self.generator
+        leash = {"stall_budget": max(20, self.settings.stall_budget // 4)}
+        limits = {} if diagnosis in (None, UNDIAGNOSED) else leash
+        steps = run.search(guided, **limits)
+        if diagnosis is not UNDIAGNOSED:
+            result = yield from steps
+            return result, diagnosis, limits
+        try:
+            nodes = next(steps)
+        except StopIteration as done:
+            result = done.value
+        else:
+            diagnosis = gen.diagnose_target(run.target_c)
+            if diagnosis is not None:
+                steps.close()
+                limits = leash
+                steps = run.search(guided, **limits)
+            yield nodes
+            result = yield from steps
+        if not result.success:
+            diagnosis = gen.diagnose_target(run.target_c)
+        return result, diagnosis, limits
 
     # --- tasks -------------------------------------------------------------------------
     def plan(self, task: Task) -> Plan:
@@ -442,6 +424,42 @@ class Planner:
                       hand: HandReport | None = None, clearances=None):
         motion_stats(stats, self.arm, poses, [self.generator.checker] * len(poses),
                      motion_length, hand, clearances)
+
+
+class _Searches:
+    """The searches of one route (:meth:`Planner.route_steps`) from ``start`` toward
+    ``target_c``, their progress counted together: each yields the nodes of the searches
+    before it (:attr:`spent`, which the route sets) plus its own."""
+
+    def __init__(self, planner: Planner, start: Pose, target_c, chunk: int, keep):
+        self.planner, self.start, self.target_c = planner, start, target_c
+        self.chunk, self.keep = chunk, keep
+        self.spent = 0
+
+    def counted(self, steps):
+        """``steps`` (a generator yielding its own node count) counted with the route's."""
+        return relay(steps, lambda nodes: self.spent + nodes)
+
+    def search(self, guided: bool, **limits):
+        """One best-first search (:meth:`Planner.search_steps`), counted."""
+        return self.counted(self.planner.search_steps(self.start, self.target_c, guided,
+                                                      self.chunk, self.keep, **limits))
+
+    def workspace(self):
+        """The workspace grid's slices (:meth:`Planner.workspace_steps`), counted."""
+        return self.counted(self.planner.workspace_steps(self.chunk))
+
+
+def _better(result: SearchResult, retry: SearchResult, margin: float = 0.0) -> SearchResult:
+    """The result a route keeps after ``retry`` (a fallback search run after ``result``):
+    the retry if it reaches the target or ends more than ``margin`` (figure units) nearer
+    it, else ``result``; either way with the nodes and search time of both."""
+    retry.nodes_searched += result.nodes_searched
+    retry.search_time_s += result.search_time_s
+    if retry.success or retry.closest_distance < result.closest_distance - margin:
+        return retry
+    result.nodes_searched, result.search_time_s = retry.nodes_searched, retry.search_time_s
+    return result
 
 
 def _progress(steps, index: int, count: int, name: str):
