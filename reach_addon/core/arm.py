@@ -139,14 +139,14 @@ class ArmModel:
         caps = tuple(self.body_capsules)
         object.__setattr__(self, "body_capsules", caps)
         # the capsules on floats, with each one's centre and half length, for the body
-        # test of every pose tried (ik.body_capsules_at)
+        # test of every pose tried (body_capsules.body_capsules_at)
         floats = []
         for c in caps:
             p, q = [float(v) for v in c.a], [float(v) for v in c.b]
             floats.append((p, q, [0.5 * (p[i] + q[i]) for i in range(3)],
                            0.5 * math.dist(p, q), float(c.radius), bool(c.turns_with_chest)))
         object.__setattr__(self, "capsule_floats", tuple(floats))
-        # per configuration, is the elbow on Algorithm 1's side (ik.on_elbow_side)
+        # per configuration, is the elbow on Algorithm 1's side (limits.on_elbow_side)
         object.__setattr__(self, "side_cache", {})
 
     @property

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import ik
 from .arm import ArmModel, Pose
+from .body_capsules import body_capsules_at, body_hit
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH, START_HELD,
                      START_IN_COLLISION, TARGET_IN_OBSTACLE)
 from .search import SearchResult, sphere_directions
@@ -121,10 +121,10 @@ def held_message(settings, name: str, held, closest: str) -> str:
 def body_contact(arm: ArmModel, pose: Pose):
     """(part, capsule name) of the first part of ``pose`` (the elbow half of the upper arm,
     the forearm, the hand) inside one of the character's own body capsules
-    (:func:`~reach_addon.core.ik.body_hit`), or None."""
+    (:func:`~reach_addon.core.body_capsules.body_hit`), or None."""
     if not arm.body_capsules:
         return None
-    hit = ik.body_hit(arm, np.asarray(pose.joints, dtype=float).tolist(),
-                      ik.body_capsules_at(arm, pose.config.body_rotation))
+    hit = body_hit(arm, np.asarray(pose.joints, dtype=float).tolist(),
+                   body_capsules_at(arm, pose.config.body_rotation))
     return None if hit is None else (hit[0], arm.body_capsules[hit[1]].name)
 

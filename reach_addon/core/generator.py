@@ -20,11 +20,13 @@ import numpy as np
 from . import ik, keys
 from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, hand_coefficients,
                   pose_from_config)
+from .body_capsules import body_capsules_at, body_hit, segment_hits_body, self_collision
 from .collision import (CollisionChecker, Obstacles, fan_segment_distances,
                         point_segment_distance)
-from .numeric import cross
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
                      TARGET_IN_OBSTACLE)
+from .limits import smooth
+from .numeric import cross
 from .strength import strength_category
 from .torso import ChestPath, body_rotation_deg
 
@@ -232,11 +234,11 @@ class ConfigurationGenerator:
                 r2[0] * x + r2[1] * y + r2[2] * z + o2]
 
     def _capsules(self, body: float):
-        """The body's capsules at a chest rotation (:func:`ik.body_capsules_at`), cached
+        """The body's capsules at a chest rotation (:func:`body_capsules_at`), cached
         for the last few rotations (most positions of a reach share one)."""
         caps = self._capsule_cache.get(body)
         if caps is None:
-            caps = ik.body_capsules_at(self.arm, body) if self.arm.body_capsules else []
+            caps = body_capsules_at(self.arm, body) if self.arm.body_capsules else []
             if len(self._capsule_cache) >= 32:
                 self._capsule_cache.clear()
             self._capsule_cache[body] = caps
@@ -329,9 +331,9 @@ class ConfigurationGenerator:
             # ... and against the body (the elbow half of the upper arm, the forearm)
             if caps_upper:
                 mid = [0.5 * (s_c[0] + e_c[0]), 0.5 * (s_c[1] + e_c[1]), 0.5 * (s_c[2] + e_c[2])]
-                if ik.segment_hits_body(mid, e_c, arm.upper_arm_radius, caps_upper):
+                if segment_hits_body(mid, e_c, arm.upper_arm_radius, caps_upper):
                     continue
-            if caps_fore and ik.segment_hits_body(e_c, w_c, arm.forearm_radius, caps_fore):
+            if caps_fore and segment_hits_body(e_c, w_c, arm.forearm_radius, caps_fore):
                 continue
             bend = sol.bend_at(0, k).tolist()
             if not self._check_hand:
@@ -391,7 +393,7 @@ class ConfigurationGenerator:
                     w_c[2] + lh * (f[2] * cf + pz * cp + hz * ch)]
 
         def clear(tip):
-            if caps and ik.segment_hits_body(w_c, tip, arm.hand_radius, caps):
+            if caps and segment_hits_body(w_c, tip, arm.hand_radius, caps):
                 return False
             if not clear_far:
                 t_w = self._world(tip)
@@ -480,7 +482,7 @@ class ConfigurationGenerator:
             out &= ~(gap < arm.hand_radius + np.array([c[4] for c in caps])).any(1)
         elif caps:
             for i, tip in enumerate(tips.tolist()):
-                if ik.segment_hits_body(wl, tip, arm.hand_radius, caps):
+                if segment_hits_body(wl, tip, arm.hand_radius, caps):
                     out[i] = False
         w_w = self._world(wl)
         d_w = checker.distance(w_w, checker.bound_wrist)
@@ -529,7 +531,7 @@ class ConfigurationGenerator:
         and of the body? ``joints`` (≥ 4, 3), canonical."""
         j = np.asarray(joints, dtype=float)
         full = np.vstack([j[:4], j[3:4]])
-        if ik.self_collision(self.arm, float(body_rotation), full[None], include_hand=False)[0]:
+        if self_collision(self.arm, float(body_rotation), full[None], include_hand=False)[0]:
             return False
         return not self.checker.collides(self.arm.to_world_points(full), include_hand=False)
 
@@ -539,7 +541,7 @@ class ConfigurationGenerator:
                                                               self.move_scale(a, b.wrist)):
             return False
         c = b.config
-        ok = ik.smooth(a.config, np.array([c.body_rotation]), np.array([[c.alpha]]),
+        ok = smooth(a.config, np.array([c.body_rotation]), np.array([[c.alpha]]),
                        np.array([[c.beta]]), np.array([[c.gamma]]), np.array([c.elbow]),
                        self.max_change(a, b.wrist))
         return bool(ok.all())
@@ -589,7 +591,7 @@ class ConfigurationGenerator:
         for k in sol.ranked(0, st.elbow_side)[: st.max_pose_tries]:
             joints = sol.joints(0, k)[0]
             for hand in (False, True):
-                hit = ik.body_hit(arm, joints.tolist(), caps, include_hand=hand) if caps else None
+                hit = body_hit(arm, joints.tolist(), caps, include_hand=hand) if caps else None
                 if hit is not None:
                     first = first or ("body", arm.body_capsules[hit[1]].name, hit[0])
                     break
@@ -640,7 +642,7 @@ class ConfigurationGenerator:
         legal = np.flatnonzero(sol.legal[0])
         body = float(sol.body[0])
         joints = sol.joints(0, legal)
-        clear_of_body = ~ik.self_collision(arm, body, joints, include_hand=False)
+        clear_of_body = ~self_collision(arm, body, joints, include_hand=False)
         if not clear_of_body.any():
             return Diagnosis(TARGET_IN_OBSTACLE, obstacle="the character's own body")
         horizon = 0.5 * arm.arm_length

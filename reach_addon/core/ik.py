@@ -32,10 +32,11 @@ from functools import lru_cache
 import numpy as np
 
 from . import strength
-from .arm import ArmConfig, ArmModel, Pose, forward_kinematics
-from .collision import segment_distance_float
+from .arm import ArmConfig, ArmModel, Pose
+from .limits import (STRAIGHT, move_limits, on_elbow_side, settings_limits, side_normal,
+                     smooth_angles, valid_bounds)
 from .numeric import ARRAY, SCALAR
-from .torso import body_rotation_deg, turn_about_spine
+from .torso import body_rotation_deg
 
 
 #: Up to this many valid candidates of one wrist are scored as floats, more as arrays.
@@ -62,30 +63,6 @@ def swivel_basis(step_deg: float):
     cos_phi, sin_phi = swivel_samples(step_deg)
     return np.concatenate([np.ones_like(cos_phi), cos_phi, sin_phi])
 
-
-def side_normal(wrist, shoulder, waist, m=ARRAY):
-    r"""Algorithm 1, RightArmSide(w, e, s, a): the normal of the plane P through wrist,
-    shoulder and waist, from (x, y, z) component tuples (floats with ``m`` = SCALAR, arrays
-    with ARRAY). Returns (n_x, n_y, n_z, degenerate): degenerate where P is undefined.
-
-    .. math::
-        \hat n = \mathrm{normalize}[(s - w) × (a - s)],\quad
-        \hat p = \mathrm{normalize}(e - e_P),\quad
-        \text{RIGHT} \iff \hat p = \hat n
-
-    where ``e_P`` is the projection of the elbow ``e`` on P; callers test ``p̂ = n̂`` as
-    ``(e - s) · n̂ > 0`` (:func:`solve` for every swivel sample at once, with ``e - s``
-    affine in the swivel angle). Where P is degenerate every elbow counts as RIGHT. For a
-    right arm reaching forward n̂ points outward and down, so RIGHT is the natural,
-    elbow-out side; in the canonical frame a left arm is mirrored into a right arm and the
-    same rule gives its natural (left) side."""
-    px, py, pz = shoulder[0] - wrist[0], shoulder[1] - wrist[1], shoulder[2] - wrist[2]
-    qx, qy, qz = waist[0] - shoulder[0], waist[1] - shoulder[1], waist[2] - shoulder[2]
-    kx, ky, kz = py * qz - pz * qy, pz * qx - px * qz, px * qy - py * qx
-    kn = m.sqrt(kx * kx + ky * ky + kz * kz)
-    degenerate = kn < 1e-9
-    kn = m.maximum(kn, 1e-12)
-    return kx / kn, ky / kn, kz / kn, degenerate
 
 
 class Solutions:
@@ -219,7 +196,7 @@ class Solutions:
         of the kept twist (see :func:`solve`)."""
         ux, uy, uz = self._upper[i, :, k].tolist()
         ce, se = self._eps[i].tolist()
-        if se < _STRAIGHT:
+        if se < STRAIGHT:
             a = ux / max(1.0 - uz, 1e-12)
             g = math.radians(self._gamma_prev)
             cg, sg = math.cos(g), math.sin(g)
@@ -251,10 +228,6 @@ def _rank(ks: list, f_r: list, second: list, wrong: list | None) -> list:
     if wrong is None:
         return sorted(ks, key=lambda k: (f_r[k], second[k], k))
     return sorted(ks, key=lambda k: (wrong[k], f_r[k], second[k], k))
-
-
-#: An elbow with sin ε below this is straight: its twist cannot be seen and is kept.
-_STRAIGHT = 1e-6
 
 
 def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
@@ -302,7 +275,7 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
     n_s = basis.shape[1]
     gamma_prev = 0.0 if previous is None else previous.gamma
     smooth_bound = previous is not None and max_change is not None
-    limits = move_limits(st, previous) if smooth_bound else _settings_limits(st)
+    limits = move_limits(st, previous) if smooth_bound else settings_limits(st)
     e_lo, e_hi = st.elbow_min, st.elbow_max        # the elbow's, widened likewise
     if smooth_bound:
         e_lo, e_hi = min(e_lo, previous.elbow), max(e_hi, previous.elbow)
@@ -336,7 +309,7 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
     else:
         packed = np.stack(values, -1)                                    # (W, TERMS.size)
         wrist_ok = reachable & (flex >= e_lo) & (flex <= e_hi)
-    straight = values[_SIN_EPS] < _STRAIGHT
+    straight = values[_SIN_EPS] < STRAIGHT
     # the layout's fields by name, in one unpacking (a NamedTuple's attributes cost a
     # descriptor lookup each, and this runs for every position the search tests)
     at_sternum, at_shoulder, at_elbow, at_fore, at_rows, at_eps, at_turn, at_body, at_flex, \
@@ -384,14 +357,14 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         previous.alpha, previous.beta, previous.gamma)
     if m is SCALAR:
         body_, flex_, ok_ = packed[:, at_body], packed[:, at_flex], wrist_ok
-        bounds = _valid_bounds(limits, previous, body, flex, max_change) if smooth_bound \
+        bounds = valid_bounds(limits, previous, body, flex, max_change) if smooth_bound \
             else limits
         if bounds is None:                       # the body or the elbow moves too far
             valid = np.zeros((1, n_s), dtype=bool)
         else:
             valid = np.logical_and.reduce((angles >= bounds[0]) & (angles <= bounds[1]), 1)
             if len(bounds) == 3:                 # a twist window that wraps round ±180°
-                valid &= _smooth_angles(previous, body, angles, flex, max_change, m)
+                valid &= smooth_angles(previous, body, angles, flex, max_change, m)
             if require:
                 valid &= ~wrong_side
         ks = valid[0].nonzero()[0]
@@ -439,7 +412,7 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         legal &= ~wrong_side
     valid = legal
     if smooth_bound:
-        valid = legal & _smooth_angles(previous, body, angles, flex, max_change, m)
+        valid = legal & smooth_angles(previous, body, angles, flex, max_change, m)
     if valid.any():
         f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
     else:
@@ -454,123 +427,6 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
                  legal=legal)
     return out
 
-
-_LAST_LIMITS: list = [None, None]
-
-
-def _settings_limits(st):
-    """:func:`_limits` of a settings object (the last one asked for is remembered: the
-    planner asks with the same object every time)."""
-    if _LAST_LIMITS[0] is not st:
-        _LAST_LIMITS[1] = _limits(st.alpha_min, st.beta_min, st.gamma_min, st.alpha_max,
-                                  st.beta_max, st.gamma_max, st.elevation_max)
-        _LAST_LIMITS[0] = st
-    return _LAST_LIMITS[1]
-
-
-@lru_cache(maxsize=16)
-def _limits(alpha_min, beta_min, gamma_min, alpha_max, beta_max, gamma_max, elevation_max):
-    """Lower and upper limits (4, 1) of (α, β, γ, θ), for one comparison per side."""
-    lo = np.array([[alpha_min], [beta_min], [gamma_min], [-np.inf]])
-    hi = np.array([[alpha_max], [beta_max], [gamma_max], [elevation_max]])
-    return lo, hi
-
-
-def move_limits(st, previous: ArmConfig | None):
-    """The joint limits (lower, upper), each (4, 1) over (α, β, γ, θ), of a move from
-    ``previous``: the settings' limits widened to take in ``previous``'s own angles.
-
-    A rig's start pose is taken as it is held, outside the limits or not (a T-posed arm
-    whose slight bend reads as a humeral twist of -130°; an arm raised past the elevation
-    limit): the limits bound where a move may go, never where it starts. A move from a
-    pose outside them may stay as far out or come back in, never go farther out, so the
-    arm returns toward the legal range as it moves and the target's own pose (solved with
-    no previous pose) is always inside it. :func:`solve` widens the elbow's flexion limits
-    the same way."""
-    lo, hi = _settings_limits(st)
-    if previous is None:
-        return lo, hi
-    alpha, beta = previous.alpha, previous.beta
-    gamma = (previous.gamma + 180.0) % 360.0 - 180.0
-    theta = math.hypot(alpha, beta)
-    if lo[0, 0] <= alpha <= hi[0, 0] and lo[1, 0] <= beta <= hi[1, 0] and \
-            lo[2, 0] <= gamma <= hi[2, 0] and theta <= hi[3, 0]:
-        return lo, hi
-    own = np.array([[alpha], [beta], [gamma], [theta]])
-    return np.minimum(lo, own), np.maximum(hi, own)
-
-
-def on_elbow_side(arm: ArmModel, config: ArmConfig) -> bool:
-    """Is the elbow of ``config`` on Algorithm 1's preferred side (:func:`side_normal`),
-    or the side undefined there (a straight elbow, a degenerate plane)? Remembered on the
-    arm for the last configurations asked about (a search asks once per node, for each of
-    the positions it tries from there)."""
-    cache = arm.side_cache
-    side = cache.get(config)
-    if side is None:
-        joints, _bend = forward_kinematics(arm, config.as_array())
-        s, e, w = joints[1].tolist(), joints[2].tolist(), joints[3].tolist()
-        nx, ny, nz, degenerate = side_normal(w, s, arm.waist.tolist(), SCALAR)
-        value = (e[0] - s[0]) * nx + (e[1] - s[1]) * ny + (e[2] - s[2]) * nz
-        side = bool(degenerate or value > 0.0
-                    or math.sin(math.radians(config.elbow)) < _STRAIGHT)
-        if len(cache) >= 256:
-            cache.clear()
-        cache[config] = side
-    return side
-
-
-def _valid_bounds(limits, previous: ArmConfig, body: float, flex: float, max_change: float):
-    """(lower, upper) bounds (4, 1) on (α, β, γ, θ) of one wrist's candidates that are both
-    legal and within the smoothness bound of ``previous`` (:func:`smooth`): the joint
-    ``limits`` (:func:`move_limits`) intersected with ``previous ± max_change`` for α and β
-    and with the twist window ``|γ - γ'| ≤ limit`` (mod 360°) for γ. None when nothing can
-    be valid (the body or the elbow moves too far, or the windows miss the limits); a third
-    element when the twist window meets the limits in two pieces (the caller then tests γ
-    in full)."""
-    if not (abs(flex - previous.elbow) <= max_change
-            and abs(body - previous.body_rotation) <= max_change):
-        return None
-    (alpha_min, beta_min, gamma_min, _t), (alpha_max, beta_max, gamma_max, elevation_max) = \
-        limits[0][:, 0].tolist(), limits[1][:, 0].tolist()
-    a_lo, a_hi = max(alpha_min, previous.alpha - max_change), \
-        min(alpha_max, previous.alpha + max_change)
-    b_lo, b_hi = max(beta_min, previous.beta - max_change), \
-        min(beta_max, previous.beta + max_change)
-    if a_lo > a_hi or b_lo > b_hi:
-        return None
-    twist = max_change
-    g_lo, g_hi, split = gamma_min, gamma_max, False
-    if twist < 180.0:
-        centre = (previous.gamma + 180.0) % 360.0 - 180.0     # wrap_degrees, on a float
-        pieces = [(max(g_lo, centre + k - twist), min(g_hi, centre + k + twist))
-                  for k in (-360.0, 0.0, 360.0)]
-        pieces = [q for q in pieces if q[0] <= q[1]]
-        if not pieces:
-            return None
-        if len(pieces) == 1:
-            g_lo, g_hi = pieces[0]
-        else:
-            split = True
-    bounds = np.array([a_lo, b_lo, g_lo, -np.inf, a_hi, b_hi, g_hi,
-                       elevation_max]).reshape(2, 4, 1)
-    return (bounds[0], bounds[1], True) if split else (bounds[0], bounds[1])
-
-
-def _smooth_angles(previous: ArmConfig, body, angles, flex, max_change, m):
-    """:func:`smooth` on the (W, 4, S) angle block of :func:`solve` (α, β, γ, θ), the
-    twist's change by :func:`twist_change`."""
-    if m is SCALAR:
-        if not (abs(flex - previous.elbow) <= max_change
-                and abs(body - previous.body_rotation) <= max_change):
-            return np.zeros((1, angles.shape[2]), dtype=bool)
-        wrist_ok = True
-    else:
-        wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
-                    & (np.abs(body - previous.body_rotation) <= max_change))[:, None]
-    within = np.abs(angles[:, :2] - np.array([[previous.alpha], [previous.beta]])) <= max_change
-    twist_ok = twist_change(angles[:, 2], previous.gamma) <= max_change
-    return within[:, 0] & within[:, 1] & twist_ok & wrist_ok
 
 
 @lru_cache(maxsize=64)
@@ -683,101 +539,3 @@ def _wrist_terms(arm: ArmModel, wx, wy, wz, body, elbow_max: float, m):
     return values, reachable, degenerate, flex
 
 
-def wrap_degrees(angle):
-    """Angle difference folded into [-180°, 180°)."""
-    return (np.asarray(angle) + 180.0) % 360.0 - 180.0
-
-
-def twist_change(gamma, previous_gamma):
-    """How far the humeral twist turns from ``previous_gamma`` to ``gamma`` (degrees), the
-    short way round the circle: |wrap(γ - γ_prev)| ∈ [0°, 180°] (:func:`wrap_degrees`).
-    The smoothness bound (:func:`smooth`) and its window (:func:`_valid_bounds`) use it."""
-    # wrap(γ - γ_prev) = (γ - (γ_prev - 180°)) mod 360° - 180°: one array operation fewer
-    return np.abs((gamma - (previous_gamma - 180.0)) % 360.0 - 180.0)
-
-
-def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
-    """The smoothness bound: no joint angle changes by more than ``max_change`` degrees from
-    ``previous``. Shapes: ``body``/``flex`` (W,) (or floats for one wrist), the shoulder
-    angles (W, S). The twist counts like the others even with a straight elbow, where the
-    arm's bones hide it: the hand's roll shows it (it used to be let free there, and a
-    straight arm rolled its hand 40-50° in one frame)."""
-    if isinstance(flex, float) and isinstance(body, float):
-        if not (abs(flex - previous.elbow) <= max_change
-                and abs(body - previous.body_rotation) <= max_change):
-            return np.zeros(np.shape(alpha), dtype=bool)
-        return ((np.abs(alpha - previous.alpha) <= max_change)
-                & (np.abs(beta - previous.beta) <= max_change)
-                & (twist_change(gamma, previous.gamma) <= max_change))
-    else:
-        flex = np.asarray(flex)
-        wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
-                    & (np.abs(np.asarray(body) - previous.body_rotation) <= max_change))[:, None]
-    return (wrist_ok & (np.abs(alpha - previous.alpha) <= max_change)
-            & (np.abs(beta - previous.beta) <= max_change)
-            & (twist_change(gamma, previous.gamma) <= max_change))
-
-
-def body_capsules_at(arm: ArmModel, body: float) -> list:
-    """The body's capsules with the chest turned by ``body`` degrees (those that turn with
-    the chest, :func:`~reach_addon.core.torso.rotate_about_spine`), for the scalar body test
-    of every pose tried: one plain tuple per capsule, ``(a, b, centre, half, radius)`` —
-    its ends and centre (float lists), half its length and its radius. Callers unpack them
-    by those names; they stay plain tuples because a tuple subclass (a NamedTuple) unpacks
-    through an iterator, which the innermost loop of the search (:func:`segment_hits_body`)
-    would pay thousands of times a plan."""
-    body = float(body)
-    c, s = math.cos(math.radians(body)), math.sin(math.radians(body))
-    out = []
-    for p, q, mid, half, r, turn in arm.capsule_floats:
-        if turn and body != 0.0:
-            p, q = turn_about_spine(p, c, s), turn_about_spine(q, c, s)
-            mid, half = [0.5 * (p[i] + q[i]) for i in range(3)], 0.5 * math.dist(p, q)
-        out.append((p, q, mid, half, r))
-    return out
-
-
-def segment_hits_body(p, q, radius, capsules) -> bool:
-    """Does the capsule p-q (float 3-sequences) of ``radius`` pass through one of
-    ``capsules`` (from :func:`body_capsules_at`)? Bounding spheres first."""
-    mid = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])]
-    reach = 0.5 * math.dist(p, q) + radius          # the segment's bounding sphere
-    for a, b, centre, half_c, radius_c in capsules:
-        if math.dist(mid, centre) < reach + half_c + radius_c and \
-                segment_distance_float(p, q, a, b) < radius + radius_c:
-            return True
-    return False
-
-
-def self_collision(arm: ArmModel, body: float, joints, include_hand: bool = True,
-                   capsules=None) -> np.ndarray:
-    """True for each candidate (joints (n, 5, 3), canonical, one chest rotation ``body``)
-    whose forearm, hand (if ``include_hand``) or elbow half of the upper arm passes through
-    one of the body's own capsules (chest and head turn with the chest rotation): see
-    :func:`body_hit`. ``capsules``: :func:`body_capsules_at` for ``body``, if the caller
-    already has them."""
-    joints = np.asarray(joints, dtype=float)
-    out = np.zeros(len(joints), dtype=bool)
-    if not arm.body_capsules:
-        return out
-    caps = body_capsules_at(arm, body) if capsules is None else capsules
-    for n, pose in enumerate(joints.tolist()):
-        out[n] = body_hit(arm, pose, caps, include_hand) is not None
-    return out
-
-
-def body_hit(arm: ArmModel, joints, capsules, include_hand: bool = True):
-    """(part, index into ``capsules``) of the first part of one pose — the elbow half of
-    the upper arm, the forearm, the hand (if ``include_hand``), in that order — that passes
-    through one of the body's ``capsules`` (:func:`body_capsules_at`), or None. ``joints``:
-    the pose's sternum, shoulder, elbow, wrist and hand end as float lists. The upper arm's
-    half nearest the shoulder is not tested: it is attached to the torso there."""
-    _st, sh, el, wr, ha = joints[:5]
-    parts = [("upper arm", [0.5 * (sh[i] + el[i]) for i in range(3)], el, arm.upper_arm_radius),
-             ("forearm", el, wr, arm.forearm_radius)]
-    if include_hand:
-        parts.append(("hand", wr, ha, arm.hand_radius))
-    for part, p, q, r in parts:
-        if segment_hits_body(p, q, r, capsules):
-            return part, next(k for k, c in enumerate(capsules) if segment_hits_body(p, q, r, [c]))
-    return None

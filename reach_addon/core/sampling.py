@@ -65,7 +65,9 @@ import numpy as np
 
 from . import ik
 from .arm import ArmConfig, Pose, forward_kinematics, hand_direction_floats
+from .body_capsules import body_capsules_at, segment_hits_body
 from .errors import NO_PATH
+from .limits import on_elbow_side, side_normal
 from .numeric import SCALAR, cross
 from .search import SearchResult
 
@@ -84,7 +86,7 @@ class JointSpace:
     ``start``: the configuration row (7,) a plan starts from. The box of limits, the
     elevation limit (:attr:`elevation_max`) and the elbow's side (:attr:`require_side`) are
     then widened to take it in, as the search widens them for a move from a pose outside
-    them (:func:`~reach_addon.core.ik.move_limits`): the start is the rig's own pose.
+    them (:func:`~reach_addon.core.limits.move_limits`): the start is the rig's own pose.
     """
 
     def __init__(self, arm, settings, start=None):
@@ -106,7 +108,7 @@ class JointSpace:
             self.lo, self.hi = np.minimum(self.lo, q), np.maximum(self.hi, q)
             self.elevation_max = max(self.elevation_max, math.hypot(q[1], q[2]))
             if self.require_side:
-                self.require_side = ik.on_elbow_side(arm, ArmConfig.from_array(q[:5]))
+                self.require_side = on_elbow_side(arm, ArmConfig.from_array(q[:5]))
         spine = float(np.hypot(arm.shoulder[0], arm.shoulder[1]))
         fore = arm.forearm_length / length
         hand = max(arm.hand_length / length, 0.05)
@@ -190,7 +192,7 @@ class StateValidity:
     Legal (the elevation limit and, if required, the elbow side of Algorithm 1; the box of
     :class:`JointSpace`'s bounds is the sampler's, which never leaves it), clear of the
     body's own capsules as the configuration generator tests them
-    (:func:`~reach_addon.core.ik.segment_hits_body`), and clear of the obstacles by the
+    (:func:`~reach_addon.core.segment_hits_body`), and clear of the obstacles by the
     core's :class:`~reach_addon.core.collision.CollisionChecker` (arm and, if it is checked,
     hand, with the clearance margin). ``calls`` counts the states tested.
     """
@@ -214,18 +216,18 @@ class StateValidity:
             return False
         sternum, shoulder, elbow, wrist, hand = joints = joints_of_one(arm, q)
         if self.elbow_rule:
-            nx, ny, nz, degenerate = ik.side_normal(wrist, shoulder, self.waist, m=SCALAR)
+            nx, ny, nz, degenerate = side_normal(wrist, shoulder, self.waist, m=SCALAR)
             side = ((elbow[0] - shoulder[0]) * nx + (elbow[1] - shoulder[1]) * ny
                     + (elbow[2] - shoulder[2]) * nz)
             if not (side > 0 or degenerate):
                 return False
         if arm.body_capsules:
-            caps = ik.body_capsules_at(arm, q[0])
+            caps = body_capsules_at(arm, q[0])
             mid = [0.5 * (shoulder[i] + elbow[i]) for i in range(3)]
-            if ik.segment_hits_body(mid, elbow, arm.upper_arm_radius, caps) or \
-                    ik.segment_hits_body(elbow, wrist, arm.forearm_radius, caps) or \
+            if segment_hits_body(mid, elbow, arm.upper_arm_radius, caps) or \
+                    segment_hits_body(elbow, wrist, arm.forearm_radius, caps) or \
                     (self.checker.check_hand and
-                     ik.segment_hits_body(wrist, hand, arm.hand_radius, caps)):
+                     segment_hits_body(wrist, hand, arm.hand_radius, caps)):
                 return False
         return not self.checker.collides(arm.to_world_points(np.array(joints)), include_hand=True)
 
