@@ -232,114 +232,140 @@ def _rank(ks: list, f_r: list, second: list, wrong: list | None) -> list:
 
 def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
           body_rotation=None, max_change: float | None = None) -> Solutions:
-    """Every swivel solution for each wrist position (W, 3), canonical frame.
+    """Every swivel solution for each wrist position of ``wrists`` (W, 3), canonical frame:
+    per sample the angles (α, β, γ and the elevation θ, degrees), whether it is legal and
+    valid, and the strength category f_R and second-level score of the valid ones
+    (:class:`Solutions`).
 
-    ``previous`` is the configuration the move starts from: f_E is measured from it and,
-    with ``max_change`` (degrees), the smoothness bound is applied against it. Without
-    ``previous`` the exertion is measured from the hanging arm (α = β = γ = 0) and a
-    straight elbow gets twist 0. ``body_rotation`` overrides Table 1 (where the chest
-    must stay as it is: a start moving out of contact, a pose put between two others).
+    ``previous``: the configuration the move starts from. f_E is measured from it and, with
+    ``max_change`` (degrees), the smoothness bound is applied against it and the joint
+    limits are widened to take it in (:mod:`~reach_addon.core.limits`). Without
+    ``previous`` f_E is measured from the hanging arm (α = β = γ = 0) and a straight elbow
+    gets twist 0. ``body_rotation`` (degrees; a float, or (W,)) overrides Table 1's chest
+    rotation.
 
-    The inner loop of the planner calls this for one wrist at a time, so the work is laid
-    out for few numpy calls (each costs about a microsecond however small its array):
-
-    * every per-wrist quantity is computed on floats (on (W,) arrays for many wrists) and
-      packed into one coefficient matrix, whose product with the swivel basis gives the
-      chest-frame upper arm and forearm directions and Algorithm 1's side value of every
-      sample at once;
-    * the elevation is atan2(|u_xy|, -u_z) (no clipping needed) and the twist is read
-      straight from u, f and u × f, with no bend direction built:
-
-      .. math::
-          γ = \\operatorname{atan2}(-f·t,\\ f·r),\\quad
-          r = (-a u_y,\\ a u_x - u_z,\\ u_y),\\ t = u × r = (1 - a u_x,\\ -a u_y,\\ u_x),\\
-          a = \\frac{u_x}{1 - u_z}
-
-      (r is :func:`~reach_addon.core.arm.swing_reference`), which with u·f = cos ε and both
-      terms multiplied by 1 - u_z > 0 becomes
-      atan2(u_x (cos ε - f_z) - (1 - u_z) f_x,\\ u_x (u × f)_z + (1 - u_z) (u × f)_x);
-      u × f = (d r / (L_1 L_2)) (sin φ b_1 - cos φ b_2) is affine in (cos φ, sin φ) like u and
-      f, so it comes out of the same matrix product. The bend direction
-      b = (f - cos ε u)/sin ε is built only for the poses returned;
-    * for one wrist with a previous configuration, the joint limits and the smoothness
-      bound of α, β and γ are intersected into one interval per angle (in floats), so
-      validity is one comparison per side; the few valid candidates are scored and ranked
-      as floats.
-    """
+    Stages: the chest rotation and everything that does not depend on the swivel angle
+    (:func:`_wrist_terms`), every sample's angles at once (:func:`_sample_angles`), then
+    validity and ranking: on floats for one wrist, the planner's inner loop
+    (:func:`_rank_one`), on arrays for many (:func:`_validate_many`)."""
     st = settings
     w = np.atleast_2d(np.asarray(wrists, dtype=float))
-    n_w = len(w)
-    step = float(st.swivel_step)
-    cos_phi, sin_phi = swivel_samples(step)
-    basis = swivel_basis(step)                                           # (3, S)
-    n_s = basis.shape[1]
-    gamma_prev = 0.0 if previous is None else previous.gamma
+    one = len(w) == 1
+    m = SCALAR if one else ARRAY
     smooth_bound = previous is not None and max_change is not None
     limits = move_limits(st, previous) if smooth_bound else settings_limits(st)
-    e_lo, e_hi = st.elbow_min, st.elbow_max        # the elbow's, widened likewise
-    if smooth_bound:
-        e_lo, e_hi = min(e_lo, previous.elbow), max(e_hi, previous.elbow)
-    require = st.elbow_side == "require"
-    if require and smooth_bound and not on_elbow_side(arm, previous):
-        # a move that starts with the elbow off its side (a rig's own start pose) may
-        # stay off it on the way back; the side then leads the ranking (Solutions.order)
-        require = False
+    e_lo, e_hi, require = _elbow_rules(arm, st, previous, smooth_bound)
 
-    # --- per wrist: plain floats for one wrist, arrays for many ---------------------
-    if n_w == 1:
-        m = SCALAR
-        wx, wy, wz = w[0].tolist()
-        if body_rotation is None:
-            body = float(body_rotation_deg(w[0], arm.arm_length, arm.hand_length, st))
-        elif isinstance(body_rotation, float):
-            body = body_rotation
-        else:
-            body = float(np.asarray(body_rotation, dtype=float).reshape(-1)[0])
-    else:
-        m = ARRAY
-        wx, wy, wz = w[:, 0], w[:, 1], w[:, 2]
-        if body_rotation is None:
-            body = np.asarray(body_rotation_deg(w, arm.arm_length, arm.hand_length, st), dtype=float)
-        else:
-            body = np.broadcast_to(np.asarray(body_rotation, dtype=float), (n_w,)).copy()
+    # per wrist: plain floats for one wrist, arrays for many
+    body = _body_rotation(arm, w, st, body_rotation, one)
+    wx, wy, wz = w[0].tolist() if one else (w[:, 0], w[:, 1], w[:, 2])
     values, reachable, degenerate, flex = _wrist_terms(arm, wx, wy, wz, body, e_hi, m)
-    if m is SCALAR:
+    if one:
         packed = np.array(values)[None]                                  # (1, TERMS.size)
         wrist_ok = bool(reachable and e_lo <= flex <= e_hi)
     else:
         packed = np.stack(values, -1)                                    # (W, TERMS.size)
         wrist_ok = reachable & (flex >= e_lo) & (flex <= e_hi)
-    straight = values[_SIN_EPS] < STRAIGHT
-    # the layout's fields by name, in one unpacking (a NamedTuple's attributes cost a
-    # descriptor lookup each, and this runs for every position the search tests)
-    at_sternum, at_shoulder, at_elbow, at_fore, at_rows, at_eps, at_turn, at_body, at_flex, \
-        _size = TERMS
-    sternum, shoulder = packed[:, at_sternum], packed[:, at_shoulder]
-    elbow_coef = packed[:, at_elbow].reshape(n_w, 3, 3)
-    fore_coef = packed[:, at_fore].reshape(n_w, 3, 3)
-    eps, turn = packed[:, at_eps], packed[:, at_turn]
 
-    # --- per sample: (W, 9, S) = chest-frame u, f, the side value, (u × f)_x, (u × f)_z --
-    p = packed[:, at_rows].reshape(n_w, 9, 3) @ basis
+    # per swivel sample
+    step = float(st.swivel_step)
+    gamma_prev = 0.0 if previous is None else previous.gamma
+    p, angles, wrong_side = _sample_angles(packed, values[_SIN_EPS] < STRAIGHT, wrist_ok,
+                                           degenerate, step, gamma_prev, one)
+
+    # validity and ranking
+    prev_angles = (0.0, 0.0, 0.0) if previous is None else (
+        previous.alpha, previous.beta, previous.gamma)
+    move = (previous, max_change, limits, smooth_bound, require, prev_angles)
+    if one:
+        valid, f_r, second, ranked = _rank_one(st, angles, wrong_side, body, flex, move)
+        legal = None if smooth_bound else valid
+        body, flex = packed[:, _AT_BODY], packed[:, _AT_FLEX]             # (1,) each
+    else:
+        legal, valid, f_r, second = _validate_many(st, angles, wrong_side, body, flex, move)
+        ranked = None
+    n_w = len(w)
+    cos_phi, sin_phi = swivel_samples(step)
+    # Solutions(...) would pass its 25 keywords through a dict (a class call hands
+    # __init__ its keywords as one); the bound __init__ takes them as a function does
+    out = Solutions.__new__(Solutions)
+    out.__init__(wrists=w, body=body, sternum=packed[:, _AT_STERNUM],
+                 shoulder=packed[:, _AT_SHOULDER],
+                 elbow_coef=packed[:, _AT_ELBOW].reshape(n_w, 3, 3),
+                 fore_coef=packed[:, _AT_FORE].reshape(n_w, 3, 3), cos_phi=cos_phi[0],
+                 sin_phi=sin_phi[0], angles=angles, flex=flex, reachable=wrist_ok,
+                 valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
+                 hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6],
+                 turn=packed[:, _AT_TURN], eps=packed[:, _AT_EPS],
+                 gamma_prev=float(gamma_prev), limits=limits, require_side=require,
+                 legal=legal, ranked=ranked)
+    return out
+
+
+def _elbow_rules(arm: ArmModel, st, previous: ArmConfig | None, smooth_bound: bool):
+    """(least and greatest elbow flexion, degrees; whether Algorithm 1's side is required)
+    of a move from ``previous``: the settings' flexion limits, widened with
+    ``smooth_bound`` to take in ``previous``'s own (as
+    :func:`~reach_addon.core.limits.move_limits` widens the shoulder's), and the side
+    required where ``Settings.elbow_side`` is "require", unless the move starts off it (a
+    rig's own start pose may stay off it on the way back; the side then leads the ranking,
+    :meth:`Solutions.order`)."""
+    e_lo, e_hi = st.elbow_min, st.elbow_max
+    if smooth_bound:
+        e_lo, e_hi = min(e_lo, previous.elbow), max(e_hi, previous.elbow)
+    require = st.elbow_side == "require"
+    if require and smooth_bound and not on_elbow_side(arm, previous):
+        require = False
+    return e_lo, e_hi, require
+
+
+def _body_rotation(arm: ArmModel, w: np.ndarray, st, body_rotation, one: bool):
+    """The chest rotation (degrees) at each wrist of ``w`` (W, 3): ``body_rotation`` if
+    given, else Table 1's (:func:`~reach_addon.core.torso.body_rotation_deg`). A float for
+    ``one`` wrist, else an array (W,)."""
+    if one:
+        if body_rotation is None:
+            return float(body_rotation_deg(w[0], arm.arm_length, arm.hand_length, st))
+        if isinstance(body_rotation, float):
+            return body_rotation
+        return float(np.asarray(body_rotation, dtype=float).reshape(-1)[0])
+    if body_rotation is None:
+        return np.asarray(body_rotation_deg(w, arm.arm_length, arm.hand_length, st), dtype=float)
+    return np.broadcast_to(np.asarray(body_rotation, dtype=float), (len(w),)).copy()
+
+
+def _sample_angles(packed: np.ndarray, straight, wrist_ok, degenerate, step: float,
+                   gamma_prev: float, one: bool):
+    """Every swivel sample (every ``step`` degrees) of the wrists whose terms are the rows
+    of ``packed`` (:data:`TERMS`). Returns (p, angles, wrong_side):
+
+    * p (W, 9, S): the chest-frame u (3), f (3), Algorithm 1's side value (e - s)·n̂ and
+      (u × f)_x, (u × f)_z, each affine in (cos φ, sin φ), so one matrix product with the
+      swivel basis;
+    * angles (W, 4, S): α, β, γ, θ (degrees); α, β, γ are NaN at a wrist that is not
+      ``wrist_ok``, and γ is ``gamma_prev`` with a ``straight`` elbow (it shows no twist);
+    * wrong_side (W, S): the elbow off Algorithm 1's side (never where the plane is
+      ``degenerate``).
+
+    (α, β) = θ (u_x, u_y) / |(u_x, u_y)| with θ = atan2(|u_xy|, -u_z). The twist
+    γ = atan2(-f·t, f·r) (the module docstring) with both terms multiplied by 1 - u_z > 0
+    and u·f = cos ε: atan2(u_x (cos ε - f_z) - (1 - u_z) f_x, u_x (u × f)_z + (1 - u_z)
+    (u × f)_x), with no bend direction built."""
+    n_w = len(packed)
+    basis = swivel_basis(step)                                           # (3, S)
+    n_s = basis.shape[1]
+    p = packed[:, _AT_ROWS].reshape(n_w, 9, 3) @ basis
     ux, uy, uz, fx, fy, fz, side, cross_x, cross_z = p.transpose(1, 0, 2)
     angles = np.empty((n_w, 4, n_s))
     theta, gamma = angles[:, 3], angles[:, 2]                            # views, (W, S)
-
-    # Shoulder angles (α, β) = θ·(u_x, u_y)/|(u_x, u_y)|, θ = acos(-u_z).
     h = np.hypot(ux, uy)
     np.degrees(np.arctan2(h, -uz), out=theta)
     np.multiply(p[:, 0:2], (theta / np.maximum(h, 1e-12))[:, None], out=angles[:, 0:2])
-
-    # Twist γ = atan2(-f·t, f·r) (see the docstring), both terms times 1 - u_z > 0:
-    # -f·t (1 - u_z) = u_x (cos ε - f_z) - (1 - u_z) f_x (with u·f = cos ε) and
-    # f·r (1 - u_z) = u_x (u × f)_z + (1 - u_z) (u × f)_x.
-    # A straight elbow shows no twist: keep the previous one.
     down = 1.0 - uz
-    cos_eps = eps[:, 0:1]
+    cos_eps = packed[:, _AT_EPS][:, 0:1]
     np.degrees(np.arctan2(ux * (cos_eps - fz) - down * fx, ux * cross_z + down * cross_x),
                out=gamma)
-    # Algorithm 1: side = (e - s)·n̂, affine in (cos φ, sin φ) like e.
-    if m is SCALAR:
+    if one:
         if straight:
             gamma[:] = gamma_prev
         if not wrist_ok:
@@ -351,82 +377,88 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         if not wrist_ok.all():
             angles[~wrist_ok, :3] = np.nan
         wrong_side = ~((side > 0) | degenerate[:, None])
-    alpha, beta = angles[:, 0], angles[:, 1]
+    return p, angles, wrong_side
 
-    prev_angles = (0.0, 0.0, 0.0) if previous is None else (
-        previous.alpha, previous.beta, previous.gamma)
-    if m is SCALAR:
-        body_, flex_, ok_ = packed[:, at_body], packed[:, at_flex], wrist_ok
-        bounds = valid_bounds(limits, previous, body, flex, max_change) if smooth_bound \
-            else limits
-        if bounds is None:                       # the body or the elbow moves too far
-            valid = np.zeros((1, n_s), dtype=bool)
-        else:
-            valid = np.logical_and.reduce((angles >= bounds[0]) & (angles <= bounds[1]), 1)
-            if len(bounds) == 3:                 # a twist window that wraps round ±180°
-                valid &= smooth_angles(previous, body, angles, flex, max_change, m)
-            if require:
-                valid &= ~wrong_side
-        ks = valid[0].nonzero()[0]
-        ranked = None
-        if len(ks) <= _SCALAR_SCORING:
-            # Few candidates to rank: score them as floats (a numpy call costs ~1 µs each).
-            ks = ks.tolist()
-            f_r, second = [0] * n_s, [0.0] * n_s
-            if ks:
-                a_, b_, g_, _t = angles[0].tolist()
-                a0, b0, g0 = prev_angles
-                lh, lv = st.preferred_level_h, st.preferred_level_v
-                wa, wb, wg = st.weight_alpha, st.weight_beta, st.weight_gamma
-                score = strength.score_float
-                if st.strength_reading == "split":
-                    for k in ks:
-                        f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv,
-                                                  wa, wb, wg)
-                else:
-                    read = strength.strength_angles
-                    for k in ks:
-                        sa, sb = read(a_[k], b_[k], st.strength_reading)
-                        f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv,
-                                                  wa, wb, wg, sa, sb)
-            wrong = wrong_side[0].tolist() if st.elbow_side == "prefer" or \
-                (st.elbow_side == "require" and not require) else None
-            ranked = (st.elbow_side, _rank(ks, f_r, second, wrong))
-        else:
-            f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
-        # Solutions(...) would pass its 25 keywords through a dict (a class call hands
-        # __init__ its keywords as one); the bound __init__ takes them as a function does
-        out = Solutions.__new__(Solutions)
-        out.__init__(wrists=w, body=body_, sternum=sternum, shoulder=shoulder,
-                     elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
-                     sin_phi=sin_phi[0], angles=angles, flex=flex_, reachable=ok_,
-                     valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
-                     hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6],
-                     turn=turn, eps=eps, gamma_prev=float(gamma_prev), limits=limits,
-                     require_side=require, legal=None if smooth_bound else valid,
-                     ranked=ranked)
-        return out
 
+def _rank_one(st, angles: np.ndarray, wrong_side: np.ndarray, body: float, flex: float,
+              move: tuple):
+    """Validity and ranking of one wrist's samples (``angles`` (1, 4, S)). ``move``:
+    (previous, max_change, limits, smooth_bound, require, prev_angles) of :func:`solve`.
+    Returns (valid (1, S), f_R, second, ranked):
+
+    * valid: inside ``limits`` and, with the smoothness bound, within ``max_change`` of
+      ``previous`` (the two intersected into one interval per angle,
+      :func:`~reach_addon.core.limits.valid_bounds`), on the elbow's side if required;
+    * f_R and the second-level score of the valid samples (0 elsewhere): with at most
+      :data:`_SCALAR_SCORING` of them, lists scored on floats (:func:`_score_floats`) and
+      ``ranked`` = (``Settings.elbow_side``, their indices best first); else arrays
+      (:func:`~reach_addon.core.strength.scores`) and ``ranked`` None."""
+    previous, max_change, limits, smooth_bound, require, prev_angles = move
+    n_s = angles.shape[2]
+    bounds = valid_bounds(limits, previous, body, flex, max_change) if smooth_bound \
+        else limits
+    if bounds is None:                       # the body or the elbow moves too far
+        valid = np.zeros((1, n_s), dtype=bool)
+    else:
+        valid = np.logical_and.reduce((angles >= bounds[0]) & (angles <= bounds[1]), 1)
+        if len(bounds) == 3:                 # a twist window that wraps round ±180°
+            valid &= smooth_angles(previous, body, angles, flex, max_change, SCALAR)
+        if require:
+            valid &= ~wrong_side
+    ks = valid[0].nonzero()[0]
+    if len(ks) > _SCALAR_SCORING:
+        f_r, second = strength.scores(angles[:, 0], angles[:, 1], angles[:, 2], prev_angles, st)
+        return valid, f_r, second, None
+    ks = ks.tolist()
+    f_r, second = _score_floats(ks, angles, prev_angles, st)
+    wrong = wrong_side[0].tolist() if st.elbow_side == "prefer" or \
+        (st.elbow_side == "require" and not require) else None
+    return valid, f_r, second, (st.elbow_side, _rank(ks, f_r, second, wrong))
+
+
+def _score_floats(ks: list, angles: np.ndarray, prev_angles: tuple, st):
+    """(f_R, second-level score), lists over one wrist's S samples (``angles`` (1, 4, S)),
+    of the samples ``ks`` (0 elsewhere), scored on floats
+    (:func:`~reach_addon.core.strength.score_float`: a numpy call costs ~1 µs each)."""
+    n_s = angles.shape[2]
+    f_r, second = [0] * n_s, [0.0] * n_s
+    if not ks:
+        return f_r, second
+    a_, b_, g_, _t = angles[0].tolist()
+    a0, b0, g0 = prev_angles
+    lh, lv = st.preferred_level_h, st.preferred_level_v
+    wa, wb, wg = st.weight_alpha, st.weight_beta, st.weight_gamma
+    score = strength.score_float
+    if st.strength_reading == "split":
+        for k in ks:
+            f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv, wa, wb, wg)
+    else:
+        read = strength.strength_angles
+        for k in ks:
+            sa, sb = read(a_[k], b_[k], st.strength_reading)
+            f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv, wa, wb, wg,
+                                      sa, sb)
+    return f_r, second
+
+
+def _validate_many(st, angles: np.ndarray, wrong_side: np.ndarray, body, flex, move: tuple):
+    """Validity of many wrists' samples (``angles`` (W, 4, S); ``move`` as for
+    :func:`_rank_one`): (legal, valid, f_R, second), each (W, S). Legal: inside ``limits``,
+    on the elbow's side if required; valid: legal and, with the smoothness bound, within
+    ``max_change`` of ``previous`` (:func:`~reach_addon.core.limits.smooth_angles`); f_R
+    and the second-level score of the valid samples (0 elsewhere)."""
+    previous, max_change, limits, smooth_bound, require, prev_angles = move
     legal = np.logical_and.reduce((angles >= limits[0]) & (angles <= limits[1]), 1)
     if require:
         legal &= ~wrong_side
     valid = legal
     if smooth_bound:
-        valid = legal & smooth_angles(previous, body, angles, flex, max_change, m)
+        valid = legal & smooth_angles(previous, body, angles, flex, max_change, ARRAY)
     if valid.any():
-        f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
+        f_r, second = strength.scores(angles[:, 0], angles[:, 1], angles[:, 2], prev_angles, st)
     else:
-        f_r, second = np.zeros((n_w, n_s), dtype=np.int8), np.zeros((n_w, n_s))
-    out = Solutions.__new__(Solutions)          # (as above)
-    out.__init__(wrists=w, body=body, sternum=sternum, shoulder=shoulder,
-                 elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
-                 sin_phi=sin_phi[0], angles=angles, flex=flex, reachable=wrist_ok,
-                 valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
-                 hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6], turn=turn,
-                 eps=eps, gamma_prev=float(gamma_prev), limits=limits, require_side=require,
-                 legal=legal)
-    return out
-
+        f_r, second = np.zeros(valid.shape, dtype=np.int8), np.zeros(valid.shape)
+    return legal, valid, f_r, second
 
 
 @lru_cache(maxsize=64)
@@ -465,6 +497,8 @@ def _term_layout(**sizes) -> WristTerms:
 TERMS = _term_layout(sternum=3, shoulder=3, elbow_coef=9, fore_coef=9, rows=27, eps=2, turn=2,
                      body=0, flex=0)
 _SIN_EPS = TERMS.eps.start + 1
+_AT_STERNUM, _AT_SHOULDER, _AT_ELBOW, _AT_FORE, _AT_ROWS, _AT_EPS, _AT_TURN, _AT_BODY, _AT_FLEX, \
+    _TERMS_SIZE = TERMS
 
 
 def _wrist_terms(arm: ArmModel, wx, wy, wz, body, elbow_max: float, m):
