@@ -18,6 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from .arm import ArmConfig, Pose, frame_turn
+from .diagnosis import diagnose_target
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
@@ -306,7 +307,7 @@ class _Chase:
                             for f, p in enumerate(poses) if f >= self.lead)
             return None, f"caught '{name}' ({on_target} of {len(poses) - 1} frames on target)"
         last = self.planners[-1]
-        diagnosis = last.generator.diagnose_target(trajectory[-1])
+        diagnosis = diagnose_target(last.generator, trajectory[-1])
         fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
                             trajectory[-1])
         reason, message = last.explain_failure(name, fake, diagnosis, self.start)

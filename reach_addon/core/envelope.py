@@ -17,7 +17,7 @@ reaching shoulder's frame, and sorts every point into one of :data:`CLASSES`:
   0``) no pose is clear there. Only with ``Settings.chest_rotation``;
 * ``blocked``: within the arm's reach, but the scene (or the character's own body) leaves
   the arm or the hand no room: the target is inside an obstacle, or the arm does not fit
-  (:meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target`);
+  (:func:`~reach_addon.core.diagnosis.diagnose_target`);
 * ``out``: no legal arm pose puts the wrist there at any chest rotation of the range
   (beyond the arm, or outside the joint limits; the diagnoses ``out_of_reach``,
   ``needs_lean`` and ``needs_step``).
@@ -125,7 +125,7 @@ def classify_point(generator, point, legal: bool | None = None) -> tuple:
     knows.
 
     Without a clear pose the point is ``blocked`` or ``out`` as
-    :meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target` sorts it
+    :func:`~reach_addon.core.diagnosis.diagnose_target` sorts it
     (inside an obstacle: target_in_obstacle; no legal pose: beyond reach; else the arm or
     the hand does not fit), without working out how much room is missing."""
     point = np.asarray(point, dtype=float)

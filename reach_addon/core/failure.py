@@ -2,8 +2,8 @@
 :data:`~reach_addon.core.errors.REASONS`) and a message that says what to do.
 
 :func:`explain_failure` reads the target's diagnosis
-(:meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target`), else what holds
-an arm that never left its start (:class:`~reach_addon.core.generator.Hold`), else
+(:func:`~reach_addon.core.diagnosis.diagnose_target`), else what holds
+an arm that never left its start (:class:`~reach_addon.core.diagnosis.Hold`), else
 ``no_path``. Sizes in messages are given in centimetres and arm lengths.
 """
 
@@ -13,6 +13,7 @@ import numpy as np
 
 from .arm import ArmModel, Pose
 from .body_capsules import body_capsules_at, body_hit
+from .diagnosis import what_holds
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH, START_HELD,
                      START_IN_COLLISION, TARGET_IN_OBSTACLE)
 from .search import SearchResult, sphere_directions
@@ -21,7 +22,7 @@ from .search import SearchResult, sphere_directions
 def explain_failure(generator, name: str, result: SearchResult, diagnosis, start: Pose):
     """(reason, message) of the failed reach to target ``name`` from ``start``, planned
     with ``generator`` (its arm and settings): the ``diagnosis``'s
-    (:meth:`ConfigurationGenerator.diagnose_target`, None: reachable), else what holds an
+    (:func:`~reach_addon.core.diagnosis.diagnose_target`, None: reachable), else what holds an
     arm whose ``result`` never left the start, else ``no_path``."""
     arm, settings = generator.arm, generator.settings
     length = arm.arm_length
@@ -43,8 +44,8 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
             f"target '{name}' leaves it ({result.nodes_searched} tested positions, "
             f"{closest}); pose the arm clear of the body on the start frame, or start "
             "from a frame where it is")
-    held = generator.for_reach(start, result.target).what_holds(
-        start, sphere_directions(int(settings.directions))) \
+    held = what_holds(generator.for_reach(start, result.target), start,
+                      sphere_directions(int(settings.directions))) \
         if d is None and len(result.path) == 1 else None
     if held is not None:
         return START_HELD, held_message(settings, name, held, closest)
@@ -91,7 +92,7 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
 
 def held_message(settings, name: str, held, closest: str) -> str:
     """The message of a reach whose arm cannot move from its start pose (``held``, a
-    :class:`~reach_addon.core.generator.Hold`): what holds it and what to do."""
+    :class:`~reach_addon.core.diagnosis.Hold`): what holds it and what to do."""
     share = f"{held.steps} of the {held.tried} steps the search tries from it"
     st = settings
     if held.kind == "obstacle":

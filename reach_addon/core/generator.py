@@ -13,63 +13,21 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from . import ik, keys
 from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, hand_coefficients,
                   pose_from_config)
-from .body_capsules import body_capsules_at, body_hit, segment_hits_body, self_collision
+from .body_capsules import body_capsules_at, segment_hits_body, self_collision
 from .collision import (CollisionChecker, Obstacles, fan_segment_distances,
                         point_segment_distance)
-from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
-                     TARGET_IN_OBSTACLE)
 from .limits import smooth
-from .numeric import cross
 from .strength import strength_category
 from .torso import ChestPath, body_rotation_deg
 
-#: How far the body's up axis, read from the bones, may be off the true vertical (degrees;
-#: the Quaternius test rig's, hips to chest, leans 6.8° at rest): a target is reported too
-#: high or too low only where no tilt this large could make it a step away instead
-#: (:meth:`ConfigurationGenerator._beyond_reach`).
-UP_TILT_DEG = 15.0
-
-
-@dataclass(frozen=True)
-class Diagnosis:
-    """Why a target cannot be reached (:meth:`ConfigurationGenerator.diagnose_target`):
-    ``reason`` (one of :data:`~reach_addon.core.errors.REASONS`), the ``obstacle`` and the
-    ``part`` of the arm in the way, the clearance or distance ``missing`` (figure units),
-    the target's ``distance`` from the shoulder and the trunk lean that would reach it."""
-
-    reason: str
-    obstacle: str | None = None
-    part: str | None = None
-    missing: float = 0.0
-    distance: float = 0.0
-    lean_deg: float = 0.0
-    above: bool = False
-
-
 #: Degrees between the chest rotations :meth:`ConfigurationGenerator.target_chest` tries.
 CHEST_FIT_STEP = 5.0
-
-
-@dataclass(frozen=True)
-class Hold:
-    """What holds an arm that cannot move from its start pose
-    (:meth:`ConfigurationGenerator.what_holds`): ``kind`` is "obstacle", "body", "hand"
-    (the arm is clear but its hand cannot turn to a clear direction without touching),
-    "limits", "smoothness" or "reach"; ``what`` the obstacle or body capsule, ``part`` the
-    arm's part it holds; ``steps`` of the ``tried`` steps from the start it refuses."""
-
-    kind: str
-    what: str
-    part: str
-    steps: int
-    tried: int
 
 
 class ConfigurationGenerator:
@@ -233,7 +191,7 @@ class ConfigurationGenerator:
         return [r0[0] * x + r0[1] * y + r0[2] * z + o0, r1[0] * x + r1[1] * y + r1[2] * z + o1,
                 r2[0] * x + r2[1] * y + r2[2] * z + o2]
 
-    def _capsules(self, body: float):
+    def capsules_at(self, body: float):
         """The body's capsules at a chest rotation (:func:`body_capsules_at`), cached
         for the last few rotations (most positions of a reach share one)."""
         caps = self._capsule_cache.get(body)
@@ -300,7 +258,7 @@ class ConfigurationGenerator:
             d_t = checker.distance(t_w, checker.bound_sternum)
             if not checker.segment_clear(t_w, s_w, d_t, d_s, r_c, l_c):
                 return None
-        caps = self._capsules(float(sol.body[0]))
+        caps = self.capsules_at(float(sol.body[0]))
         caps_upper = caps_fore = caps_hand = caps
         if caps:
             # Body capsules a segment cannot reach from this wrist (every forearm point is
@@ -473,7 +431,7 @@ class ConfigurationGenerator:
         w_c = np.asarray(joints[3], dtype=float)
         reach = arm.hand_length + arm.hand_radius
         wl = w_c.tolist()
-        caps = [c for c in self._capsules(float(body_rotation))     # (a, b, centre, half, r)
+        caps = [c for c in self.capsules_at(float(body_rotation))     # (a, b, centre, half, r)
                 if point_segment_distance(wl, c[0], c[1]) - c[4] < reach]
         if caps and len(tips) > 2:
             # many directions (the hand pass's grid): every hand against every capsule
@@ -548,188 +506,6 @@ class ConfigurationGenerator:
 
     def pose_collides(self, pose: Pose) -> bool:
         return self.checker.collides(self.arm.to_world_points(pose.joints))
-
-    def what_holds(self, start: Pose, directions) -> Hold | None:
-        """Why the arm cannot move from ``start`` at all, or None if it can: some step of
-        the search from it (one ``Settings.step`` along each of ``directions``, unit rows,
-        canonical) has a legal, smooth pose clear with some hand.
-
-        Each step is put down to the first thing that refuses it, in the order the
-        generator tests them: the arm's reach (the wrist beyond it), the joint limits (no
-        legal pose there), the smoothness bound (legal poses, but none within a step's
-        change of the start's angles: the elbow or chest would jump), the body (a part
-        inside one of its capsules) or an obstacle (which one, at which part). The
-        :class:`Hold` names the most frequent one and how many of the steps it refuses."""
-        causes = []
-        for d in np.asarray(directions, dtype=float):
-            wrist = start.wrist + self.step_length * d
-            if self.solve(wrist, start) is not None:    # with any clear hand
-                return None
-            causes.append(self._refusal(start, wrist))
-        counts: dict = {}
-        for c in causes:
-            counts[c] = counts.get(c, 0) + 1
-        kind, what, part = max(counts, key=lambda c: (counts[c], c != ("limits", "", "")))
-        return Hold(kind, what, part, counts[(kind, what, part)], len(causes))
-
-    def _refusal(self, start: Pose, wrist) -> tuple:
-        """(kind, what, part) of the first test that refuses every pose at ``wrist`` for a
-        step from ``start`` (:meth:`what_holds`)."""
-        arm, st = self.arm, self.settings
-        body = self.chest(wrist) if self.chest is not None else None
-        sol = ik.solve(arm, wrist[None], st, start.config, body,
-                       self.max_change(start, wrist))
-        if not sol.reachable[0]:
-            return ("reach", "", "")
-        if not sol.valid[0].any():
-            free = ik.solve(arm, wrist[None], st, body_rotation=body)
-            legal = ik.solve(arm, wrist[None], st, start.config, body, 360.0)
-            return ("smoothness", "", "") if legal.valid[0].any() or free.legal[0].any() \
-                else ("limits", "", "")
-        caps = self._capsules(float(sol.body[0]))
-        first = None
-        for k in sol.ranked(0, st.elbow_side)[: st.max_pose_tries]:
-            joints = sol.joints(0, k)[0]
-            for hand in (False, True):
-                hit = body_hit(arm, joints.tolist(), caps, include_hand=hand) if caps else None
-                if hit is not None:
-                    first = first or ("body", arm.body_capsules[hit[1]].name, hit[0])
-                    break
-                hit = self.checker.first_hit(arm.to_world_points(joints), include_hand=hand)
-                if hit is not None:
-                    first = first or ("obstacle", hit[1], hit[0])
-                    break
-            else:
-                # the arm and its straight hand are clear: the hand's turn from the start's
-                # is what no clear direction allows (it touches on the way)
-                first = first or ("hand", "", "hand")
-        return first or ("limits", "", "")
-
-    def diagnose_target(self, wrist) -> Diagnosis | None:
-        """Why a wrist position can never be reached, or None if some legal pose there is
-        clear, hand included. A :class:`Diagnosis`:
-
-        * ``TARGET_IN_OBSTACLE``: the target is inside a closed obstacle (or every legal
-          pose there passes through the character's own body);
-        * ``ARM_DOES_NOT_FIT``: the target is in free space but no legal pose there keeps
-          the arm (or, with the arm clear, the hand at any wrist angle) clear; ``missing``
-          is the clearance the best pose lacks (figure units, margin included), ``part`` the
-          segment and ``obstacle`` what it touches;
-        * ``NEEDS_LEAN`` / ``NEEDS_STEP`` / ``OUT_OF_REACH``: no legal arm pose puts the
-          wrist there (:meth:`_beyond_reach`).
-
-        Every chest rotation of the range counts (:meth:`chest_candidates`), not Table 1's
-        alone: a target a turned trunk reaches is reachable (:meth:`target_chest`); the
-        reason given is read at the rotation nearest Table 1's that has legal poses, and
-        beyond reach from the turn that brings the shoulder nearest the target."""
-        wrist = np.asarray(wrist, dtype=float)
-        arm, checker = self.arm, self.checker
-        world = arm.to_world_points(wrist)
-        if self.obstacles.point_inside(world):
-            return Diagnosis(TARGET_IN_OBSTACLE, obstacle=self.obstacles.enclosing_owner(world))
-        if self.target_chest(wrist) is not None:
-            return None
-        nearest = None           # the chest rotation whose shoulder is nearest the target
-        for chest in self.chest_candidates(wrist):
-            sol = ik.solve(arm, wrist[None], self.settings, body_rotation=chest)
-            if sol.legal[0].any():
-                break
-            if nearest is None or np.linalg.norm(wrist - sol.shoulder[0]) < \
-                    np.linalg.norm(wrist - nearest.shoulder[0]):
-                nearest = sol
-        else:
-            return self._beyond_reach(wrist, nearest)
-        legal = np.flatnonzero(sol.legal[0])
-        body = float(sol.body[0])
-        joints = sol.joints(0, legal)
-        clear_of_body = ~self_collision(arm, body, joints, include_hand=False)
-        if not clear_of_body.any():
-            return Diagnosis(TARGET_IN_OBSTACLE, obstacle="the character's own body")
-        horizon = 0.5 * arm.arm_length
-        best = (-math.inf, "arm", "an obstacle")
-        hands = self.fine_hand_coefficients()
-        for n in np.flatnonzero(clear_of_body):
-            j = joints[n]
-            hit = checker.first_hit(arm.to_world_points(j), include_hand=False)
-            if hit is not None:
-                arm_only = np.vstack([j[:4], j[3:4]])
-                c = checker.clearance(arm.to_world_points(arm_only), horizon)
-                if c > best[0]:
-                    best = (c, hit[0], hit[1])
-                continue
-            if not self._check_hand:
-                return None
-            bend = sol.bend_at(0, int(legal[n]))
-            if self.hands_clear(j, bend, body, hands).any():
-                return None
-            axes = self.hand_axes(j, bend)
-            for coefficients in hands:
-                full = j.copy()
-                full[4] = j[3] + arm.hand_length * (np.asarray(coefficients) @ axes)
-                w = arm.to_world_points(full)
-                c = checker.clearance(w, horizon)
-                if c > best[0]:
-                    hit = checker.first_hit(w)
-                    best = (c, "hand", hit[1] if hit else "the character's own body")
-        clearance, part, obstacle = best
-        missing = checker.margin - clearance if math.isfinite(clearance) else math.nan
-        return Diagnosis(ARM_DOES_NOT_FIT, obstacle=obstacle, part=part, missing=missing)
-
-    def fine_hand_coefficients(self) -> list:
-        """Hand directions (their coefficients) for asking whether any wrist angle fits: the
-        search's samples, then bends about every two ``hand_grid_step`` and sides every
-        third of the side range, both ends included."""
-        s = self.settings
-        nb = max(1, int(math.ceil(2 * s.wrist_bend_max / (2 * s.hand_grid_step))))
-        bends = np.linspace(-s.wrist_bend_max, s.wrist_bend_max, nb + 1)
-        sides = np.linspace(-s.wrist_side_max, s.wrist_side_max, 7)
-        fine = [hand_coefficients(float(b), float(d)) for b in bends for d in sides]
-        return [self._hand_coefficients[h] for h in self.hand_samples] + fine
-
-    def _beyond_reach(self, wrist, sol) -> Diagnosis:
-        """No legal arm pose puts the wrist at ``wrist``. Beyond the straight arm's reach
-        from the shoulder: ``NEEDS_LEAN`` if leaning the trunk toward it (about the waist,
-        at most ``Settings.lean_max``) brings it within reach; else ``OUT_OF_REACH`` (too
-        high or too low: ``above`` says which, ``missing`` by how much) only where that is
-        certain, else ``NEEDS_STEP`` with ``missing`` the target's distance beyond the
-        arm's reach: the least the shoulder must move toward it. Within the straight arm's
-        reach (too close, or behind the back): ``OUT_OF_REACH`` by the joint limits.
-
-        Certain: the body's up axis is read from the bones and may lean off the true
-        vertical by up to :data:`UP_TILT_DEG` (a spine bent in the rest pose), and a tilt
-        ε moves a target at distance d up or down by up to d·sin ε, more than an arm
-        length for a target a few metres away. So a target is too high or too low only
-        if it stays more than the arm's reach above (below) the shoulder whichever up
-        axis within that tilt is the true one; a far target is a step away, by its
-        distance."""
-        arm = self.arm
-        shoulder = sol.shoulder[0]
-        distance = float(np.linalg.norm(wrist - shoulder))
-        reach = arm.arm_length
-        if distance <= reach:
-            return Diagnosis(OUT_OF_REACH, distance=distance, missing=0.0)
-        waist = np.asarray(arm.waist, dtype=float)
-        toward = np.array([wrist[0] - waist[0], wrist[1] - waist[1], 0.0])
-        if np.linalg.norm(toward) < 1e-9:
-            toward = np.array([0.0, 1.0, 0.0])
-        toward /= np.linalg.norm(toward)
-        axis = cross([0.0, 0.0, 1.0], toward)
-        v = shoulder - waist
-        for lean in np.arange(1.0, self.settings.lean_max + 0.5, 1.0):
-            t = math.radians(lean)
-            moved = waist + v * math.cos(t) + cross(axis, v) * math.sin(t) + \
-                axis * float(axis @ v) * (1.0 - math.cos(t))
-            if np.linalg.norm(wrist - moved) <= reach:
-                return Diagnosis(NEEDS_LEAN, distance=distance, missing=distance - reach,
-                                 lean_deg=float(lean))
-        height = float(wrist[2] - shoulder[2])
-        horizontal = float(np.hypot(wrist[0] - shoulder[0], wrist[1] - shoulder[1]))
-        elevation = math.atan2(abs(height), horizontal)
-        surely = distance * math.sin(max(0.0, elevation - math.radians(UP_TILT_DEG)))
-        if surely >= reach:
-            return Diagnosis(OUT_OF_REACH, distance=distance, missing=abs(height) - reach,
-                             above=height > 0)
-        return Diagnosis(NEEDS_STEP, distance=distance, missing=distance - reach)
 
     def start_problem(self, pose: Pose):
         """None if a start pose is usable, else (segment, obstacle) of its first contact or

@@ -24,6 +24,7 @@ from .arm import ArmModel, Pose
 from .chase import chase_steps
 from .collision import Obstacles
 from .contact import depth_message, escape, start_clearance
+from .diagnosis import diagnose_target
 from .errors import NO_PATH, START_HELD, START_IN_COLLISION, require_finite
 from .failure import explain_failure
 from .generator import ConfigurationGenerator
@@ -119,7 +120,7 @@ class Planner:
         blocked); then, if that fails, the other route (``Settings.guided_fallback``), the
         hand left free with what is left of the node budget, and the sampling planner
         (``Settings.sampling_fallback``). A target diagnosed unreachable
-        (:meth:`ConfigurationGenerator.diagnose_target`) gets only the searches, each on a
+        (:func:`~reach_addon.core.diagnosis.diagnose_target`) gets only the searches, each on a
         shorter leash (``stall_budget / 4``). A generator: yields the nodes searched every
         ``chunk`` nodes (and between slices of the grid) and returns a :class:`Route`. The
         count yielded is the route's so far, every search of it together: it never falls.
@@ -131,7 +132,7 @@ class Planner:
         run = _Searches(self, start, target_c, chunk, keep)
         blocked = not guided and s.guide_when_blocked and not self.line_clear(start.wrist, target_c)
         if blocked and diagnosis is UNDIAGNOSED:
-            diagnosis = gen.diagnose_target(target_c)
+            diagnosis = diagnose_target(gen, target_c)
         if blocked and diagnosis is None:
             guided = True           # the paper's guiding nodes lead round what is in the way
         if guided:
@@ -175,7 +176,7 @@ class Planner:
         except StopIteration as done:
             result = done.value
         else:
-            diagnosis = gen.diagnose_target(run.target_c)
+            diagnosis = diagnose_target(gen, run.target_c)
             if diagnosis is not None:
                 steps.close()
                 limits = leash
@@ -183,7 +184,7 @@ class Planner:
             yield nodes
             result = yield from steps
         if not result.success:
-            diagnosis = gen.diagnose_target(run.target_c)
+            diagnosis = diagnose_target(gen, run.target_c)
         return result, diagnosis, limits
 
     # --- tasks -------------------------------------------------------------------------
@@ -300,7 +301,7 @@ class Planner:
         target = arm.to_canonical_points(target_w)
         stats = Stats()
         had_workspace = self.has_workspace
-        diagnosis = gen.diagnose_target(target)
+        diagnosis = diagnose_target(gen, target)
 
         route = yield from self.route_steps(start, target, guided, chunk, diagnosis)
         result, sampled = route.result, route.sampled
