@@ -204,31 +204,27 @@ class ConfigurationGenerator:
 
     def solve(self, wrist, previous: Pose | None = None, body_rotation=None,
               hand_scale: float | None = None, toward=None) -> Pose | None:
-        """The strongest legal, collision-free pose with the wrist at ``wrist`` that is
-        within the smoothness bound of ``previous`` (if given); None if there is none.
-        After a None, :attr:`hand_blocked` says whether some arm pose there was clear and
-        only the hand found no way (another hand might get there).
+        """The strongest legal, collision-free pose with the wrist at ``wrist`` (canonical)
+        that is within the smoothness bound of ``previous`` (if given); None if there is
+        none. After a None, :attr:`hand_blocked` says whether some arm pose there was clear
+        and only the hand found no way (another hand might get there). ``body_rotation``
+        (degrees) overrides the chest's (:attr:`chest`, else Table 1).
 
         ``hand_scale``: if given, the hand is kept continuous with ``previous``: it may turn
         by at most ``Settings.hand_step_turn`` × ``hand_scale``, and only through clear
-        directions (:meth:`_place_hand`). The search leaves it out (bounding the hand there
-        traps the search in narrow gaps); the smoothing, the timing and the hand pass,
-        which turn the search's path into frames, ask for it.
+        directions (:meth:`_place_hand`), leading toward the sample ``toward`` if given
+        (:meth:`hand_order`). Without it any clear hand will do.
 
-        Candidates are tried in strength order: the arm (clavicle, upper arm, forearm)
-        against the obstacles and the body, then the hand at each wrist angle, the previous
-        one first, until one is clear.
-
-        Obstacle distances are measured once per joint and shared (see
-        :class:`~reach_addon.core.collision.CollisionChecker`): the wrist first, before
-        any IK, so a position whose wrist is already within the forearm's radius of an
-        obstacle is given up for one query; the shoulder and sternum once per position
-        (they do not depend on the swivel angle); the elbow and the hand's end only for
-        the candidates tried, and only when the bounds at the other joints do not settle
-        the segment already (in open space nothing but the wrist and the shoulder is ever
-        measured)."""
+        The candidates of :func:`~reach_addon.core.ik.solve` are tried in strength order
+        (at most ``Settings.max_pose_tries``): the arm (clavicle, upper arm, forearm)
+        against the obstacles and the body, then the hand at each wrist angle, then the
+        swing from ``previous`` (:meth:`_swing_clear`). Obstacle distances are measured
+        once per joint and shared (:class:`~reach_addon.core.collision.CollisionChecker`):
+        the wrist first, before any IK; the shoulder and sternum once per position; the
+        elbow and the hand's end only where the bounds at the other joints leave a segment
+        unsettled."""
         wrist = np.asarray(wrist, dtype=float)
-        arm, settings, checker = self.arm, self.settings, self.checker
+        checker, st = self.checker, self.settings
         self.hand_blocked = False
         w_c = wrist.tolist()
         w_w = self._world(w_c)
@@ -238,18 +234,56 @@ class ConfigurationGenerator:
         if body_rotation is None and self.chest is not None:
             body_rotation = self.chest(wrist)
         max_change = None if previous is None else self.max_change(previous, wrist)
-        sol = ik.solve(arm, wrist[None], settings,
-                       None if previous is None else previous.config, body_rotation, max_change)
-        order = sol.ranked(0, settings.elbow_side)[: settings.max_pose_tries]
+        sol = ik.solve(self.arm, wrist[None], st, None if previous is None else previous.config,
+                       body_rotation, max_change)
+        order = sol.ranked(0, st.elbow_side)[: st.max_pose_tries]
         if not order:
             return None
+        at = self._position(sol, w_c, w_w, d_w)
+        if at is None:
+            return None                          # the shoulder or the clavicle touches
+        hands = None
+        for k in order:
+            e_c = self._clear_elbow(at, k)
+            if e_c is None:
+                continue
+            bend = sol.bend_at(0, k).tolist()
+            if not self._check_hand:
+                lh, l2 = self.arm.hand_length, self.arm.forearm_length
+                tip = [w_c[i] + lh * (w_c[i] - e_c[i]) / l2 for i in range(3)]
+                hand = (0.0, 0.0)
+            else:
+                if hands is None:
+                    hands = self.hand_order((0.0, 0.0), 180.0) \
+                        if previous is None or hand_scale is None else \
+                        self.hand_order(previous.hand, hand_scale, toward)
+                tip, hand = self._place_hand(at[3], e_c, w_c, w_w, d_w, bend, at[-1], hands,
+                                             None if hand_scale is None else previous)
+                if tip is None:
+                    self.hand_blocked = True
+                    continue
+            config = sol.config(0, k)
+            if previous is not None and not self._swing_clear(previous, config, e_c):
+                continue
+            joints = np.array(at[4] + at[3] + e_c + w_c + tip).reshape(5, 3)
+            return Pose(config, joints, np.array(bend), sol.category(0, k), hand)
+        return None
 
-        # Per position: the clavicle (the same for every candidate).
+    def _position(self, sol, w_c, w_w, d_w):
+        """What every candidate of :meth:`solve` at one wrist position shares, or None where
+        the shoulder or the clavicle (the same for every candidate) touches an obstacle. A
+        tuple: the wrist (canonical, world, its obstacle distance), the shoulder and sternum
+        (canonical), the shoulder (world, its distance), a lower bound on every elbow's
+        distance (Lipschitz: the shoulder's less L1, the wrist's less L2), whether that bound
+        already clears both segments of every elbow, the elbow's circle (its coefficients
+        and the swivel samples' cos φ and sin φ), and the body capsules near enough to touch
+        the upper arm, the forearm and the hand (:meth:`_near_capsules`). Float lists."""
+        arm, checker = self.arm, self.checker
         l1, l2 = arm.upper_arm_length, arm.forearm_length
         s_c, t_c = sol.shoulder[0].tolist(), sol.sternum[0].tolist()
         s_w = self._world(s_c)
         d_s = checker.distance(s_w, checker.bound_shoulder)
-        (r_c, l_c), (r_u, l_u), (r_f, l_f) = self._sizes     # clavicle, upper arm, forearm
+        (r_c, l_c), (r_u, _l_u), (r_f, _l_f) = self._sizes   # clavicle, upper arm, forearm
         if d_s < r_u:
             return None                          # the shoulder itself is against an obstacle
         d_t = d_s - l_c                          # Lipschitz bound at the sternum
@@ -259,60 +293,55 @@ class ConfigurationGenerator:
             if not checker.segment_clear(t_w, s_w, d_t, d_s, r_c, l_c):
                 return None
         caps = self.capsules_at(float(sol.body[0]))
-        caps_upper = caps_fore = caps_hand = caps
-        if caps:
-            # Body capsules a segment cannot reach from this wrist (every forearm point is
-            # within L2 of it, every hand point within the hand's length, every point of
-            # the upper arm's elbow half within L2 + L1/2) are left out of its tests.
-            far = [point_segment_distance(w_c, a, b) - r for a, b, _c, _h, r in caps]
-            reach_u = l2 + 0.5 * l1 + arm.upper_arm_radius
-            reach_f, reach_h = l2 + arm.forearm_radius, arm.hand_length + arm.hand_radius
-            caps_upper = [c for c, d in zip(caps, far) if d < reach_u]
-            caps_fore = [c for c, d in zip(caps, far) if d < reach_f]
-            caps_hand = [c for c, d in zip(caps, far) if d < reach_h]
-        (c0, c1, c2), (e1x, e1y, e1z), (e2x, e2y, e2z) = sol.elbow_coef[0].tolist()
-        cos_phi, sin_phi = ik.swivel_lists(float(settings.swivel_step))
+        near = self._near_capsules(caps, w_c)
+        circle = (sol.elbow_coef[0].tolist(), ik.swivel_lists(float(self.settings.swivel_step)))
         d_e0 = max(d_s - l1, d_w - l2)           # Lipschitz bound at every elbow
         elbows_clear = (d_e0 >= r_u and d_e0 >= r_f and d_s + d_e0 - l1 >= 2.0 * r_u
                         and d_e0 + d_w - l2 >= 2.0 * r_f)
-        hands = None
-        for k in order:
-            cp, sp = cos_phi[k], sin_phi[k]
-            e_c = [c0 + cp * e1x + sp * e2x, c1 + cp * e1y + sp * e2y, c2 + cp * e1z + sp * e2z]
-            # the arm against the obstacles: the elbow is measured only if needed
-            if not elbows_clear:
-                e_w = self._world(e_c)
-                d_e = max(d_e0, checker.distance(e_w, checker.bound_elbow))
-                if not checker.segment_clear(s_w, e_w, d_s, d_e, r_u, l_u) or \
-                        not checker.segment_clear(e_w, w_w, d_e, d_w, r_f, l_f):
-                    continue
-            # ... and against the body (the elbow half of the upper arm, the forearm)
-            if caps_upper:
-                mid = [0.5 * (s_c[0] + e_c[0]), 0.5 * (s_c[1] + e_c[1]), 0.5 * (s_c[2] + e_c[2])]
-                if segment_hits_body(mid, e_c, arm.upper_arm_radius, caps_upper):
-                    continue
-            if caps_fore and segment_hits_body(e_c, w_c, arm.forearm_radius, caps_fore):
-                continue
-            bend = sol.bend_at(0, k).tolist()
-            if not self._check_hand:
-                tip = [w_c[i] + arm.hand_length * (w_c[i] - e_c[i]) / l2 for i in range(3)]
-                hand = (0.0, 0.0)
-            else:
-                if hands is None:
-                    hands = self.hand_order((0.0, 0.0), 180.0) \
-                        if previous is None or hand_scale is None else \
-                        self.hand_order(previous.hand, hand_scale, toward)
-                tip, hand = self._place_hand(s_c, e_c, w_c, w_w, d_w, bend, caps_hand, hands,
-                                             None if hand_scale is None else previous)
-                if tip is None:
-                    self.hand_blocked = True
-                    continue
-            config = sol.config(0, k)
-            if previous is not None and not self._swing_clear(previous, config, e_c):
-                continue
-            joints = np.array(t_c + s_c + e_c + w_c + tip).reshape(5, 3)
-            return Pose(config, joints, np.array(bend), sol.category(0, k), hand)
-        return None
+        return (w_c, w_w, d_w, s_c, t_c, s_w, d_s, d_e0, elbows_clear, circle) + near
+
+    def _near_capsules(self, caps: list, w_c) -> tuple:
+        """The body ``caps`` (:meth:`capsules_at`) that the upper arm's elbow half, the
+        forearm and the hand can reach from the wrist ``w_c`` (every forearm point is within
+        L2 of it, every hand point within the hand's length, every point of the upper arm's
+        elbow half within L2 + L1/2): three lists, the others left out of those tests."""
+        if not caps:
+            return caps, caps, caps
+        arm = self.arm
+        l1, l2 = arm.upper_arm_length, arm.forearm_length
+        far = [point_segment_distance(w_c, a, b) - r for a, b, _c, _h, r in caps]
+        reach_u = l2 + 0.5 * l1 + arm.upper_arm_radius
+        reach_f, reach_h = l2 + arm.forearm_radius, arm.hand_length + arm.hand_radius
+        return ([c for c, d in zip(caps, far) if d < reach_u],
+                [c for c, d in zip(caps, far) if d < reach_f],
+                [c for c, d in zip(caps, far) if d < reach_h])
+
+    def _clear_elbow(self, at: tuple, k: int):
+        """The elbow (canonical float list) of candidate ``k`` at the position ``at``
+        (:meth:`_position`) if its upper arm and forearm are clear of the obstacles and of
+        the body, else None. The elbow's obstacle distance is measured only where the
+        position's bound does not settle it."""
+        w_c, w_w, d_w, s_c, _t_c, s_w, d_s, d_e0, elbows_clear, circle, caps_upper, \
+            caps_fore, _caps_hand = at
+        ((c0, c1, c2), (e1x, e1y, e1z), (e2x, e2y, e2z)), (cos_phi, sin_phi) = circle
+        cp, sp = cos_phi[k], sin_phi[k]
+        e_c = [c0 + cp * e1x + sp * e2x, c1 + cp * e1y + sp * e2y, c2 + cp * e1z + sp * e2z]
+        if not elbows_clear:
+            checker = self.checker
+            (_r_c, _l_c), (r_u, l_u), (r_f, l_f) = self._sizes
+            e_w = self._world(e_c)
+            d_e = max(d_e0, checker.distance(e_w, checker.bound_elbow))
+            if not checker.segment_clear(s_w, e_w, d_s, d_e, r_u, l_u) or \
+                    not checker.segment_clear(e_w, w_w, d_e, d_w, r_f, l_f):
+                return None
+        arm = self.arm
+        if caps_upper:
+            mid = [0.5 * (s_c[0] + e_c[0]), 0.5 * (s_c[1] + e_c[1]), 0.5 * (s_c[2] + e_c[2])]
+            if segment_hits_body(mid, e_c, arm.upper_arm_radius, caps_upper):
+                return None
+        if caps_fore and segment_hits_body(e_c, w_c, arm.forearm_radius, caps_fore):
+            return None
+        return e_c
 
     def _swing_clear(self, previous: Pose, config: ArmConfig, elbow) -> bool:
         """Is the arm clear halfway between ``previous`` and a candidate (their angles
