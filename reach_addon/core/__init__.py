@@ -5,6 +5,7 @@ collisions, a ``mathutils.bvhtree.BVHTree`` handed in by the caller (``mathutils
 of Blender; with the bpy wheel it becomes importable once ``bpy`` has been imported).
 
 Entry point: :func:`plan` (or a :class:`Planner`, which keeps the workspace between plans).
+Why each module is built as it is: ``docs/design/core.md``.
 """
 
 from .arm import ArmConfig, ArmModel, Capsule, Pose, config_from_joints, forward_kinematics

@@ -327,7 +327,7 @@ def escape_frames(way_out, steps_per_frame: int, frames: int, turn: float = math
     from each frame's pose, the farthest pose of the escape at most ``steps_per_frame``
     steps on to which the hand turns (roll included) no more than ``turn`` degrees, at
     least the next one (its last included), at most ``frames`` - 1 of them; none without
-    one. (Taking every ``steps_per_frame``-th pose turned the hand 24° in a frame.)"""
+    one."""
     if way_out is None:
         return []
     poses = way_out.poses

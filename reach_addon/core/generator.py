@@ -42,10 +42,8 @@ class ConfigurationGenerator:
         b, side = settings.wrist_bend_max, settings.wrist_side_max
         # Hand directions tried at each pose: the wrist's range as a 5 × 3 grid, bent 0,
         # half and fully either way in the elbow's plane, each straight or fully sideways
-        # (duplicates dropped when a limit is 0). The paper's "further search for a point
-        # on a sphere": with the bends alone (no corners) a hand pointing at an obstacle
-        # close in front of the wrist often had no way out, and the search wandered beside
-        # the obstacle until the arm's own posture had drifted round.
+        # (duplicates dropped when a limit is 0): the paper's "further search for a point
+        # on a sphere" (docs/design/core.md, generator.py)
         samples = [(k * b, j * side) for k in (0.0, 0.5, -0.5, 1.0, -1.0)
                    for j in (0.0, 1.0, -1.0)]
         self.hand_samples = list(dict.fromkeys(samples))

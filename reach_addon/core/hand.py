@@ -1,78 +1,18 @@
-"""The hand: continuous, relaxed, and clear at every instant of the baked motion.
+"""The hand: the wrist's two angles at every frame of a motion, continuous, relaxed and clear
+at every instant (:func:`plan_hand`, :class:`HandPass`).
 
-The paper leaves the hand free ("the position of the palm center is just a further search
-for a point on a sphere"). Placed pose by pose it flipped from bent down to bent up between
-two keys and swept through what it had turned away from. Reach makes it continuous in two
-places:
-
-1. **In the search** (:mod:`~reach_addon.core.search`, :mod:`~reach_addon.core.generator`):
-   the hand is part of the state. A step may turn it by at most
-   ``Settings.hand_step_turn``, its old direction must still be clear at the new pose and
-   so must every direction it turns through; a hand that must turn *before* the arm can
-   move turns in place (a move of its own). Positions are visited per hand. So the
-   searched path never carries the hand into a pocket of clear directions that closes
-   round it (an obstacle's edge passing over the hand as the wrist goes by), which no
-   timing can undo. Where this finds no way (or a worse closest approach), the search is
-   run once more with the hand free, and this pass reports what it cannot mend.
-2. **Over the frames** (this module): after the timing
-   (:func:`~reach_addon.core.motion.time_path`, frames sampled along the validated path),
-   the wrist's two angles (bend in the elbow's plane, side bend across it,
-   :func:`~reach_addon.core.arm.hand_direction`) are chosen again by dynamic programming
-   over frames × a grid of wrist angles:
-
-   * **States.** The grid spans the wrist's range (``Settings.wrist_bend_max``,
-     ``wrist_side_max``) every ``Settings.hand_grid_step`` degrees of bend (side bends 2.5
-     times wider); it holds the search's hand samples. The start state is the rig's own
-     hand (anywhere, even outside the range), joined to the grid by a chain of states.
-     One more state per frame is the frame's *own* hand, the one the validated path
-     carries there (:class:`~reach_addon.core.motion.PathSampler`): continuous along the
-     path and clear by construction, so that slowing down along the path always has a
-     bounded, clear sequence to offer. A frame sampled between two of the path's poses
-     may bring it within the margin (the arm's angles interpolated); there it counts as
-     clear if it keeps half the margin (as between keys), at a cost above any bounded
-     sequence of turns (:attr:`HandPass.LOOSE_COST`), so the full margin wins wherever
-     some choice keeps it.
-   * **Constraints.** A state must be clear of the obstacles and the body at its frame
-     (:meth:`ConfigurationGenerator.hands_clear`); a transition may turn the hand, relative
-     to the forearm, by at most ``Settings.hand_turn_speed`` / fps degrees, and its whole
-     orientation in space (the forearm's turn and roll included,
-     :func:`~reach_addon.core.arm.frame_turn`) by at most ``hand_space_turn_speed`` / fps,
-     so no bone of the hand turns faster.
-   * **Cost.** Σ (turn / bound)² + ``wrist_relax_weight`` · (bend from neutral / 45°)²:
-     the hand turns no faster and no farther than it must, and drifts back toward neutral
-     when it is free. With *Match orientation* (a ``goal``, :mod:`.orient`) the last
-     frames also cost ``orientation_weight`` · (palm frame's error after the best roll /
-     45°)², weighted up to the last frame (:func:`~reach_addon.core.orient.frame_weights`),
-     and the grid holds one more state, the wanted direction within the wrist's range.
-   * **Between keys** (lazy, as in lazy PRM: only the chosen path is checked). Each
-     transition is checked at ``Settings.instants_per_frame`` − 1 instants between its
-     keys, where Blender puts the arm on a linear span (each segment's rotation relative
-     to its parent blended by nlerp, :func:`~reach_addon.core.keys.between`), against
-     half the clearance
-     (:meth:`ConfigurationGenerator.between_keys`): keys keep the whole margin. A hand
-     that touches bans that transition and the DP runs again; after
-     :attr:`HandPass.BANS_BEFORE_REFINING` bans the transition is refined instead.
-   * **Slowing down.** Where no bounded, clear choice exists, or the arm touches between
-     two keys, frames are inserted between them: on the validated path at the arc
-     lengths between (so the arm slows through the tight spot instead of sweeping
-     through it), or, where that did not help, holds of both keys (the arm waits while
-     the hand turns). Where no choice exists into a frame but the own hand was lost at an
-     earlier one (it turned faster than the bound there, in place or with the arm, and
-     the branches left closed later), the frames are inserted where it was lost: a
-     branch shut at a pocket's edge is not reopened by slowing down at the edge (the
-     demo's guided reach on a real character lifted the bound there after 96 holds).
-     At most ``Settings.slowdown_budget`` × frames are added; past that
-     (or where frames are tied to the clock, as in a chase) the bound is lifted for that
-     transition, and ``unbounded_hand_turns`` reports it; a hand that still touches
-     between the two keys gives way to the motion's own hands at both of them, which the
-     motion's own checks passed there (a chase's step checks its frames as the keys
-     interpolate), and ``touching_transitions`` counts what even those do not mend.
-
-Measured: a pass over the frames alone (a free hand in the search) could not mend the
-pockets (the demo kept 130–140° flips); the hand bounded inside the search without turns
-in place and per-hand visits trapped the search (3–30× the nodes, demo tasks lost on a
-real character). Together they leave the search 1.3–3× the nodes of a free hand on the
-demo tasks and every reach clear and bounded (``make bench``).
+After the timing (:func:`~reach_addon.core.motion.time_path`) the wrist's bend and side
+bend (degrees, :func:`~reach_addon.core.arm.hand_direction`) are chosen again by dynamic
+programming over frames × a grid of wrist angles (:mod:`~reach_addon.core.hand_dp`): every
+state clear of the obstacles and the body at its frame, every transition within
+``Settings.hand_turn_speed`` / fps relative to the forearm and ``hand_space_turn_speed`` /
+fps in space. Each transition of the chosen path is then checked at
+``Settings.instants_per_frame`` − 1 instants between its keys, as Blender interpolates them
+(:func:`~reach_addon.core.keys.between`), against half the clearance. Where no bounded,
+clear choice exists or a transition touches, the pass falls back step by step
+(:class:`HandPass`): ban the hand pair, slow down (at most ``Settings.slowdown_budget`` ×
+frames inserted), hold, keep the motion's own hands, lift the bound, accept. The
+:class:`HandReport` says what it could not mend.
 """
 
 from __future__ import annotations

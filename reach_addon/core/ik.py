@@ -1,8 +1,8 @@
 """Analytic, sternum-rooted IK: every swivel solution for a wrist position, ranked by strength.
 
-For a wrist position ``w`` (canonical frame) the paper's multi-joint function gives the body
-rotation (Table 1, :func:`~reach_addon.core.torso.body_rotation_deg`), which places the
-shoulder ``s``. The elbow then lies on a circle about the axis ``s``-``w`` (law of cosines):
+For a wrist position ``w`` (canonical frame) Table 1 gives the body rotation
+(:func:`~reach_addon.core.torso.body_rotation_deg`), which places the shoulder ``s``. The
+elbow then lies on a circle about the axis ``s``-``w`` (law of cosines):
 
 .. math::
     d = |w - s|,\\quad \\cos A = \\frac{L_1^2 + d^2 - L_2^2}{2 L_1 d},\\quad
@@ -10,17 +10,13 @@ shoulder ``s``. The elbow then lies on a circle about the axis ``s``-``w`` (law 
     e(φ) = c + r(\\cos φ\\, b_1 + \\sin φ\\, b_2),\\qquad
     \\text{elbow flexion } ε = 180° - \\arccos\\frac{L_1^2 + L_2^2 - d^2}{2 L_1 L_2}
 
-``φ`` (the swivel angle) is sampled every ``Settings.swivel_step`` degrees, starting with
-the elbow straight down (``b_1``); every sample becomes a candidate (body rotation, α, β,
-γ, ε). A candidate is **legal** inside the joint limits and, when ``Settings.elbow_side``
-is ``"require"``, with the elbow on the preferred side of Algorithm 1; it is **valid** if
-also within the smoothness bound of the previous configuration. Valid candidates are
-ordered by the strength ranking (:func:`~reach_addon.core.strength.rank_order`). Contact
-with the body's own capsules is tested by the caller on the candidates it tries
-(:func:`self_collision`), in rank order, like obstacle contact.
-
-Vectorised: the upper arm and forearm directions are affine in (cos φ, sin φ), so every
-per-sample quantity is a short numpy expression over all samples of all wrists at once.
+The swivel angle ``φ`` is sampled every ``Settings.swivel_step`` degrees from the elbow
+straight down (``b_1``); each sample is a candidate (body rotation, α, β, γ, ε). It is
+**legal** inside the joint limits and, with ``Settings.elbow_side`` "require", on
+Algorithm 1's side (:mod:`~reach_addon.core.limits`); **valid** if also within the
+smoothness bound of the previous configuration. Valid candidates are ordered by the
+strength ranking (:func:`~reach_addon.core.strength.rank_order`); callers test them
+against the obstacles and the body in that order.
 """
 
 from __future__ import annotations

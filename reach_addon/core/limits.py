@@ -182,8 +182,7 @@ def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
     """The smoothness bound: no joint angle changes by more than ``max_change`` degrees from
     ``previous``. Shapes: ``body``/``flex`` (W,) (or floats for one wrist), the shoulder
     angles (W, S). The twist counts like the others even with a straight elbow, where the
-    arm's bones hide it: the hand's roll shows it (it used to be let free there, and a
-    straight arm rolled its hand 40-50° in one frame)."""
+    arm's bones hide it: the hand's roll shows it."""
     if isinstance(flex, float) and isinstance(body, float):
         if not (abs(flex - previous.elbow) <= max_change
                 and abs(body - previous.body_rotation) <= max_change):

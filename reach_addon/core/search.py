@@ -1,60 +1,17 @@
 """Best-first search of wrist positions with backtracking (paper, "Guided path planning").
 
-The paper: "[a] best first search, which essentially minimizes the distance to the target
-guiding node. Given a potential end-effector pose, the IK solver finds all valid poses ...
-If the pose with maximum strength has no collision with the environment, it is displayed
-and reach planning continues. Otherwise, it is discarded and the next maximum strength pose
-from the IK solver is tested for collision. If all poses have been tested, the path planner
-backtracks to another potential end-effector position. The path planning terminates in
-success if the target position is visited, or in failure if backtrack happens at the
-starting position."
-
-The text on how candidate positions are generated and how far apart they are is lost. Our
-choices (each a setting):
-
-* **Step** ``Settings.step`` = 0.02 arm lengths. Table 2 pins it down: total path length
-  over nodes in solution is 1.07/54, 2.99/149, 2.69/135 and 5.68/282, i.e. 0.0198 to
-  0.0201 arm lengths in every task.
-* **Candidates** around a node: the straight step toward the current guiding node plus
-  ``Settings.directions`` steps along directions spread evenly on the sphere (a Fibonacci
-  lattice, the same every time); when the target is within one step, the target itself.
-  They are tried best first: nearest to the guiding node after the step (ties by a fixed
-  index order). The search is depth-first in that order: the first candidate that gets a
-  valid pose becomes the current node; a node whose candidates are all used up is left
-  (backtracking) and its parent tries its next candidate.
-* **Blocked neighbourhoods**: a node's candidates within ``Settings.blocked_radius`` steps
-  of a position its parent tried and found blocked are moved to the end of its list
-  (kept, in the same relative order, so the search can still backtrack through them).
-  Sliding along an obstacle, the greedy order would otherwise try the same two or three
-  directions into the obstacle again at every node (one step on, a step in the same
-  direction lands one step from the blocked position); with the memory the search tries
-  them once per obstacle face, not once per node. On the demo's reach over a crate this
-  cut the positions tested from 230 to about 120 with the same path.
-* **Visited** positions: a candidate within ``Settings.visited_resolution`` steps of a
-  position already tested (a hash grid of that size) is skipped, so the search never loops.
-* **Guiding nodes** are passed once the wrist comes within ``Settings.guide_radius`` cells.
-* **The hand leads** (ours; the paper has no hand in the search). Where the hand is kept
-  continuous, the pose the generator gives the target itself (its strongest clear arm, the
-  most relaxed clear hand) says which hand the target needs. If that is not the relaxed
-  hand, then within ``Settings.hand_lead`` hand lengths of the target every step and every
-  turn in place tries the hand samples nearest that one first (within the turn a step
-  allows). A hand that must tilt to fit at the target — into a drawer over its front wall
-  — tilts on the way in. Without it the search reached the drawer's opening with the hand
-  straight, found it blocked there and spent its whole budget round the opening (2,983
-  positions, then the sampling planner); with it, 62 positions for a 54-position path. On
-  Table 2's tasks the node counts are the same either way.
-* **Termination**: success within ``Settings.goal_tolerance`` of the target; a caller may
-  also stop at a depth (chase reach commits a few steps per frame); failure when
-  backtracking leaves the start, after ``Settings.node_budget`` tested positions, or after
-  ``Settings.stall_budget`` tested positions without getting closer to the target. On
-  failure the path to the closest position reached is kept (closest approach).
-
-"Nodes searched" counts the wrist positions handed to the configuration generator, "nodes
-in solution" the positions on the final path (the start included), as in Table 2.
-
-:class:`BestFirstSearch` is resumable: :meth:`~BestFirstSearch.run` takes a node allowance,
-so an interactive caller can spread one search over several UI ticks and get exactly the
-result of one uninterrupted run.
+Around the current node the candidates are the straight step toward the current guiding
+node (or the target), ``Settings.directions`` steps of ``Settings.step`` arm lengths spread
+evenly on the sphere, the target itself when within a step, and the hand turned in place.
+They are tried nearest the goal first; the first that the configuration generator gives a
+valid pose becomes the next node, and a node whose candidates are used up is left
+(backtracking). The search succeeds within ``Settings.goal_tolerance`` of the target and
+fails when backtracking leaves the start, after ``Settings.node_budget`` tested positions,
+or after ``Settings.stall_budget`` without getting closer (the path to the closest position
+is kept). "Nodes searched" counts the positions handed to the generator, "nodes in
+solution" the positions of the path, start included (Table 2). :class:`BestFirstSearch` is
+resumable: :meth:`~BestFirstSearch.run` takes a node allowance and gives the same result
+however it is sliced.
 """
 
 from __future__ import annotations
