@@ -148,9 +148,9 @@ class StateValidity:
     Legal (the elevation limit and, if required, the elbow side of Algorithm 1; the box of
     :class:`JointSpace`'s bounds is the sampler's, which never leaves it), clear of the
     body's own capsules as the configuration generator tests them
-    (:func:`~reach_addon.core.segment_hits_body`), and clear of the obstacles by the
-    core's :class:`~reach_addon.core.collision.CollisionChecker` (arm and, if it is checked,
-    hand, with the clearance margin). ``calls`` counts the states tested.
+    (:func:`~reach_addon.core.body_capsules.segment_hits_body`), and clear of the obstacles
+    by the core's :class:`~reach_addon.core.collision.CollisionChecker` (arm and, if it is
+    checked, hand, with the clearance margin). ``calls`` counts the states tested.
     """
 
     def __init__(self, arm, settings, checker, space: JointSpace | None = None):
