@@ -71,6 +71,11 @@ class Solutions:
     :attr:`legal` is worked out when first asked for (the planner's inner loop only needs
     :attr:`valid`)."""
 
+    __slots__ = ("wrists", "body", "sternum", "shoulder", "elbow_coef", "fore_coef", "cos_phi",
+                 "sin_phi", "angles", "flex", "_reachable", "valid", "_f_r", "_second",
+                 "wrong_side", "hand_length", "_upper", "_fore", "_turn", "_eps", "_gamma_prev",
+                 "_limits", "_require_side", "_legal", "_ranked")
+
     def __init__(self, *, wrists, body, sternum, shoulder, elbow_coef, fore_coef, cos_phi,
                  sin_phi, angles, flex, reachable, valid, f_r, second, wrong_side,
                  hand_length, upper, fore, turn, eps, gamma_prev, limits, require_side,
