@@ -24,8 +24,8 @@ from ..core import Planner, ReachError, Settings, Task
 from ..core import envelope as envelope_mod
 from ..core.arm import REACH_SLACK, reach_sphere
 from ..core.steps import drain, relay
+from ..core.chase import chase_steps
 from ..core.sweep import plan_among_moving
-from ..core.tasks import chase_steps
 from . import bake as bake_mod
 from . import body as body_mod
 from . import rig as rig_mod

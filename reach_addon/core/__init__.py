@@ -5,6 +5,7 @@ collisions, a ``mathutils.bvhtree.BVHTree`` handed in by the caller (``mathutils
 of Blender; with the bpy wheel it becomes importable once ``bpy`` has been imported).
 
 Entry point: :func:`plan` (or a :class:`Planner`, which keeps the workspace between plans).
+Why each module is built as it is: ``docs/design/core.md``.
 """
 
 from .arm import ArmConfig, ArmModel, Capsule, Pose, config_from_joints, forward_kinematics
@@ -12,7 +13,9 @@ from .collision import Obstacles
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH, REASONS,
                      START_HELD, START_IN_COLLISION, TARGET_IN_OBSTACLE, ReachError)
 from .settings import Settings
-from .tasks import TASK_KINDS, Plan, Planner, Segment, Stats, Task, plan
+from .planner import Planner, plan
+from .results import Plan, Segment, Stats
+from .tasks import TASK_KINDS, Task
 
 __all__ = [
     "ArmConfig", "ArmModel", "Capsule", "Pose", "config_from_joints", "forward_kinematics",

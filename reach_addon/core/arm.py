@@ -1,44 +1,18 @@
 """The sternum-rooted arm: its geometry, the shoulder angle convention and forward kinematics.
 
-Frames
-------
 The core works in the **canonical arm frame**: origin on the vertical axis through the
-spine at chest height, **x toward the reaching arm's side**, y forward, z up. A right arm's
-canonical frame is the body frame; a left arm's is the body frame mirrored in x, so one set
-of formulas (written for a right arm, as the paper's Algorithm 1 is) serves both arms.
-:attr:`ArmModel.to_world` maps canonical points to world space; obstacles stay in world
-space and are queried there.
+spine at chest height, x toward the reaching arm's side, y forward, z up (a left arm's
+frame is the body frame mirrored in x, so one set of formulas serves both arms).
+:attr:`ArmModel.to_world` maps canonical points to world space, where the obstacles are.
+Lengths are in the figure's units.
 
-Five angles (degrees) describe a configuration, as in the paper: body (chest) rotation
-about the spine axis, three shoulder angles α, β, γ and elbow flexion.
-
-Shoulder angles
----------------
-Let ``u`` be the upper arm direction in the (rotated) chest frame. Its elevation
-``θ = acos(-u_z)`` is the angle from hanging straight down, and its plane of elevation
-``φ = atan2(u_y, u_x)`` says which way it is raised (0 = to the side, 90° = forward).
-Then::
-
-    α = θ cos φ        (abduction +, adduction −)
-    β = θ sin φ        (flexion +, extension −)
-
-so: arm hanging α = β = 0; straight out to the side α = 90; straight forward β = 90;
-overhead by either route 180; behind the back β < 0; across the body α < 0. (α, β) is θ
-times the unit horizontal direction of ``u``: the map is continuous everywhere (at θ = 0
-both vanish whatever φ) except straight overhead (θ = 180°), which
-``Settings.elevation_max`` (170°) keeps out of the reachable range.
-
-Humeral twist γ is measured against a reference carried along with the arm: the forward
-direction (0, 1, 0) swung by the smallest rotation that takes "hanging" to ``u``
-(:func:`swing_reference`). γ is the angle about ``-u`` from that reference to the direction
-the forearm bends toward (internal rotation positive). With the arm hanging and γ = 0 a
-bent elbow brings the hand forward; at 90° abduction γ = 0 points the forearm forward and
-γ = 90° (internal) points it down.
-
-Joint limits (``Settings``) follow the normal ranges of motion of the American Academy of
-Orthopaedic Surgeons (AAOS, *Joint Motion: Method of Measuring and Recording*, 1965):
-shoulder flexion 180°, extension 60°, abduction 180°, external rotation 90°, internal
-rotation 70° (measured at 90° abduction; see ``gamma_max``), elbow flexion 150°.
+A configuration (:class:`ArmConfig`) is five angles in degrees: the body (chest) rotation
+about the spine axis, the shoulder angles α, β, γ and the elbow flexion. With ``u`` the
+upper arm's direction in the chest frame, θ = acos(-u_z) its elevation from hanging and
+φ = atan2(u_y, u_x) the direction it is raised toward, α = θ cos φ (abduction +) and
+β = θ sin φ (flexion +) (:func:`shoulder_angles`); the humeral twist γ (internal rotation
++) is the angle about -u from :func:`swing_reference` to the direction the forearm bends
+toward (:func:`twist_angle`).
 """
 
 from __future__ import annotations
@@ -139,14 +113,14 @@ class ArmModel:
         caps = tuple(self.body_capsules)
         object.__setattr__(self, "body_capsules", caps)
         # the capsules on floats, with each one's centre and half length, for the body
-        # test of every pose tried (ik.body_capsules_at)
+        # test of every pose tried (body_capsules.body_capsules_at)
         floats = []
         for c in caps:
             p, q = [float(v) for v in c.a], [float(v) for v in c.b]
             floats.append((p, q, [0.5 * (p[i] + q[i]) for i in range(3)],
                            0.5 * math.dist(p, q), float(c.radius), bool(c.turns_with_chest)))
         object.__setattr__(self, "capsule_floats", tuple(floats))
-        # per configuration, is the elbow on Algorithm 1's side (ik.on_elbow_side)
+        # per configuration, is the elbow on Algorithm 1's side (limits.on_elbow_side)
         object.__setattr__(self, "side_cache", {})
 
     @property

@@ -1,20 +1,12 @@
 """Collisions: the arm's capsules against the world-space obstacle BVH, and geometry helpers.
 
 Obstacles are **in world space**: one :class:`mathutils.bvhtree.BVHTree` built by the
-caller (the Blender layer builds it from the evaluated depsgraph; tests build it from
-triangles with :meth:`Obstacles.from_triangles`). Arm poses are turned into world space
-before they are tested, so the tree is never rebuilt when the figure moves.
-
-A capsule (segment swept by a radius ``r``, plus ``Settings.clearance``) is tested as a
-row of spheres along its axis, ``n`` of them spaced at most ``r`` apart, each of radius
-``R = √(r² + (spacing/2)²)``: the union of these spheres contains the capsule, so the test
-never misses a contact (it may report one up to ~0.12 r early). Each sphere is one bounded
-``find_nearest`` query (a few µs). Cheaper tests come first: one sphere around the whole
-arm, then one around each segment.
-
-A segment cannot lie wholly inside a closed obstacle without crossing its surface somewhere
-along the chain, because the chain starts at the sternum, which is outside every obstacle
-(checked once per plan); so surface proximity is enough.
+caller (the Blender layer from the evaluated depsgraph; tests with
+:meth:`Obstacles.from_triangles`); arm poses are turned into world space before they are
+tested. A capsule is a segment swept by its radius plus ``Settings.clearance``;
+:class:`CollisionChecker` settles each one by distance bounds at its ends and bisection,
+never missing a contact. Nearness to the surface is enough: the chain starts at the
+sternum, checked to be outside every obstacle once per plan. Distances are in world units.
 """
 
 from __future__ import annotations

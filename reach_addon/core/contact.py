@@ -1,24 +1,13 @@
 """Starting in contact: a hand resting on a table, fingertips a centimetre from a wall.
 
-A start pose closer to an obstacle than the clearance used to be refused. It is a normal
-start, though, so Reach first moves out of contact and then plans as usual:
-
-* **How deep.** The start's clearance is measured (:meth:`CollisionChecker.clearance`:
-  the least distance between the arm's and hand's capsules and the obstacles, negative
-  inside). Deeper than ``Settings.start_contact_depth`` the start is refused, naming the
-  obstacle and the depth: the rig (or the scene) is then really wrong.
-* **Out of contact.** Otherwise a generator for a thinner arm (every radius less by as
-  much as the start lacks, so the start is clear for it) takes steps of the search's
-  length, at each the one (of the search's candidate directions, with the hand kept
-  continuous and the chest still) that most increases the real arm's clearance, until the
-  real arm is clear with the whole margin. No step may decrease it: the first moves of the
-  motion never get nearer what the arm touched. Where no step increases it (a hand in a
-  sleeve, its faces parallel to the walls), the step that keeps it and takes the wrist
-  farthest from the start is taken, so the arm slides out along what it touches. At most
-  ``max_steps`` steps.
-
-The escape's poses lead the motion; the hand pass checks their frames with the thinner arm
-(:class:`~reach_addon.core.hand.HandPass`), every later frame with the real one.
+A start nearer an obstacle than the clearance is moved out of contact before planning.
+Deeper than ``Settings.start_contact_depth`` (:func:`start_clearance`, negative inside)
+it is refused (:func:`depth_message`). Otherwise :func:`escape` takes search steps with a
+generator for a thinner arm (every radius less by what the start lacks), each the step
+that most increases the real arm's clearance and never one that decreases it (where none
+increases it, the one that keeps it and takes the wrist farthest), until the real arm is
+clear with the whole margin, at most ``max_steps`` steps. The escape's poses lead the
+motion; the hand pass checks their frames with the thinner arm.
 """
 
 from __future__ import annotations

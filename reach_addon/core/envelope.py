@@ -1,40 +1,14 @@
 """The reach envelope: which points around the character the arm can reach, and how.
 
-Ergonomics tools draw a character's reach envelope: the region its hand can get to, shaded
-by effort. Reach computes it with the planner's own pieces, point by point on a grid in the
-reaching shoulder's frame, and sorts every point into one of :data:`CLASSES`:
-
-* ``f_R 0`` / ``f_R 1`` / ``f_R 2``: some legal pose puts the wrist there clear of the
-  obstacles and the body, hand included, and the strongest such pose
-  (:meth:`~reach_addon.core.generator.ConfigurationGenerator.solve` trying every ranked
-  pose, :func:`exhaustive`: the paper's strength ranking with the elbow rule) has that
-  strength category f_R (paper, "3-level criteria"). A planned reach ends there in this
-  pose or, where the strongest is beyond the smoothness bound of its approach, in a weaker
-  one: never in a stronger (tested against a batch study);
-* ``chest``: reachable as above only because the chest turns (Table 1, or where Table 1's
-  turn puts no clear arm there the nearest turn that does, as a reach arrives:
-  ``ConfigurationGenerator.target_chest``): with the chest held still (``body_rotation =
-  0``) no pose is clear there. Only with ``Settings.chest_rotation``;
-* ``blocked``: within the arm's reach, but the scene (or the character's own body) leaves
-  the arm or the hand no room: the target is inside an obstacle, or the arm does not fit
-  (:meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target`);
-* ``out``: no legal arm pose puts the wrist there at any chest rotation of the range
-  (beyond the arm, or outside the joint limits; the diagnoses ``out_of_reach``,
-  ``needs_lean`` and ``needs_step``).
-
-**What the envelope is not.** It classifies the *end* pose, as Jack-style reach envelopes
-do: a point counts as reachable when the hand fits there. Plan also needs a way in from the
-current pose; a point in a closed box with room inside is ``f_R`` here and ``no_path`` for
-Plan. In open scenes the two agree point for point (a batch study over the same grid plans
-every point: reached exactly where the envelope says reachable, tests/blender).
-
-**The grid** (:func:`grid_coordinates`): ``Settings.envelope_resolution`` points a side of
-a cube centred on the reaching shoulder, ``Settings.envelope_extent`` arm lengths from the
-centre to each face, in the shoulder's (forward, outward, up) frame: the points of a batch
-study's ``[scenes.grid]`` with ``frame = "shoulder"``, ``min = -extent``, ``max = extent``
-and ``count = resolution`` on each axis, in the same order. The default 13 points a side
-(2,197 points, about 0.2 arm lengths apart) over ±1.15 arm lengths holds the whole reach,
-the hand's length and the chest's turn beyond it included, and a layer of ``out`` round it.
+The points of a grid in the reaching shoulder's (forward, outward, up) frame
+(:func:`grid_coordinates`: ``Settings.envelope_resolution`` points a side,
+``Settings.envelope_extent`` arm lengths from the centre to each face) are sorted into
+:data:`CLASSES`: ``f_R 0`` / ``f_R 1`` / ``f_R 2``, the strength category of the strongest
+legal pose clear there, hand included (:func:`exhaustive`); ``chest``, reachable only
+because the chest turns; ``blocked``, within reach but with no room for the arm or hand
+(:func:`~reach_addon.core.diagnosis.diagnose_target`); ``out``, no legal arm pose puts the
+wrist there at any chest rotation of the range. It classifies the *end* pose: a point in a
+closed box with room inside is reachable here and ``no_path`` for Plan.
 """
 
 from __future__ import annotations
@@ -125,7 +99,7 @@ def classify_point(generator, point, legal: bool | None = None) -> tuple:
     knows.
 
     Without a clear pose the point is ``blocked`` or ``out`` as
-    :meth:`~reach_addon.core.generator.ConfigurationGenerator.diagnose_target` sorts it
+    :func:`~reach_addon.core.diagnosis.diagnose_target` sorts it
     (inside an obstacle: target_in_obstacle; no legal pose: beyond reach; else the arm or
     the hand does not fit), without working out how much room is missing."""
     point = np.asarray(point, dtype=float)

@@ -7,7 +7,7 @@ thing that is wrong and says what to do. The Blender operators turn it into
 with status 2.
 
 A target the arm cannot reach is *not* an error: the planner answers it with a failed
-:class:`~reach_addon.core.tasks.Plan` and one of the reasons in :data:`REASONS`.
+:class:`~reach_addon.core.results.Plan` and one of the reasons in :data:`REASONS`.
 """
 
 from __future__ import annotations

@@ -13,61 +13,21 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from . import ik, keys
 from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, hand_coefficients,
                   pose_from_config)
+from .body_capsules import body_capsules_at, segment_hits_body, self_collision
 from .collision import (CollisionChecker, Obstacles, fan_segment_distances,
                         point_segment_distance)
-from .numeric import cross
-from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH,
-                     TARGET_IN_OBSTACLE)
+from .limits import smooth
 from .strength import strength_category
 from .torso import ChestPath, body_rotation_deg
 
-#: How far the body's up axis, read from the bones, may be off the true vertical (degrees;
-#: the Quaternius test rig's, hips to chest, leans 6.8° at rest): a target is reported too
-#: high or too low only where no tilt this large could make it a step away instead
-#: (:meth:`ConfigurationGenerator._beyond_reach`).
-UP_TILT_DEG = 15.0
-
-
-@dataclass(frozen=True)
-class Diagnosis:
-    """Why a target cannot be reached (:meth:`ConfigurationGenerator.diagnose_target`):
-    ``reason`` (one of :data:`~reach_addon.core.errors.REASONS`), the ``obstacle`` and the
-    ``part`` of the arm in the way, the clearance or distance ``missing`` (figure units),
-    the target's ``distance`` from the shoulder and the trunk lean that would reach it."""
-
-    reason: str
-    obstacle: str | None = None
-    part: str | None = None
-    missing: float = 0.0
-    distance: float = 0.0
-    lean_deg: float = 0.0
-    above: bool = False
-
-
 #: Degrees between the chest rotations :meth:`ConfigurationGenerator.target_chest` tries.
 CHEST_FIT_STEP = 5.0
-
-
-@dataclass(frozen=True)
-class Hold:
-    """What holds an arm that cannot move from its start pose
-    (:meth:`ConfigurationGenerator.what_holds`): ``kind`` is "obstacle", "body", "hand"
-    (the arm is clear but its hand cannot turn to a clear direction without touching),
-    "limits", "smoothness" or "reach"; ``what`` the obstacle or body capsule, ``part`` the
-    arm's part it holds; ``steps`` of the ``tried`` steps from the start it refuses."""
-
-    kind: str
-    what: str
-    part: str
-    steps: int
-    tried: int
 
 
 class ConfigurationGenerator:
@@ -82,10 +42,8 @@ class ConfigurationGenerator:
         b, side = settings.wrist_bend_max, settings.wrist_side_max
         # Hand directions tried at each pose: the wrist's range as a 5 × 3 grid, bent 0,
         # half and fully either way in the elbow's plane, each straight or fully sideways
-        # (duplicates dropped when a limit is 0). The paper's "further search for a point
-        # on a sphere": with the bends alone (no corners) a hand pointing at an obstacle
-        # close in front of the wrist often had no way out, and the search wandered beside
-        # the obstacle until the arm's own posture had drifted round.
+        # (duplicates dropped when a limit is 0): the paper's "further search for a point
+        # on a sphere" (docs/design/core.md, generator.py)
         samples = [(k * b, j * side) for k in (0.0, 0.5, -0.5, 1.0, -1.0)
                    for j in (0.0, 1.0, -1.0)]
         self.hand_samples = list(dict.fromkeys(samples))
@@ -231,12 +189,12 @@ class ConfigurationGenerator:
         return [r0[0] * x + r0[1] * y + r0[2] * z + o0, r1[0] * x + r1[1] * y + r1[2] * z + o1,
                 r2[0] * x + r2[1] * y + r2[2] * z + o2]
 
-    def _capsules(self, body: float):
-        """The body's capsules at a chest rotation (:func:`ik.body_capsules_at`), cached
+    def capsules_at(self, body: float):
+        """The body's capsules at a chest rotation (:func:`body_capsules_at`), cached
         for the last few rotations (most positions of a reach share one)."""
         caps = self._capsule_cache.get(body)
         if caps is None:
-            caps = ik.body_capsules_at(self.arm, body) if self.arm.body_capsules else []
+            caps = body_capsules_at(self.arm, body) if self.arm.body_capsules else []
             if len(self._capsule_cache) >= 32:
                 self._capsule_cache.clear()
             self._capsule_cache[body] = caps
@@ -244,31 +202,27 @@ class ConfigurationGenerator:
 
     def solve(self, wrist, previous: Pose | None = None, body_rotation=None,
               hand_scale: float | None = None, toward=None) -> Pose | None:
-        """The strongest legal, collision-free pose with the wrist at ``wrist`` that is
-        within the smoothness bound of ``previous`` (if given); None if there is none.
-        After a None, :attr:`hand_blocked` says whether some arm pose there was clear and
-        only the hand found no way (another hand might get there).
+        """The strongest legal, collision-free pose with the wrist at ``wrist`` (canonical)
+        that is within the smoothness bound of ``previous`` (if given); None if there is
+        none. After a None, :attr:`hand_blocked` says whether some arm pose there was clear
+        and only the hand found no way (another hand might get there). ``body_rotation``
+        (degrees) overrides the chest's (:attr:`chest`, else Table 1).
 
         ``hand_scale``: if given, the hand is kept continuous with ``previous``: it may turn
         by at most ``Settings.hand_step_turn`` × ``hand_scale``, and only through clear
-        directions (:meth:`_place_hand`). The search leaves it out (bounding the hand there
-        traps the search in narrow gaps); the smoothing, the timing and the hand pass,
-        which turn the search's path into frames, ask for it.
+        directions (:meth:`_place_hand`), leading toward the sample ``toward`` if given
+        (:meth:`hand_order`). Without it any clear hand will do.
 
-        Candidates are tried in strength order: the arm (clavicle, upper arm, forearm)
-        against the obstacles and the body, then the hand at each wrist angle, the previous
-        one first, until one is clear.
-
-        Obstacle distances are measured once per joint and shared (see
-        :class:`~reach_addon.core.collision.CollisionChecker`): the wrist first, before
-        any IK, so a position whose wrist is already within the forearm's radius of an
-        obstacle is given up for one query; the shoulder and sternum once per position
-        (they do not depend on the swivel angle); the elbow and the hand's end only for
-        the candidates tried, and only when the bounds at the other joints do not settle
-        the segment already (in open space nothing but the wrist and the shoulder is ever
-        measured)."""
+        The candidates of :func:`~reach_addon.core.ik.solve` are tried in strength order
+        (at most ``Settings.max_pose_tries``): the arm (clavicle, upper arm, forearm)
+        against the obstacles and the body, then the hand at each wrist angle, then the
+        swing from ``previous`` (:meth:`_swing_clear`). Obstacle distances are measured
+        once per joint and shared (:class:`~reach_addon.core.collision.CollisionChecker`):
+        the wrist first, before any IK; the shoulder and sternum once per position; the
+        elbow and the hand's end only where the bounds at the other joints leave a segment
+        unsettled."""
         wrist = np.asarray(wrist, dtype=float)
-        arm, settings, checker = self.arm, self.settings, self.checker
+        checker, st = self.checker, self.settings
         self.hand_blocked = False
         w_c = wrist.tolist()
         w_w = self._world(w_c)
@@ -278,18 +232,56 @@ class ConfigurationGenerator:
         if body_rotation is None and self.chest is not None:
             body_rotation = self.chest(wrist)
         max_change = None if previous is None else self.max_change(previous, wrist)
-        sol = ik.solve(arm, wrist[None], settings,
-                       None if previous is None else previous.config, body_rotation, max_change)
-        order = sol.ranked(0, settings.elbow_side)[: settings.max_pose_tries]
+        sol = ik.solve(self.arm, wrist[None], st, None if previous is None else previous.config,
+                       body_rotation, max_change)
+        order = sol.ranked(0, st.elbow_side)[: st.max_pose_tries]
         if not order:
             return None
+        at = self._position(sol, w_c, w_w, d_w)
+        if at is None:
+            return None                          # the shoulder or the clavicle touches
+        hands = None
+        for k in order:
+            e_c = self._clear_elbow(at, k)
+            if e_c is None:
+                continue
+            bend = sol.bend_at(0, k).tolist()
+            if not self._check_hand:
+                lh, l2 = self.arm.hand_length, self.arm.forearm_length
+                tip = [w_c[i] + lh * (w_c[i] - e_c[i]) / l2 for i in range(3)]
+                hand = (0.0, 0.0)
+            else:
+                if hands is None:
+                    hands = self.hand_order((0.0, 0.0), 180.0) \
+                        if previous is None or hand_scale is None else \
+                        self.hand_order(previous.hand, hand_scale, toward)
+                tip, hand = self._place_hand(at[3], e_c, w_c, w_w, d_w, bend, at[-1], hands,
+                                             None if hand_scale is None else previous)
+                if tip is None:
+                    self.hand_blocked = True
+                    continue
+            config = sol.config(0, k)
+            if previous is not None and not self._swing_clear(previous, config, e_c):
+                continue
+            joints = np.array(at[4] + at[3] + e_c + w_c + tip).reshape(5, 3)
+            return Pose(config, joints, np.array(bend), sol.category(0, k), hand)
+        return None
 
-        # Per position: the clavicle (the same for every candidate).
+    def _position(self, sol, w_c, w_w, d_w):
+        """What every candidate of :meth:`solve` at one wrist position shares, or None where
+        the shoulder or the clavicle (the same for every candidate) touches an obstacle. A
+        tuple: the wrist (canonical, world, its obstacle distance), the shoulder and sternum
+        (canonical), the shoulder (world, its distance), a lower bound on every elbow's
+        distance (Lipschitz: the shoulder's less L1, the wrist's less L2), whether that bound
+        already clears both segments of every elbow, the elbow's circle (its coefficients
+        and the swivel samples' cos φ and sin φ), and the body capsules near enough to touch
+        the upper arm, the forearm and the hand (:meth:`_near_capsules`). Float lists."""
+        arm, checker = self.arm, self.checker
         l1, l2 = arm.upper_arm_length, arm.forearm_length
         s_c, t_c = sol.shoulder[0].tolist(), sol.sternum[0].tolist()
         s_w = self._world(s_c)
         d_s = checker.distance(s_w, checker.bound_shoulder)
-        (r_c, l_c), (r_u, l_u), (r_f, l_f) = self._sizes     # clavicle, upper arm, forearm
+        (r_c, l_c), (r_u, _l_u), (r_f, _l_f) = self._sizes   # clavicle, upper arm, forearm
         if d_s < r_u:
             return None                          # the shoulder itself is against an obstacle
         d_t = d_s - l_c                          # Lipschitz bound at the sternum
@@ -298,61 +290,56 @@ class ConfigurationGenerator:
             d_t = checker.distance(t_w, checker.bound_sternum)
             if not checker.segment_clear(t_w, s_w, d_t, d_s, r_c, l_c):
                 return None
-        caps = self._capsules(float(sol.body[0]))
-        caps_upper = caps_fore = caps_hand = caps
-        if caps:
-            # Body capsules a segment cannot reach from this wrist (every forearm point is
-            # within L2 of it, every hand point within the hand's length, every point of
-            # the upper arm's elbow half within L2 + L1/2) are left out of its tests.
-            far = [point_segment_distance(w_c, a, b) - r for a, b, _c, _h, r in caps]
-            reach_u = l2 + 0.5 * l1 + arm.upper_arm_radius
-            reach_f, reach_h = l2 + arm.forearm_radius, arm.hand_length + arm.hand_radius
-            caps_upper = [c for c, d in zip(caps, far) if d < reach_u]
-            caps_fore = [c for c, d in zip(caps, far) if d < reach_f]
-            caps_hand = [c for c, d in zip(caps, far) if d < reach_h]
-        (c0, c1, c2), (e1x, e1y, e1z), (e2x, e2y, e2z) = sol.elbow_coef[0].tolist()
-        cos_phi, sin_phi = ik.swivel_lists(float(settings.swivel_step))
+        caps = self.capsules_at(float(sol.body[0]))
+        near = self._near_capsules(caps, w_c)
+        circle = (sol.elbow_coef[0].tolist(), ik.swivel_lists(float(self.settings.swivel_step)))
         d_e0 = max(d_s - l1, d_w - l2)           # Lipschitz bound at every elbow
         elbows_clear = (d_e0 >= r_u and d_e0 >= r_f and d_s + d_e0 - l1 >= 2.0 * r_u
                         and d_e0 + d_w - l2 >= 2.0 * r_f)
-        hands = None
-        for k in order:
-            cp, sp = cos_phi[k], sin_phi[k]
-            e_c = [c0 + cp * e1x + sp * e2x, c1 + cp * e1y + sp * e2y, c2 + cp * e1z + sp * e2z]
-            # the arm against the obstacles: the elbow is measured only if needed
-            if not elbows_clear:
-                e_w = self._world(e_c)
-                d_e = max(d_e0, checker.distance(e_w, checker.bound_elbow))
-                if not checker.segment_clear(s_w, e_w, d_s, d_e, r_u, l_u) or \
-                        not checker.segment_clear(e_w, w_w, d_e, d_w, r_f, l_f):
-                    continue
-            # ... and against the body (the elbow half of the upper arm, the forearm)
-            if caps_upper:
-                mid = [0.5 * (s_c[0] + e_c[0]), 0.5 * (s_c[1] + e_c[1]), 0.5 * (s_c[2] + e_c[2])]
-                if ik.segment_hits_body(mid, e_c, arm.upper_arm_radius, caps_upper):
-                    continue
-            if caps_fore and ik.segment_hits_body(e_c, w_c, arm.forearm_radius, caps_fore):
-                continue
-            bend = sol.bend_at(0, k).tolist()
-            if not self._check_hand:
-                tip = [w_c[i] + arm.hand_length * (w_c[i] - e_c[i]) / l2 for i in range(3)]
-                hand = (0.0, 0.0)
-            else:
-                if hands is None:
-                    hands = self.hand_order((0.0, 0.0), 180.0) \
-                        if previous is None or hand_scale is None else \
-                        self.hand_order(previous.hand, hand_scale, toward)
-                tip, hand = self._place_hand(s_c, e_c, w_c, w_w, d_w, bend, caps_hand, hands,
-                                             None if hand_scale is None else previous)
-                if tip is None:
-                    self.hand_blocked = True
-                    continue
-            config = sol.config(0, k)
-            if previous is not None and not self._swing_clear(previous, config, e_c):
-                continue
-            joints = np.array(t_c + s_c + e_c + w_c + tip).reshape(5, 3)
-            return Pose(config, joints, np.array(bend), sol.category(0, k), hand)
-        return None
+        return (w_c, w_w, d_w, s_c, t_c, s_w, d_s, d_e0, elbows_clear, circle) + near
+
+    def _near_capsules(self, caps: list, w_c) -> tuple:
+        """The body ``caps`` (:meth:`capsules_at`) that the upper arm's elbow half, the
+        forearm and the hand can reach from the wrist ``w_c`` (every forearm point is within
+        L2 of it, every hand point within the hand's length, every point of the upper arm's
+        elbow half within L2 + L1/2): three lists, the others left out of those tests."""
+        if not caps:
+            return caps, caps, caps
+        arm = self.arm
+        l1, l2 = arm.upper_arm_length, arm.forearm_length
+        far = [point_segment_distance(w_c, a, b) - r for a, b, _c, _h, r in caps]
+        reach_u = l2 + 0.5 * l1 + arm.upper_arm_radius
+        reach_f, reach_h = l2 + arm.forearm_radius, arm.hand_length + arm.hand_radius
+        return ([c for c, d in zip(caps, far) if d < reach_u],
+                [c for c, d in zip(caps, far) if d < reach_f],
+                [c for c, d in zip(caps, far) if d < reach_h])
+
+    def _clear_elbow(self, at: tuple, k: int):
+        """The elbow (canonical float list) of candidate ``k`` at the position ``at``
+        (:meth:`_position`) if its upper arm and forearm are clear of the obstacles and of
+        the body, else None. The elbow's obstacle distance is measured only where the
+        position's bound does not settle it."""
+        w_c, w_w, d_w, s_c, _t_c, s_w, d_s, d_e0, elbows_clear, circle, caps_upper, \
+            caps_fore, _caps_hand = at
+        ((c0, c1, c2), (e1x, e1y, e1z), (e2x, e2y, e2z)), (cos_phi, sin_phi) = circle
+        cp, sp = cos_phi[k], sin_phi[k]
+        e_c = [c0 + cp * e1x + sp * e2x, c1 + cp * e1y + sp * e2y, c2 + cp * e1z + sp * e2z]
+        if not elbows_clear:
+            checker = self.checker
+            (_r_c, _l_c), (r_u, l_u), (r_f, l_f) = self._sizes
+            e_w = self._world(e_c)
+            d_e = max(d_e0, checker.distance(e_w, checker.bound_elbow))
+            if not checker.segment_clear(s_w, e_w, d_s, d_e, r_u, l_u) or \
+                    not checker.segment_clear(e_w, w_w, d_e, d_w, r_f, l_f):
+                return None
+        arm = self.arm
+        if caps_upper:
+            mid = [0.5 * (s_c[0] + e_c[0]), 0.5 * (s_c[1] + e_c[1]), 0.5 * (s_c[2] + e_c[2])]
+            if segment_hits_body(mid, e_c, arm.upper_arm_radius, caps_upper):
+                return None
+        if caps_fore and segment_hits_body(e_c, w_c, arm.forearm_radius, caps_fore):
+            return None
+        return e_c
 
     def _swing_clear(self, previous: Pose, config: ArmConfig, elbow) -> bool:
         """Is the arm clear halfway between ``previous`` and a candidate (their angles
@@ -391,7 +378,7 @@ class ConfigurationGenerator:
                     w_c[2] + lh * (f[2] * cf + pz * cp + hz * ch)]
 
         def clear(tip):
-            if caps and ik.segment_hits_body(w_c, tip, arm.hand_radius, caps):
+            if caps and segment_hits_body(w_c, tip, arm.hand_radius, caps):
                 return False
             if not clear_far:
                 t_w = self._world(tip)
@@ -471,7 +458,7 @@ class ConfigurationGenerator:
         w_c = np.asarray(joints[3], dtype=float)
         reach = arm.hand_length + arm.hand_radius
         wl = w_c.tolist()
-        caps = [c for c in self._capsules(float(body_rotation))     # (a, b, centre, half, r)
+        caps = [c for c in self.capsules_at(float(body_rotation))     # (a, b, centre, half, r)
                 if point_segment_distance(wl, c[0], c[1]) - c[4] < reach]
         if caps and len(tips) > 2:
             # many directions (the hand pass's grid): every hand against every capsule
@@ -480,7 +467,7 @@ class ConfigurationGenerator:
             out &= ~(gap < arm.hand_radius + np.array([c[4] for c in caps])).any(1)
         elif caps:
             for i, tip in enumerate(tips.tolist()):
-                if ik.segment_hits_body(wl, tip, arm.hand_radius, caps):
+                if segment_hits_body(wl, tip, arm.hand_radius, caps):
                     out[i] = False
         w_w = self._world(wl)
         d_w = checker.distance(w_w, checker.bound_wrist)
@@ -529,7 +516,7 @@ class ConfigurationGenerator:
         and of the body? ``joints`` (≥ 4, 3), canonical."""
         j = np.asarray(joints, dtype=float)
         full = np.vstack([j[:4], j[3:4]])
-        if ik.self_collision(self.arm, float(body_rotation), full[None], include_hand=False)[0]:
+        if self_collision(self.arm, float(body_rotation), full[None], include_hand=False)[0]:
             return False
         return not self.checker.collides(self.arm.to_world_points(full), include_hand=False)
 
@@ -539,195 +526,13 @@ class ConfigurationGenerator:
                                                               self.move_scale(a, b.wrist)):
             return False
         c = b.config
-        ok = ik.smooth(a.config, np.array([c.body_rotation]), np.array([[c.alpha]]),
+        ok = smooth(a.config, np.array([c.body_rotation]), np.array([[c.alpha]]),
                        np.array([[c.beta]]), np.array([[c.gamma]]), np.array([c.elbow]),
                        self.max_change(a, b.wrist))
         return bool(ok.all())
 
     def pose_collides(self, pose: Pose) -> bool:
         return self.checker.collides(self.arm.to_world_points(pose.joints))
-
-    def what_holds(self, start: Pose, directions) -> Hold | None:
-        """Why the arm cannot move from ``start`` at all, or None if it can: some step of
-        the search from it (one ``Settings.step`` along each of ``directions``, unit rows,
-        canonical) has a legal, smooth pose clear with some hand.
-
-        Each step is put down to the first thing that refuses it, in the order the
-        generator tests them: the arm's reach (the wrist beyond it), the joint limits (no
-        legal pose there), the smoothness bound (legal poses, but none within a step's
-        change of the start's angles: the elbow or chest would jump), the body (a part
-        inside one of its capsules) or an obstacle (which one, at which part). The
-        :class:`Hold` names the most frequent one and how many of the steps it refuses."""
-        causes = []
-        for d in np.asarray(directions, dtype=float):
-            wrist = start.wrist + self.step_length * d
-            if self.solve(wrist, start) is not None:    # with any clear hand
-                return None
-            causes.append(self._refusal(start, wrist))
-        counts: dict = {}
-        for c in causes:
-            counts[c] = counts.get(c, 0) + 1
-        kind, what, part = max(counts, key=lambda c: (counts[c], c != ("limits", "", "")))
-        return Hold(kind, what, part, counts[(kind, what, part)], len(causes))
-
-    def _refusal(self, start: Pose, wrist) -> tuple:
-        """(kind, what, part) of the first test that refuses every pose at ``wrist`` for a
-        step from ``start`` (:meth:`what_holds`)."""
-        arm, st = self.arm, self.settings
-        body = self.chest(wrist) if self.chest is not None else None
-        sol = ik.solve(arm, wrist[None], st, start.config, body,
-                       self.max_change(start, wrist))
-        if not sol.reachable[0]:
-            return ("reach", "", "")
-        if not sol.valid[0].any():
-            free = ik.solve(arm, wrist[None], st, body_rotation=body)
-            legal = ik.solve(arm, wrist[None], st, start.config, body, 360.0)
-            return ("smoothness", "", "") if legal.valid[0].any() or free.legal[0].any() \
-                else ("limits", "", "")
-        caps = self._capsules(float(sol.body[0]))
-        first = None
-        for k in sol.ranked(0, st.elbow_side)[: st.max_pose_tries]:
-            joints = sol.joints(0, k)[0]
-            for hand in (False, True):
-                hit = ik.body_hit(arm, joints.tolist(), caps, include_hand=hand) if caps else None
-                if hit is not None:
-                    first = first or ("body", arm.body_capsules[hit[1]].name, hit[0])
-                    break
-                hit = self.checker.first_hit(arm.to_world_points(joints), include_hand=hand)
-                if hit is not None:
-                    first = first or ("obstacle", hit[1], hit[0])
-                    break
-            else:
-                # the arm and its straight hand are clear: the hand's turn from the start's
-                # is what no clear direction allows (it touches on the way)
-                first = first or ("hand", "", "hand")
-        return first or ("limits", "", "")
-
-    def diagnose_target(self, wrist) -> Diagnosis | None:
-        """Why a wrist position can never be reached, or None if some legal pose there is
-        clear, hand included. A :class:`Diagnosis`:
-
-        * ``TARGET_IN_OBSTACLE``: the target is inside a closed obstacle (or every legal
-          pose there passes through the character's own body);
-        * ``ARM_DOES_NOT_FIT``: the target is in free space but no legal pose there keeps
-          the arm (or, with the arm clear, the hand at any wrist angle) clear; ``missing``
-          is the clearance the best pose lacks (figure units, margin included), ``part`` the
-          segment and ``obstacle`` what it touches;
-        * ``NEEDS_LEAN`` / ``NEEDS_STEP`` / ``OUT_OF_REACH``: no legal arm pose puts the
-          wrist there (:meth:`_beyond_reach`).
-
-        Every chest rotation of the range counts (:meth:`chest_candidates`), not Table 1's
-        alone: a target a turned trunk reaches is reachable (:meth:`target_chest`); the
-        reason given is read at the rotation nearest Table 1's that has legal poses, and
-        beyond reach from the turn that brings the shoulder nearest the target."""
-        wrist = np.asarray(wrist, dtype=float)
-        arm, checker = self.arm, self.checker
-        world = arm.to_world_points(wrist)
-        if self.obstacles.point_inside(world):
-            return Diagnosis(TARGET_IN_OBSTACLE, obstacle=self.obstacles.enclosing_owner(world))
-        if self.target_chest(wrist) is not None:
-            return None
-        nearest = None           # the chest rotation whose shoulder is nearest the target
-        for chest in self.chest_candidates(wrist):
-            sol = ik.solve(arm, wrist[None], self.settings, body_rotation=chest)
-            if sol.legal[0].any():
-                break
-            if nearest is None or np.linalg.norm(wrist - sol.shoulder[0]) < \
-                    np.linalg.norm(wrist - nearest.shoulder[0]):
-                nearest = sol
-        else:
-            return self._beyond_reach(wrist, nearest)
-        legal = np.flatnonzero(sol.legal[0])
-        body = float(sol.body[0])
-        joints = sol.joints(0, legal)
-        clear_of_body = ~ik.self_collision(arm, body, joints, include_hand=False)
-        if not clear_of_body.any():
-            return Diagnosis(TARGET_IN_OBSTACLE, obstacle="the character's own body")
-        horizon = 0.5 * arm.arm_length
-        best = (-math.inf, "arm", "an obstacle")
-        hands = self.fine_hand_coefficients()
-        for n in np.flatnonzero(clear_of_body):
-            j = joints[n]
-            hit = checker.first_hit(arm.to_world_points(j), include_hand=False)
-            if hit is not None:
-                arm_only = np.vstack([j[:4], j[3:4]])
-                c = checker.clearance(arm.to_world_points(arm_only), horizon)
-                if c > best[0]:
-                    best = (c, hit[0], hit[1])
-                continue
-            if not self._check_hand:
-                return None
-            bend = sol.bend_at(0, int(legal[n]))
-            if self.hands_clear(j, bend, body, hands).any():
-                return None
-            axes = self.hand_axes(j, bend)
-            for coefficients in hands:
-                full = j.copy()
-                full[4] = j[3] + arm.hand_length * (np.asarray(coefficients) @ axes)
-                w = arm.to_world_points(full)
-                c = checker.clearance(w, horizon)
-                if c > best[0]:
-                    hit = checker.first_hit(w)
-                    best = (c, "hand", hit[1] if hit else "the character's own body")
-        clearance, part, obstacle = best
-        missing = checker.margin - clearance if math.isfinite(clearance) else math.nan
-        return Diagnosis(ARM_DOES_NOT_FIT, obstacle=obstacle, part=part, missing=missing)
-
-    def fine_hand_coefficients(self) -> list:
-        """Hand directions (their coefficients) for asking whether any wrist angle fits: the
-        search's samples, then bends about every two ``hand_grid_step`` and sides every
-        third of the side range, both ends included."""
-        s = self.settings
-        nb = max(1, int(math.ceil(2 * s.wrist_bend_max / (2 * s.hand_grid_step))))
-        bends = np.linspace(-s.wrist_bend_max, s.wrist_bend_max, nb + 1)
-        sides = np.linspace(-s.wrist_side_max, s.wrist_side_max, 7)
-        fine = [hand_coefficients(float(b), float(d)) for b in bends for d in sides]
-        return [self._hand_coefficients[h] for h in self.hand_samples] + fine
-
-    def _beyond_reach(self, wrist, sol) -> Diagnosis:
-        """No legal arm pose puts the wrist at ``wrist``. Beyond the straight arm's reach
-        from the shoulder: ``NEEDS_LEAN`` if leaning the trunk toward it (about the waist,
-        at most ``Settings.lean_max``) brings it within reach; else ``OUT_OF_REACH`` (too
-        high or too low: ``above`` says which, ``missing`` by how much) only where that is
-        certain, else ``NEEDS_STEP`` with ``missing`` the target's distance beyond the
-        arm's reach: the least the shoulder must move toward it. Within the straight arm's
-        reach (too close, or behind the back): ``OUT_OF_REACH`` by the joint limits.
-
-        Certain: the body's up axis is read from the bones and may lean off the true
-        vertical by up to :data:`UP_TILT_DEG` (a spine bent in the rest pose), and a tilt
-        ε moves a target at distance d up or down by up to d·sin ε, more than an arm
-        length for a target a few metres away. So a target is too high or too low only
-        if it stays more than the arm's reach above (below) the shoulder whichever up
-        axis within that tilt is the true one; a far target is a step away, by its
-        distance."""
-        arm = self.arm
-        shoulder = sol.shoulder[0]
-        distance = float(np.linalg.norm(wrist - shoulder))
-        reach = arm.arm_length
-        if distance <= reach:
-            return Diagnosis(OUT_OF_REACH, distance=distance, missing=0.0)
-        waist = np.asarray(arm.waist, dtype=float)
-        toward = np.array([wrist[0] - waist[0], wrist[1] - waist[1], 0.0])
-        if np.linalg.norm(toward) < 1e-9:
-            toward = np.array([0.0, 1.0, 0.0])
-        toward /= np.linalg.norm(toward)
-        axis = cross([0.0, 0.0, 1.0], toward)
-        v = shoulder - waist
-        for lean in np.arange(1.0, self.settings.lean_max + 0.5, 1.0):
-            t = math.radians(lean)
-            moved = waist + v * math.cos(t) + cross(axis, v) * math.sin(t) + \
-                axis * float(axis @ v) * (1.0 - math.cos(t))
-            if np.linalg.norm(wrist - moved) <= reach:
-                return Diagnosis(NEEDS_LEAN, distance=distance, missing=distance - reach,
-                                 lean_deg=float(lean))
-        height = float(wrist[2] - shoulder[2])
-        horizontal = float(np.hypot(wrist[0] - shoulder[0], wrist[1] - shoulder[1]))
-        elevation = math.atan2(abs(height), horizontal)
-        surely = distance * math.sin(max(0.0, elevation - math.radians(UP_TILT_DEG)))
-        if surely >= reach:
-            return Diagnosis(OUT_OF_REACH, distance=distance, missing=abs(height) - reach,
-                             above=height > 0)
-        return Diagnosis(NEEDS_STEP, distance=distance, missing=distance - reach)
 
     def start_problem(self, pose: Pose):
         """None if a start pose is usable, else (segment, obstacle) of its first contact or

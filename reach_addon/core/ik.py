@@ -1,8 +1,8 @@
 """Analytic, sternum-rooted IK: every swivel solution for a wrist position, ranked by strength.
 
-For a wrist position ``w`` (canonical frame) the paper's multi-joint function gives the body
-rotation (Table 1, :func:`~reach_addon.core.torso.body_rotation_deg`), which places the
-shoulder ``s``. The elbow then lies on a circle about the axis ``s``-``w`` (law of cosines):
+For a wrist position ``w`` (canonical frame) Table 1 gives the body rotation
+(:func:`~reach_addon.core.torso.body_rotation_deg`), which places the shoulder ``s``. The
+elbow then lies on a circle about the axis ``s``-``w`` (law of cosines):
 
 .. math::
     d = |w - s|,\\quad \\cos A = \\frac{L_1^2 + d^2 - L_2^2}{2 L_1 d},\\quad
@@ -10,17 +10,13 @@ shoulder ``s``. The elbow then lies on a circle about the axis ``s``-``w`` (law 
     e(φ) = c + r(\\cos φ\\, b_1 + \\sin φ\\, b_2),\\qquad
     \\text{elbow flexion } ε = 180° - \\arccos\\frac{L_1^2 + L_2^2 - d^2}{2 L_1 L_2}
 
-``φ`` (the swivel angle) is sampled every ``Settings.swivel_step`` degrees, starting with
-the elbow straight down (``b_1``); every sample becomes a candidate (body rotation, α, β,
-γ, ε). A candidate is **legal** inside the joint limits and, when ``Settings.elbow_side``
-is ``"require"``, with the elbow on the preferred side of Algorithm 1; it is **valid** if
-also within the smoothness bound of the previous configuration. Valid candidates are
-ordered by the strength ranking (:func:`~reach_addon.core.strength.rank_order`). Contact
-with the body's own capsules is tested by the caller on the candidates it tries
-(:func:`self_collision`), in rank order, like obstacle contact.
-
-Vectorised: the upper arm and forearm directions are affine in (cos φ, sin φ), so every
-per-sample quantity is a short numpy expression over all samples of all wrists at once.
+The swivel angle ``φ`` is sampled every ``Settings.swivel_step`` degrees from the elbow
+straight down (``b_1``); each sample is a candidate (body rotation, α, β, γ, ε). It is
+**legal** inside the joint limits and, with ``Settings.elbow_side`` "require", on
+Algorithm 1's side (:mod:`~reach_addon.core.limits`); **valid** if also within the
+smoothness bound of the previous configuration. Valid candidates are ordered by the
+strength ranking (:func:`~reach_addon.core.strength.rank_order`); callers test them
+against the obstacles and the body in that order.
 """
 
 from __future__ import annotations
@@ -32,10 +28,11 @@ from functools import lru_cache
 import numpy as np
 
 from . import strength
-from .arm import ArmConfig, ArmModel, Pose, forward_kinematics
-from .collision import segment_distance_float
+from .arm import ArmConfig, ArmModel, Pose
+from .limits import (STRAIGHT, move_limits, on_elbow_side, settings_limits, side_normal,
+                     smooth_angles, valid_bounds)
 from .numeric import ARRAY, SCALAR
-from .torso import body_rotation_deg, turn_about_spine
+from .torso import body_rotation_deg
 
 
 #: Up to this many valid candidates of one wrist are scored as floats, more as arrays.
@@ -63,30 +60,6 @@ def swivel_basis(step_deg: float):
     return np.concatenate([np.ones_like(cos_phi), cos_phi, sin_phi])
 
 
-def side_normal(wrist, shoulder, waist, m=ARRAY):
-    r"""Algorithm 1, RightArmSide(w, e, s, a): the normal of the plane P through wrist,
-    shoulder and waist, from (x, y, z) component tuples (floats with ``m`` = SCALAR, arrays
-    with ARRAY). Returns (n_x, n_y, n_z, degenerate): degenerate where P is undefined.
-
-    .. math::
-        \hat n = \mathrm{normalize}[(s - w) × (a - s)],\quad
-        \hat p = \mathrm{normalize}(e - e_P),\quad
-        \text{RIGHT} \iff \hat p = \hat n
-
-    where ``e_P`` is the projection of the elbow ``e`` on P; callers test ``p̂ = n̂`` as
-    ``(e - s) · n̂ > 0`` (:func:`solve` for every swivel sample at once, with ``e - s``
-    affine in the swivel angle). Where P is degenerate every elbow counts as RIGHT. For a
-    right arm reaching forward n̂ points outward and down, so RIGHT is the natural,
-    elbow-out side; in the canonical frame a left arm is mirrored into a right arm and the
-    same rule gives its natural (left) side."""
-    px, py, pz = shoulder[0] - wrist[0], shoulder[1] - wrist[1], shoulder[2] - wrist[2]
-    qx, qy, qz = waist[0] - shoulder[0], waist[1] - shoulder[1], waist[2] - shoulder[2]
-    kx, ky, kz = py * qz - pz * qy, pz * qx - px * qz, px * qy - py * qx
-    kn = m.sqrt(kx * kx + ky * ky + kz * kz)
-    degenerate = kn < 1e-9
-    kn = m.maximum(kn, 1e-12)
-    return kx / kn, ky / kn, kz / kn, degenerate
-
 
 class Solutions:
     """All swivel samples for W wrist positions. Per-sample arrays are (W, S); per-wrist
@@ -97,6 +70,11 @@ class Solutions:
     flexion outside its limits) are NaN: there is no arm pose to measure them on.
     :attr:`legal` is worked out when first asked for (the planner's inner loop only needs
     :attr:`valid`)."""
+
+    __slots__ = ("wrists", "body", "sternum", "shoulder", "elbow_coef", "fore_coef", "cos_phi",
+                 "sin_phi", "angles", "flex", "_reachable", "valid", "_f_r", "_second",
+                 "wrong_side", "hand_length", "_upper", "_fore", "_turn", "_eps", "_gamma_prev",
+                 "_limits", "_require_side", "_legal", "_ranked")
 
     def __init__(self, *, wrists, body, sternum, shoulder, elbow_coef, fore_coef, cos_phi,
                  sin_phi, angles, flex, reachable, valid, f_r, second, wrong_side,
@@ -219,7 +197,7 @@ class Solutions:
         of the kept twist (see :func:`solve`)."""
         ux, uy, uz = self._upper[i, :, k].tolist()
         ce, se = self._eps[i].tolist()
-        if se < _STRAIGHT:
+        if se < STRAIGHT:
             a = ux / max(1.0 - uz, 1e-12)
             g = math.radians(self._gamma_prev)
             cg, sg = math.cos(g), math.sin(g)
@@ -253,120 +231,142 @@ def _rank(ks: list, f_r: list, second: list, wrong: list | None) -> list:
     return sorted(ks, key=lambda k: (wrong[k], f_r[k], second[k], k))
 
 
-#: An elbow with sin ε below this is straight: its twist cannot be seen and is kept.
-_STRAIGHT = 1e-6
-
-
 def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
           body_rotation=None, max_change: float | None = None) -> Solutions:
-    """Every swivel solution for each wrist position (W, 3), canonical frame.
+    """Every swivel solution for each wrist position of ``wrists`` (W, 3), canonical frame:
+    per sample the angles (α, β, γ and the elevation θ, degrees), whether it is legal and
+    valid, and the strength category f_R and second-level score of the valid ones
+    (:class:`Solutions`).
 
-    ``previous`` is the configuration the move starts from: f_E is measured from it and,
-    with ``max_change`` (degrees), the smoothness bound is applied against it. Without
-    ``previous`` the exertion is measured from the hanging arm (α = β = γ = 0) and a
-    straight elbow gets twist 0. ``body_rotation`` overrides Table 1 (where the chest
-    must stay as it is: a start moving out of contact, a pose put between two others).
+    ``previous``: the configuration the move starts from. f_E is measured from it and, with
+    ``max_change`` (degrees), the smoothness bound is applied against it and the joint
+    limits are widened to take it in (:mod:`~reach_addon.core.limits`). Without
+    ``previous`` f_E is measured from the hanging arm (α = β = γ = 0) and a straight elbow
+    gets twist 0. ``body_rotation`` (degrees; a float, or (W,)) overrides Table 1's chest
+    rotation.
 
-    The inner loop of the planner calls this for one wrist at a time, so the work is laid
-    out for few numpy calls (each costs about a microsecond however small its array):
-
-    * every per-wrist quantity is computed on floats (on (W,) arrays for many wrists) and
-      packed into one coefficient matrix, whose product with the swivel basis gives the
-      chest-frame upper arm and forearm directions and Algorithm 1's side value of every
-      sample at once;
-    * the elevation is atan2(|u_xy|, -u_z) (no clipping needed) and the twist is read
-      straight from u, f and u × f, with no bend direction built:
-
-      .. math::
-          γ = \\operatorname{atan2}(-f·t,\\ f·r),\\quad
-          r = (-a u_y,\\ a u_x - u_z,\\ u_y),\\ t = u × r = (1 - a u_x,\\ -a u_y,\\ u_x),\\
-          a = \\frac{u_x}{1 - u_z}
-
-      (r is :func:`~reach_addon.core.arm.swing_reference`), which with u·f = cos ε and both
-      terms multiplied by 1 - u_z > 0 becomes
-      atan2(u_x (cos ε - f_z) - (1 - u_z) f_x,\\ u_x (u × f)_z + (1 - u_z) (u × f)_x);
-      u × f = (d r / (L_1 L_2)) (sin φ b_1 - cos φ b_2) is affine in (cos φ, sin φ) like u and
-      f, so it comes out of the same matrix product. The bend direction
-      b = (f - cos ε u)/sin ε is built only for the poses returned;
-    * for one wrist with a previous configuration, the joint limits and the smoothness
-      bound of α, β and γ are intersected into one interval per angle (in floats), so
-      validity is one comparison per side; the few valid candidates are scored and ranked
-      as floats.
-    """
+    Stages: the chest rotation and everything that does not depend on the swivel angle
+    (:func:`_wrist_terms`), every sample's angles at once (:func:`_sample_angles`), then
+    validity and ranking: on floats for one wrist, the planner's inner loop
+    (:func:`_rank_one`), on arrays for many (:func:`_validate_many`)."""
     st = settings
     w = np.atleast_2d(np.asarray(wrists, dtype=float))
-    n_w = len(w)
-    step = float(st.swivel_step)
-    cos_phi, sin_phi = swivel_samples(step)
-    basis = swivel_basis(step)                                           # (3, S)
-    n_s = basis.shape[1]
-    gamma_prev = 0.0 if previous is None else previous.gamma
+    one = len(w) == 1
+    m = SCALAR if one else ARRAY
     smooth_bound = previous is not None and max_change is not None
-    limits = move_limits(st, previous) if smooth_bound else _settings_limits(st)
-    e_lo, e_hi = st.elbow_min, st.elbow_max        # the elbow's, widened likewise
-    if smooth_bound:
-        e_lo, e_hi = min(e_lo, previous.elbow), max(e_hi, previous.elbow)
-    require = st.elbow_side == "require"
-    if require and smooth_bound and not on_elbow_side(arm, previous):
-        # a move that starts with the elbow off its side (a rig's own start pose) may
-        # stay off it on the way back; the side then leads the ranking (Solutions.order)
-        require = False
+    limits = move_limits(st, previous) if smooth_bound else settings_limits(st)
+    e_lo, e_hi, require = _elbow_rules(arm, st, previous, smooth_bound)
 
-    # --- per wrist: plain floats for one wrist, arrays for many ---------------------
-    if n_w == 1:
-        m = SCALAR
-        wx, wy, wz = w[0].tolist()
-        if body_rotation is None:
-            body = float(body_rotation_deg(w[0], arm.arm_length, arm.hand_length, st))
-        elif isinstance(body_rotation, float):
-            body = body_rotation
-        else:
-            body = float(np.asarray(body_rotation, dtype=float).reshape(-1)[0])
-    else:
-        m = ARRAY
-        wx, wy, wz = w[:, 0], w[:, 1], w[:, 2]
-        if body_rotation is None:
-            body = np.asarray(body_rotation_deg(w, arm.arm_length, arm.hand_length, st), dtype=float)
-        else:
-            body = np.broadcast_to(np.asarray(body_rotation, dtype=float), (n_w,)).copy()
+    # per wrist: plain floats for one wrist, arrays for many
+    body = _body_rotation(arm, w, st, body_rotation, one)
+    wx, wy, wz = w[0].tolist() if one else (w[:, 0], w[:, 1], w[:, 2])
     values, reachable, degenerate, flex = _wrist_terms(arm, wx, wy, wz, body, e_hi, m)
-    if m is SCALAR:
+    if one:
         packed = np.array(values)[None]                                  # (1, TERMS.size)
         wrist_ok = bool(reachable and e_lo <= flex <= e_hi)
     else:
         packed = np.stack(values, -1)                                    # (W, TERMS.size)
         wrist_ok = reachable & (flex >= e_lo) & (flex <= e_hi)
-    straight = values[_SIN_EPS] < _STRAIGHT
-    # the layout's fields by name, in one unpacking (a NamedTuple's attributes cost a
-    # descriptor lookup each, and this runs for every position the search tests)
-    at_sternum, at_shoulder, at_elbow, at_fore, at_rows, at_eps, at_turn, at_body, at_flex, \
-        _size = TERMS
-    sternum, shoulder = packed[:, at_sternum], packed[:, at_shoulder]
-    elbow_coef = packed[:, at_elbow].reshape(n_w, 3, 3)
-    fore_coef = packed[:, at_fore].reshape(n_w, 3, 3)
-    eps, turn = packed[:, at_eps], packed[:, at_turn]
 
-    # --- per sample: (W, 9, S) = chest-frame u, f, the side value, (u × f)_x, (u × f)_z --
-    p = packed[:, at_rows].reshape(n_w, 9, 3) @ basis
+    # per swivel sample
+    step = float(st.swivel_step)
+    gamma_prev = 0.0 if previous is None else previous.gamma
+    p, angles, wrong_side = _sample_angles(packed, values[_SIN_EPS] < STRAIGHT, wrist_ok,
+                                           degenerate, step, gamma_prev, one)
+
+    # validity and ranking
+    prev_angles = (0.0, 0.0, 0.0) if previous is None else (
+        previous.alpha, previous.beta, previous.gamma)
+    move = (previous, max_change, limits, smooth_bound, require, prev_angles)
+    if one:
+        valid, f_r, second, ranked = _rank_one(st, angles, wrong_side, body, flex, move)
+        legal = None if smooth_bound else valid
+        body, flex = packed[:, _AT_BODY], packed[:, _AT_FLEX]             # (1,) each
+    else:
+        legal, valid, f_r, second = _validate_many(st, angles, wrong_side, body, flex, move)
+        ranked = None
+    n_w = len(w)
+    cos_phi, sin_phi = swivel_samples(step)
+    # Solutions(...) would pass its 25 keywords through a dict (a class call hands
+    # __init__ its keywords as one); the bound __init__ takes them as a function does
+    out = Solutions.__new__(Solutions)
+    out.__init__(wrists=w, body=body, sternum=packed[:, _AT_STERNUM],
+                 shoulder=packed[:, _AT_SHOULDER],
+                 elbow_coef=packed[:, _AT_ELBOW].reshape(n_w, 3, 3),
+                 fore_coef=packed[:, _AT_FORE].reshape(n_w, 3, 3), cos_phi=cos_phi[0],
+                 sin_phi=sin_phi[0], angles=angles, flex=flex, reachable=wrist_ok,
+                 valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
+                 hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6],
+                 turn=packed[:, _AT_TURN], eps=packed[:, _AT_EPS],
+                 gamma_prev=float(gamma_prev), limits=limits, require_side=require,
+                 legal=legal, ranked=ranked)
+    return out
+
+
+def _elbow_rules(arm: ArmModel, st, previous: ArmConfig | None, smooth_bound: bool):
+    """(least and greatest elbow flexion, degrees; whether Algorithm 1's side is required)
+    of a move from ``previous``: the settings' flexion limits, widened with
+    ``smooth_bound`` to take in ``previous``'s own (as
+    :func:`~reach_addon.core.limits.move_limits` widens the shoulder's), and the side
+    required where ``Settings.elbow_side`` is "require", unless the move starts off it (a
+    rig's own start pose may stay off it on the way back; the side then leads the ranking,
+    :meth:`Solutions.order`)."""
+    e_lo, e_hi = st.elbow_min, st.elbow_max
+    if smooth_bound:
+        e_lo, e_hi = min(e_lo, previous.elbow), max(e_hi, previous.elbow)
+    require = st.elbow_side == "require"
+    if require and smooth_bound and not on_elbow_side(arm, previous):
+        require = False
+    return e_lo, e_hi, require
+
+
+def _body_rotation(arm: ArmModel, w: np.ndarray, st, body_rotation, one: bool):
+    """The chest rotation (degrees) at each wrist of ``w`` (W, 3): ``body_rotation`` if
+    given, else Table 1's (:func:`~reach_addon.core.torso.body_rotation_deg`). A float for
+    ``one`` wrist, else an array (W,)."""
+    if one:
+        if body_rotation is None:
+            return float(body_rotation_deg(w[0], arm.arm_length, arm.hand_length, st))
+        if isinstance(body_rotation, float):
+            return body_rotation
+        return float(np.asarray(body_rotation, dtype=float).reshape(-1)[0])
+    if body_rotation is None:
+        return np.asarray(body_rotation_deg(w, arm.arm_length, arm.hand_length, st), dtype=float)
+    return np.broadcast_to(np.asarray(body_rotation, dtype=float), (len(w),)).copy()
+
+
+def _sample_angles(packed: np.ndarray, straight, wrist_ok, degenerate, step: float,
+                   gamma_prev: float, one: bool):
+    """Every swivel sample (every ``step`` degrees) of the wrists whose terms are the rows
+    of ``packed`` (:data:`TERMS`). Returns (p, angles, wrong_side):
+
+    * p (W, 9, S): the chest-frame u (3), f (3), Algorithm 1's side value (e - s)·n̂ and
+      (u × f)_x, (u × f)_z, each affine in (cos φ, sin φ), so one matrix product with the
+      swivel basis;
+    * angles (W, 4, S): α, β, γ, θ (degrees); α, β, γ are NaN at a wrist that is not
+      ``wrist_ok``, and γ is ``gamma_prev`` with a ``straight`` elbow (it shows no twist);
+    * wrong_side (W, S): the elbow off Algorithm 1's side (never where the plane is
+      ``degenerate``).
+
+    (α, β) = θ (u_x, u_y) / |(u_x, u_y)| with θ = atan2(|u_xy|, -u_z). The twist
+    γ = atan2(-f·t, f·r) (the module docstring) with both terms multiplied by 1 - u_z > 0
+    and u·f = cos ε: atan2(u_x (cos ε - f_z) - (1 - u_z) f_x, u_x (u × f)_z + (1 - u_z)
+    (u × f)_x), with no bend direction built."""
+    n_w = len(packed)
+    basis = swivel_basis(step)                                           # (3, S)
+    n_s = basis.shape[1]
+    p = packed[:, _AT_ROWS].reshape(n_w, 9, 3) @ basis
     ux, uy, uz, fx, fy, fz, side, cross_x, cross_z = p.transpose(1, 0, 2)
     angles = np.empty((n_w, 4, n_s))
     theta, gamma = angles[:, 3], angles[:, 2]                            # views, (W, S)
-
-    # Shoulder angles (α, β) = θ·(u_x, u_y)/|(u_x, u_y)|, θ = acos(-u_z).
     h = np.hypot(ux, uy)
     np.degrees(np.arctan2(h, -uz), out=theta)
     np.multiply(p[:, 0:2], (theta / np.maximum(h, 1e-12))[:, None], out=angles[:, 0:2])
-
-    # Twist γ = atan2(-f·t, f·r) (see the docstring), both terms times 1 - u_z > 0:
-    # -f·t (1 - u_z) = u_x (cos ε - f_z) - (1 - u_z) f_x (with u·f = cos ε) and
-    # f·r (1 - u_z) = u_x (u × f)_z + (1 - u_z) (u × f)_x.
-    # A straight elbow shows no twist: keep the previous one.
     down = 1.0 - uz
-    cos_eps = eps[:, 0:1]
+    cos_eps = packed[:, _AT_EPS][:, 0:1]
     np.degrees(np.arctan2(ux * (cos_eps - fz) - down * fx, ux * cross_z + down * cross_x),
                out=gamma)
-    # Algorithm 1: side = (e - s)·n̂, affine in (cos φ, sin φ) like e.
-    if m is SCALAR:
+    if one:
         if straight:
             gamma[:] = gamma_prev
         if not wrist_ok:
@@ -378,199 +378,88 @@ def solve(arm: ArmModel, wrists, settings, previous: ArmConfig | None = None,
         if not wrist_ok.all():
             angles[~wrist_ok, :3] = np.nan
         wrong_side = ~((side > 0) | degenerate[:, None])
-    alpha, beta = angles[:, 0], angles[:, 1]
+    return p, angles, wrong_side
 
-    prev_angles = (0.0, 0.0, 0.0) if previous is None else (
-        previous.alpha, previous.beta, previous.gamma)
-    if m is SCALAR:
-        body_, flex_, ok_ = packed[:, at_body], packed[:, at_flex], wrist_ok
-        bounds = _valid_bounds(limits, previous, body, flex, max_change) if smooth_bound \
-            else limits
-        if bounds is None:                       # the body or the elbow moves too far
-            valid = np.zeros((1, n_s), dtype=bool)
-        else:
-            valid = np.logical_and.reduce((angles >= bounds[0]) & (angles <= bounds[1]), 1)
-            if len(bounds) == 3:                 # a twist window that wraps round ±180°
-                valid &= _smooth_angles(previous, body, angles, flex, max_change, m)
-            if require:
-                valid &= ~wrong_side
-        ks = valid[0].nonzero()[0]
-        ranked = None
-        if len(ks) <= _SCALAR_SCORING:
-            # Few candidates to rank: score them as floats (a numpy call costs ~1 µs each).
-            ks = ks.tolist()
-            f_r, second = [0] * n_s, [0.0] * n_s
-            if ks:
-                a_, b_, g_, _t = angles[0].tolist()
-                a0, b0, g0 = prev_angles
-                lh, lv = st.preferred_level_h, st.preferred_level_v
-                wa, wb, wg = st.weight_alpha, st.weight_beta, st.weight_gamma
-                score = strength.score_float
-                if st.strength_reading == "split":
-                    for k in ks:
-                        f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv,
-                                                  wa, wb, wg)
-                else:
-                    read = strength.strength_angles
-                    for k in ks:
-                        sa, sb = read(a_[k], b_[k], st.strength_reading)
-                        f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv,
-                                                  wa, wb, wg, sa, sb)
-            wrong = wrong_side[0].tolist() if st.elbow_side == "prefer" or \
-                (st.elbow_side == "require" and not require) else None
-            ranked = (st.elbow_side, _rank(ks, f_r, second, wrong))
-        else:
-            f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
-        # Solutions(...) would pass its 25 keywords through a dict (a class call hands
-        # __init__ its keywords as one); the bound __init__ takes them as a function does
-        out = Solutions.__new__(Solutions)
-        out.__init__(wrists=w, body=body_, sternum=sternum, shoulder=shoulder,
-                     elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
-                     sin_phi=sin_phi[0], angles=angles, flex=flex_, reachable=ok_,
-                     valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
-                     hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6],
-                     turn=turn, eps=eps, gamma_prev=float(gamma_prev), limits=limits,
-                     require_side=require, legal=None if smooth_bound else valid,
-                     ranked=ranked)
-        return out
 
+def _rank_one(st, angles: np.ndarray, wrong_side: np.ndarray, body: float, flex: float,
+              move: tuple):
+    """Validity and ranking of one wrist's samples (``angles`` (1, 4, S)). ``move``:
+    (previous, max_change, limits, smooth_bound, require, prev_angles) of :func:`solve`.
+    Returns (valid (1, S), f_R, second, ranked):
+
+    * valid: inside ``limits`` and, with the smoothness bound, within ``max_change`` of
+      ``previous`` (the two intersected into one interval per angle,
+      :func:`~reach_addon.core.limits.valid_bounds`), on the elbow's side if required;
+    * f_R and the second-level score of the valid samples (0 elsewhere): with at most
+      :data:`_SCALAR_SCORING` of them, lists scored on floats (:func:`_score_floats`) and
+      ``ranked`` = (``Settings.elbow_side``, their indices best first); else arrays
+      (:func:`~reach_addon.core.strength.scores`) and ``ranked`` None."""
+    previous, max_change, limits, smooth_bound, require, prev_angles = move
+    n_s = angles.shape[2]
+    bounds = valid_bounds(limits, previous, body, flex, max_change) if smooth_bound \
+        else limits
+    if bounds is None:                       # the body or the elbow moves too far
+        valid = np.zeros((1, n_s), dtype=bool)
+    else:
+        valid = np.logical_and.reduce((angles >= bounds[0]) & (angles <= bounds[1]), 1)
+        if len(bounds) == 3:                 # a twist window that wraps round ±180°
+            valid &= smooth_angles(previous, body, angles, flex, max_change, SCALAR)
+        if require:
+            valid &= ~wrong_side
+    ks = valid[0].nonzero()[0]
+    if len(ks) > _SCALAR_SCORING:
+        f_r, second = strength.scores(angles[:, 0], angles[:, 1], angles[:, 2], prev_angles, st)
+        return valid, f_r, second, None
+    ks = ks.tolist()
+    f_r, second = _score_floats(ks, angles, prev_angles, st)
+    wrong = wrong_side[0].tolist() if st.elbow_side == "prefer" or \
+        (st.elbow_side == "require" and not require) else None
+    return valid, f_r, second, (st.elbow_side, _rank(ks, f_r, second, wrong))
+
+
+def _score_floats(ks: list, angles: np.ndarray, prev_angles: tuple, st):
+    """(f_R, second-level score), lists over one wrist's S samples (``angles`` (1, 4, S)),
+    of the samples ``ks`` (0 elsewhere), scored on floats
+    (:func:`~reach_addon.core.strength.score_float`: a numpy call costs ~1 µs each)."""
+    n_s = angles.shape[2]
+    f_r, second = [0] * n_s, [0.0] * n_s
+    if not ks:
+        return f_r, second
+    a_, b_, g_, _t = angles[0].tolist()
+    a0, b0, g0 = prev_angles
+    lh, lv = st.preferred_level_h, st.preferred_level_v
+    wa, wb, wg = st.weight_alpha, st.weight_beta, st.weight_gamma
+    score = strength.score_float
+    if st.strength_reading == "split":
+        for k in ks:
+            f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv, wa, wb, wg)
+    else:
+        read = strength.strength_angles
+        for k in ks:
+            sa, sb = read(a_[k], b_[k], st.strength_reading)
+            f_r[k], second[k] = score(a_[k], b_[k], g_[k], a0, b0, g0, lh, lv, wa, wb, wg,
+                                      sa, sb)
+    return f_r, second
+
+
+def _validate_many(st, angles: np.ndarray, wrong_side: np.ndarray, body, flex, move: tuple):
+    """Validity of many wrists' samples (``angles`` (W, 4, S); ``move`` as for
+    :func:`_rank_one`): (legal, valid, f_R, second), each (W, S). Legal: inside ``limits``,
+    on the elbow's side if required; valid: legal and, with the smoothness bound, within
+    ``max_change`` of ``previous`` (:func:`~reach_addon.core.limits.smooth_angles`); f_R
+    and the second-level score of the valid samples (0 elsewhere)."""
+    previous, max_change, limits, smooth_bound, require, prev_angles = move
     legal = np.logical_and.reduce((angles >= limits[0]) & (angles <= limits[1]), 1)
     if require:
         legal &= ~wrong_side
     valid = legal
     if smooth_bound:
-        valid = legal & _smooth_angles(previous, body, angles, flex, max_change, m)
+        valid = legal & smooth_angles(previous, body, angles, flex, max_change, ARRAY)
     if valid.any():
-        f_r, second = strength.scores(alpha, beta, gamma, prev_angles, st)
+        f_r, second = strength.scores(angles[:, 0], angles[:, 1], angles[:, 2], prev_angles, st)
     else:
-        f_r, second = np.zeros((n_w, n_s), dtype=np.int8), np.zeros((n_w, n_s))
-    out = Solutions.__new__(Solutions)          # (as above)
-    out.__init__(wrists=w, body=body, sternum=sternum, shoulder=shoulder,
-                 elbow_coef=elbow_coef, fore_coef=fore_coef, cos_phi=cos_phi[0],
-                 sin_phi=sin_phi[0], angles=angles, flex=flex, reachable=wrist_ok,
-                 valid=valid, f_r=f_r, second=second, wrong_side=wrong_side,
-                 hand_length=arm.hand_length, upper=p[:, 0:3], fore=p[:, 3:6], turn=turn,
-                 eps=eps, gamma_prev=float(gamma_prev), limits=limits, require_side=require,
-                 legal=legal)
-    return out
-
-
-_LAST_LIMITS: list = [None, None]
-
-
-def _settings_limits(st):
-    """:func:`_limits` of a settings object (the last one asked for is remembered: the
-    planner asks with the same object every time)."""
-    if _LAST_LIMITS[0] is not st:
-        _LAST_LIMITS[1] = _limits(st.alpha_min, st.beta_min, st.gamma_min, st.alpha_max,
-                                  st.beta_max, st.gamma_max, st.elevation_max)
-        _LAST_LIMITS[0] = st
-    return _LAST_LIMITS[1]
-
-
-@lru_cache(maxsize=16)
-def _limits(alpha_min, beta_min, gamma_min, alpha_max, beta_max, gamma_max, elevation_max):
-    """Lower and upper limits (4, 1) of (α, β, γ, θ), for one comparison per side."""
-    lo = np.array([[alpha_min], [beta_min], [gamma_min], [-np.inf]])
-    hi = np.array([[alpha_max], [beta_max], [gamma_max], [elevation_max]])
-    return lo, hi
-
-
-def move_limits(st, previous: ArmConfig | None):
-    """The joint limits (lower, upper), each (4, 1) over (α, β, γ, θ), of a move from
-    ``previous``: the settings' limits widened to take in ``previous``'s own angles.
-
-    A rig's start pose is taken as it is held, outside the limits or not (a T-posed arm
-    whose slight bend reads as a humeral twist of -130°; an arm raised past the elevation
-    limit): the limits bound where a move may go, never where it starts. A move from a
-    pose outside them may stay as far out or come back in, never go farther out, so the
-    arm returns toward the legal range as it moves and the target's own pose (solved with
-    no previous pose) is always inside it. :func:`solve` widens the elbow's flexion limits
-    the same way."""
-    lo, hi = _settings_limits(st)
-    if previous is None:
-        return lo, hi
-    alpha, beta = previous.alpha, previous.beta
-    gamma = (previous.gamma + 180.0) % 360.0 - 180.0
-    theta = math.hypot(alpha, beta)
-    if lo[0, 0] <= alpha <= hi[0, 0] and lo[1, 0] <= beta <= hi[1, 0] and \
-            lo[2, 0] <= gamma <= hi[2, 0] and theta <= hi[3, 0]:
-        return lo, hi
-    own = np.array([[alpha], [beta], [gamma], [theta]])
-    return np.minimum(lo, own), np.maximum(hi, own)
-
-
-def on_elbow_side(arm: ArmModel, config: ArmConfig) -> bool:
-    """Is the elbow of ``config`` on Algorithm 1's preferred side (:func:`side_normal`),
-    or the side undefined there (a straight elbow, a degenerate plane)? Remembered on the
-    arm for the last configurations asked about (a search asks once per node, for each of
-    the positions it tries from there)."""
-    cache = arm.side_cache
-    side = cache.get(config)
-    if side is None:
-        joints, _bend = forward_kinematics(arm, config.as_array())
-        s, e, w = joints[1].tolist(), joints[2].tolist(), joints[3].tolist()
-        nx, ny, nz, degenerate = side_normal(w, s, arm.waist.tolist(), SCALAR)
-        value = (e[0] - s[0]) * nx + (e[1] - s[1]) * ny + (e[2] - s[2]) * nz
-        side = bool(degenerate or value > 0.0
-                    or math.sin(math.radians(config.elbow)) < _STRAIGHT)
-        if len(cache) >= 256:
-            cache.clear()
-        cache[config] = side
-    return side
-
-
-def _valid_bounds(limits, previous: ArmConfig, body: float, flex: float, max_change: float):
-    """(lower, upper) bounds (4, 1) on (α, β, γ, θ) of one wrist's candidates that are both
-    legal and within the smoothness bound of ``previous`` (:func:`smooth`): the joint
-    ``limits`` (:func:`move_limits`) intersected with ``previous ± max_change`` for α and β
-    and with the twist window ``|γ - γ'| ≤ limit`` (mod 360°) for γ. None when nothing can
-    be valid (the body or the elbow moves too far, or the windows miss the limits); a third
-    element when the twist window meets the limits in two pieces (the caller then tests γ
-    in full)."""
-    if not (abs(flex - previous.elbow) <= max_change
-            and abs(body - previous.body_rotation) <= max_change):
-        return None
-    (alpha_min, beta_min, gamma_min, _t), (alpha_max, beta_max, gamma_max, elevation_max) = \
-        limits[0][:, 0].tolist(), limits[1][:, 0].tolist()
-    a_lo, a_hi = max(alpha_min, previous.alpha - max_change), \
-        min(alpha_max, previous.alpha + max_change)
-    b_lo, b_hi = max(beta_min, previous.beta - max_change), \
-        min(beta_max, previous.beta + max_change)
-    if a_lo > a_hi or b_lo > b_hi:
-        return None
-    twist = max_change
-    g_lo, g_hi, split = gamma_min, gamma_max, False
-    if twist < 180.0:
-        centre = (previous.gamma + 180.0) % 360.0 - 180.0     # wrap_degrees, on a float
-        pieces = [(max(g_lo, centre + k - twist), min(g_hi, centre + k + twist))
-                  for k in (-360.0, 0.0, 360.0)]
-        pieces = [q for q in pieces if q[0] <= q[1]]
-        if not pieces:
-            return None
-        if len(pieces) == 1:
-            g_lo, g_hi = pieces[0]
-        else:
-            split = True
-    bounds = np.array([a_lo, b_lo, g_lo, -np.inf, a_hi, b_hi, g_hi,
-                       elevation_max]).reshape(2, 4, 1)
-    return (bounds[0], bounds[1], True) if split else (bounds[0], bounds[1])
-
-
-def _smooth_angles(previous: ArmConfig, body, angles, flex, max_change, m):
-    """:func:`smooth` on the (W, 4, S) angle block of :func:`solve` (α, β, γ, θ), the
-    twist's change by :func:`twist_change`."""
-    if m is SCALAR:
-        if not (abs(flex - previous.elbow) <= max_change
-                and abs(body - previous.body_rotation) <= max_change):
-            return np.zeros((1, angles.shape[2]), dtype=bool)
-        wrist_ok = True
-    else:
-        wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
-                    & (np.abs(body - previous.body_rotation) <= max_change))[:, None]
-    within = np.abs(angles[:, :2] - np.array([[previous.alpha], [previous.beta]])) <= max_change
-    twist_ok = twist_change(angles[:, 2], previous.gamma) <= max_change
-    return within[:, 0] & within[:, 1] & twist_ok & wrist_ok
+        f_r, second = np.zeros(valid.shape, dtype=np.int8), np.zeros(valid.shape)
+    return legal, valid, f_r, second
 
 
 @lru_cache(maxsize=64)
@@ -609,6 +498,8 @@ def _term_layout(**sizes) -> WristTerms:
 TERMS = _term_layout(sternum=3, shoulder=3, elbow_coef=9, fore_coef=9, rows=27, eps=2, turn=2,
                      body=0, flex=0)
 _SIN_EPS = TERMS.eps.start + 1
+_AT_STERNUM, _AT_SHOULDER, _AT_ELBOW, _AT_FORE, _AT_ROWS, _AT_EPS, _AT_TURN, _AT_BODY, _AT_FLEX, \
+    _TERMS_SIZE = TERMS
 
 
 def _wrist_terms(arm: ArmModel, wx, wy, wz, body, elbow_max: float, m):
@@ -683,101 +574,3 @@ def _wrist_terms(arm: ArmModel, wx, wy, wz, body, elbow_max: float, m):
     return values, reachable, degenerate, flex
 
 
-def wrap_degrees(angle):
-    """Angle difference folded into [-180°, 180°)."""
-    return (np.asarray(angle) + 180.0) % 360.0 - 180.0
-
-
-def twist_change(gamma, previous_gamma):
-    """How far the humeral twist turns from ``previous_gamma`` to ``gamma`` (degrees), the
-    short way round the circle: |wrap(γ - γ_prev)| ∈ [0°, 180°] (:func:`wrap_degrees`).
-    The smoothness bound (:func:`smooth`) and its window (:func:`_valid_bounds`) use it."""
-    # wrap(γ - γ_prev) = (γ - (γ_prev - 180°)) mod 360° - 180°: one array operation fewer
-    return np.abs((gamma - (previous_gamma - 180.0)) % 360.0 - 180.0)
-
-
-def smooth(previous: ArmConfig, body, alpha, beta, gamma, flex, max_change):
-    """The smoothness bound: no joint angle changes by more than ``max_change`` degrees from
-    ``previous``. Shapes: ``body``/``flex`` (W,) (or floats for one wrist), the shoulder
-    angles (W, S). The twist counts like the others even with a straight elbow, where the
-    arm's bones hide it: the hand's roll shows it (it used to be let free there, and a
-    straight arm rolled its hand 40-50° in one frame)."""
-    if isinstance(flex, float) and isinstance(body, float):
-        if not (abs(flex - previous.elbow) <= max_change
-                and abs(body - previous.body_rotation) <= max_change):
-            return np.zeros(np.shape(alpha), dtype=bool)
-        return ((np.abs(alpha - previous.alpha) <= max_change)
-                & (np.abs(beta - previous.beta) <= max_change)
-                & (twist_change(gamma, previous.gamma) <= max_change))
-    else:
-        flex = np.asarray(flex)
-        wrist_ok = ((np.abs(flex - previous.elbow) <= max_change)
-                    & (np.abs(np.asarray(body) - previous.body_rotation) <= max_change))[:, None]
-    return (wrist_ok & (np.abs(alpha - previous.alpha) <= max_change)
-            & (np.abs(beta - previous.beta) <= max_change)
-            & (twist_change(gamma, previous.gamma) <= max_change))
-
-
-def body_capsules_at(arm: ArmModel, body: float) -> list:
-    """The body's capsules with the chest turned by ``body`` degrees (those that turn with
-    the chest, :func:`~reach_addon.core.torso.rotate_about_spine`), for the scalar body test
-    of every pose tried: one plain tuple per capsule, ``(a, b, centre, half, radius)`` —
-    its ends and centre (float lists), half its length and its radius. Callers unpack them
-    by those names; they stay plain tuples because a tuple subclass (a NamedTuple) unpacks
-    through an iterator, which the innermost loop of the search (:func:`segment_hits_body`)
-    would pay thousands of times a plan."""
-    body = float(body)
-    c, s = math.cos(math.radians(body)), math.sin(math.radians(body))
-    out = []
-    for p, q, mid, half, r, turn in arm.capsule_floats:
-        if turn and body != 0.0:
-            p, q = turn_about_spine(p, c, s), turn_about_spine(q, c, s)
-            mid, half = [0.5 * (p[i] + q[i]) for i in range(3)], 0.5 * math.dist(p, q)
-        out.append((p, q, mid, half, r))
-    return out
-
-
-def segment_hits_body(p, q, radius, capsules) -> bool:
-    """Does the capsule p-q (float 3-sequences) of ``radius`` pass through one of
-    ``capsules`` (from :func:`body_capsules_at`)? Bounding spheres first."""
-    mid = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])]
-    reach = 0.5 * math.dist(p, q) + radius          # the segment's bounding sphere
-    for a, b, centre, half_c, radius_c in capsules:
-        if math.dist(mid, centre) < reach + half_c + radius_c and \
-                segment_distance_float(p, q, a, b) < radius + radius_c:
-            return True
-    return False
-
-
-def self_collision(arm: ArmModel, body: float, joints, include_hand: bool = True,
-                   capsules=None) -> np.ndarray:
-    """True for each candidate (joints (n, 5, 3), canonical, one chest rotation ``body``)
-    whose forearm, hand (if ``include_hand``) or elbow half of the upper arm passes through
-    one of the body's own capsules (chest and head turn with the chest rotation): see
-    :func:`body_hit`. ``capsules``: :func:`body_capsules_at` for ``body``, if the caller
-    already has them."""
-    joints = np.asarray(joints, dtype=float)
-    out = np.zeros(len(joints), dtype=bool)
-    if not arm.body_capsules:
-        return out
-    caps = body_capsules_at(arm, body) if capsules is None else capsules
-    for n, pose in enumerate(joints.tolist()):
-        out[n] = body_hit(arm, pose, caps, include_hand) is not None
-    return out
-
-
-def body_hit(arm: ArmModel, joints, capsules, include_hand: bool = True):
-    """(part, index into ``capsules``) of the first part of one pose — the elbow half of
-    the upper arm, the forearm, the hand (if ``include_hand``), in that order — that passes
-    through one of the body's ``capsules`` (:func:`body_capsules_at`), or None. ``joints``:
-    the pose's sternum, shoulder, elbow, wrist and hand end as float lists. The upper arm's
-    half nearest the shoulder is not tested: it is attached to the torso there."""
-    _st, sh, el, wr, ha = joints[:5]
-    parts = [("upper arm", [0.5 * (sh[i] + el[i]) for i in range(3)], el, arm.upper_arm_radius),
-             ("forearm", el, wr, arm.forearm_radius)]
-    if include_hand:
-        parts.append(("hand", wr, ha, arm.hand_radius))
-    for part, p, q, r in parts:
-        if segment_hits_body(p, q, r, capsules):
-            return part, next(k for k, c in enumerate(capsules) if segment_hits_body(p, q, r, [c]))
-    return None

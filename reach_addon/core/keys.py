@@ -1,28 +1,12 @@
 """The instants between two keyed poses, as Blender interpolates the keys.
 
 The bake (``reach_addon.blender.bake``) turns each keyed bone so that its frame follows
-its segment's: the chest by the body rotation, the upper arm by (u, b, u × b), the forearm
-by (f, h, f × h), the hand by (d, g, d × g) turned by the palm's roll (:func:`segment_frames`).
-A bone's channels then hold its rotation relative to its parent, ``A · R_p⁻¹ R_c · B``, with
-``R_p``, ``R_c`` the parent's and the child's segment frames and ``A``, ``B`` constant
-rotations (the rest pose, the bone's roll, the unkeyed bones between: the clavicle).
-
-On a linear span Blender evaluates each quaternion channel linearly between the two keys
-and normalises the result (nlerp); the keys are written in the same hemisphere, so it
-takes the short way. Multiplying a unit quaternion by fixed unit quaternions on the left
-and on the right is an orthogonal map of R⁴: it commutes with the linear blend and keeps
-its length. So the nlerp of the bone's channels is ``A · nlerp(Q_a, Q_b) · B`` with ``Q``
-the relative rotation of the *segments*, whatever the rig's rolls and rest pose
-(a mirrored arm conjugates by a reflection on both sides, which is again a rotation on
-both sides). The arm between two keys is therefore the chain of the nlerped relative
-rotations of its segments (:func:`between`): what Blender shows on a linear span, not the
-straight line between the planner's seven angles, which parts from it by up to 0.006 arm
-lengths at the hand when the forearm and hand turn 14° a frame (fuzz seed 849).
-
-A span keyed with Bézier curves (the user's default) bows away from this; the bake
-checks those spans as Blender evaluates them and makes a span that comes too close linear,
-which is this path (``bake.straighten``). Bones keyed in an Euler mode interpolate their
-angles instead; there the bake's check is what holds.
+its segment's (:func:`segment_frames`); a bone's channels then hold its rotation relative
+to its parent, ``A · R_p⁻¹ R_c · B``, with ``A`` and ``B`` constant rotations. On a linear
+span Blender blends each quaternion channel by nlerp, which commutes with those constant
+rotations, so the arm between two keys is the chain of the nlerped relative rotations of
+its segments (:func:`between`), whatever the rig's rolls and rest pose. Spans keyed with
+Bézier curves and bones in an Euler mode are checked by the bake itself.
 """
 
 from __future__ import annotations

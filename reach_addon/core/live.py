@@ -1,48 +1,14 @@
 """Live reach: re-planning while the target (or the scene) moves, in time-budgeted slices.
 
-A :class:`LiveSession` keeps one :class:`~reach_addon.core.tasks.Planner` (its
-configuration generator, collision checker, BVH and, once built, its workspace grid) and
-the pose the user currently sees. When the target moves it starts a re-plan from that pose;
-:meth:`LiveSession.advance` runs the re-plan for at most a time budget (default
-:data:`DEFAULT_BUDGET_S`, 1/30 s) and returns, so an interactive caller stays responsive;
-the next call continues exactly where the last one stopped (the search is the resumable
-:class:`~reach_addon.core.search.BestFirstSearch` that ``Planner.search_steps`` runs), and
-a re-plan gives the same poses however it is sliced.
-
-What we chose, and why
-----------------------
-* **Warm start.** The search starts from the pose of the previous plan (the pose on
-  screen), not from the rest pose; the planner, with its BVH and workspace grid, is reused
-  until the obstacles change (:meth:`LiveSession.set_obstacles`), so a small move of the
-  target costs a few search nodes. When the target moves again before a search is done
-  (a fast drag), the progress is kept: the arm moves to the closest position found so far
-  and the new search starts there.
-* **Re-plan = the reach task's search.** The same code as a ``reach`` task
-  (:meth:`~reach_addon.core.tasks.Planner.route_steps`): through the guiding nodes where
-  the straight line is blocked, the same fallbacks, the same shorter leash for a target
-  diagnosed unreachable. Only the diagnosis waits: it is worked out when the first slice
-  of the search does not settle the re-plan. Shortcut smoothing and frame timing are
-  left out: live mode shows one pose, not a timed motion.
-* **No jump beyond the smoothness bound.** Each update shows at most one new pose, a pose
-  of the searched path: the farthest one (usually the last) that is within the smoothness
-  bound of the pose shown before
-  (:meth:`~reach_addon.core.generator.ConfigurationGenerator.smooth_between`:
-  ``Settings.max_joint_step`` per step of wrist travel). When a detour makes the end too
-  far a jump, the arm walks along the path over the next updates.
-* **Unreachable targets** leave the arm at the closest approach the search found, with the
-  reason and message a plan would give (out of reach, inside an obstacle, no path). An
-  obstacle moved onto the arm is cleared by turning the arm about the wrist if a pose
-  within the bound does it; otherwise the arm stays and the status names the obstacle.
-* **Workspace grid in slices.** The guided fallback needs the workspace grid, which takes
-  most of a second to build; it is built in slices
-  (:func:`~reach_addon.core.workspace.workspace_steps`, the same generator
-  :func:`~reach_addon.core.workspace.build_workspace` runs to the end), so it too respects
-  the budget.
-
-Chase with moving obstacles
----------------------------
-A chase against animated obstacles is the chase task with one planner per frame:
-:func:`reach_addon.core.tasks.chase_steps`.
+A :class:`LiveSession` keeps one :class:`~reach_addon.core.planner.Planner` and the pose on
+screen. When the target moves it re-plans from that pose with the reach task's search and
+fallbacks (:meth:`~reach_addon.core.planner.Planner.route_steps`);
+:meth:`LiveSession.advance` runs for at most a time budget (default
+:data:`DEFAULT_BUDGET_S`) and the next call continues where it stopped, with the same poses
+however it is sliced. Each update shows at most one new pose of the searched path, within
+the smoothness bound of the pose shown before. A target that cannot be reached leaves the
+arm at the closest approach, with the reason and message a plan would give. A chase
+against moving obstacles is :func:`~reach_addon.core.chase.chase_steps`.
 """
 
 from __future__ import annotations
@@ -58,7 +24,7 @@ from .collision import Obstacles
 from .errors import START_IN_COLLISION, require_finite
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
-from .tasks import Planner
+from .planner import Planner
 
 #: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
 DEFAULT_BUDGET_S = 1.0 / 30.0

@@ -1,54 +1,18 @@
-"""Match orientation: the palm arrives aligned with the target's axes (opt-in).
+"""Match orientation: the palm arrives aligned with the target's axes
+(``Settings.match_orientation``, opt-in).
 
-With ``Settings.match_orientation`` on, a target that has a rotation (an Empty, a mesh)
-says how the hand should arrive, not only where the wrist should.
-
-Convention
-----------
-Two of the target's local axes name the hand's frame: ``Settings.finger_axis`` is the
-direction the fingers point (wrist → fingers) and ``Settings.palm_axis`` the direction the
-palm faces (its outward normal). The default, fingers +Y and palm −Z, reads an Empty as
-Blender draws *Plain Axes* or *Arrows*: a hand lying on the XY plane, palm down, fingers
-along +Y. The bundled *Single Arrow* preset takes the arrow (+Z) as the fingers and −Y as
-the palm, so an Empty drawn as a single arrow points where the fingers go.
-
-The hand's frame on the rig
----------------------------
-The finger direction (the wrist to the middle finger's knuckle,
-:func:`~reach_addon.blender.rig.finger_axis`) and the palm normal n
-(:func:`~reach_addon.blender.rig.palm_normal`) are read from the rig by the Blender layer
-and given to the core in the canonical arm frame as ``Task.start_fingers`` and
-``Task.start_palm``; carried by the hand from the start pose, they have constant
-coordinates in the hand's frame (d, g, d × g) of :func:`~reach_addon.core.arm.hand_frame`
-(d: the planner's hand direction, the axis of its capsule; g: the elbow's hinge made
-perpendicular to d), :func:`hand_locals`. Without them (the core alone) the fingers point
-along d and the palm is taken at forearm neutral, facing −g.
-
-How it is met
--------------
-1. **The hand's direction** (:mod:`~reach_addon.core.hand`): the hand pass's dynamic
-   programme gets a cost on the last frames of each reach (:func:`frame_weights`), the
-   frame error after the best roll (:func:`best_roll_error`) in units of 45°, squared,
-   times ``Settings.orientation_weight``; and one more state, the wanted direction itself
-   within the wrist's range at the last frame (:func:`wanted_hand_angles`). Collisions
-   and the turn-speed bounds stay hard constraints: the hand approaches the wanted
-   direction where it is clear and within limits, and keeps the closest it can.
-2. **The palm's roll** ψ about the hand's own axis (forearm pronation/supination, which
-   the planner's arm has no joint for): at the last frame the roll that best aligns the
-   palm (:func:`best_roll`), kept within the forearm's range (:func:`roll_window`:
-   ``Settings.pronation_max`` and ``supination_max``, AAOS 80° each from neutral,
-   measured from the start pose's own twist, :func:`twist_of`). It is ramped in over the
-   reach (:func:`roll_increments`): the minimum-jerk profile over the reach's frames (the
-   arm's own timing), each frame's step at most what the hand's turn-speed bound in space
-   leaves after the hand's own turn there (``Settings.hand_space_turn_speed``), so the
-   hand, its fingers included, turns no faster than without it. The capsule of the hand
-   is round about its axis, so a roll never changes a collision. Poses carry ψ
-   (:attr:`~reach_addon.core.arm.Pose.roll`); the bake turns the hand by ψ and the
-   forearm by :data:`FOREARM_SHARE` of it, about their own axes, as real pronation
-   twists the forearm toward the wrist.
-3. **The error left** (:func:`frame_angle` of the achieved and wanted palm frames) is
-   reported in degrees per target (``orientation_error_deg``) and called met within
-   ``Settings.orientation_tolerance``.
+Two of the target's local axes name the hand's frame: ``Settings.finger_axis``, the way the
+fingers point, and ``Settings.palm_axis``, the way the palm faces (by default +Y and −Z: an
+Empty drawn as *Plain Axes* reads as a hand on its XY plane, palm down). The rig's finger
+direction and palm normal at the start (``Task.start_fingers``, ``Task.start_palm``,
+canonical) have constant coordinates in the hand's frame (d, g, d × g) of
+:func:`~reach_addon.core.arm.hand_frame` (:func:`hand_locals`). The hand pass seeks the
+wanted direction on the last frames (a cost, :func:`frame_weights`,
+:func:`best_roll_error`; never a constraint); the palm's roll ψ about the hand's axis is
+chosen at the last frame (:func:`best_roll`) within the forearm's range
+(:func:`roll_window`) and ramped in within the hand's turn bound (:func:`roll_increments`);
+the error left is reported (``orientation_error_deg``, met within
+``Settings.orientation_tolerance``). Angles in degrees.
 """
 
 from __future__ import annotations

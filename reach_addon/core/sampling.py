@@ -1,59 +1,15 @@
 """Completeness where the paper's search gives up: a bidirectional sampling planner.
 
-The best-first search of :mod:`~reach_addon.core.search` is fast and, by following the
-strongest pose at every wrist position, natural; but it is greedy. In a tight place (a
-cubby, a slot, a hole in a panel) the way in may need the elbow swung round or the hand
-turned first, which no sequence of strongest poses gives, and the search exhausts its
-budget or backtracks to the start. :func:`sampling_steps` is then run over the same
-configurations with the same collision test: it is probabilistically complete (if a clear
-path exists it is found with a probability that tends to one as the budget grows).
-
-Method: RRT-Connect (Kuffner & LaValle, ICRA 2000), one tree grown from the start, one
-from several goal configurations (a goal *region*), each extended in turn toward a random
-configuration and then greedily connected to the other. The choices the method leaves
-open, each a setting:
-
-* **Space**: the seven joints the core animates — chest rotation, α, β, γ, elbow flexion
-  and the wrist's two angles — within the joint limits of :class:`Settings` (widened to
-  take in the start, the rig's own pose); the elevation limit and, with ``elbow_side =
-  "require"``, Algorithm 1's elbow side are part of validity (:class:`StateValidity`), as
-  they are for every pose the generator returns (the side unless the start is off it).
-* **Metric** (:class:`JointSpace`): each angle in radians times the farthest it can carry
-  the wrist (its lever arm, in arm lengths; the wrist's angles by the hand's length), so a
-  distance approximates the wrist's travel in arm lengths.
-* **Chest**: kept within the span of its values at the start and the goals widened by
-  ``Settings.sampling_chest_slack`` degrees (60: the whole range; the shortcuts take out
-  turns the path does not need, and Table 1 still sets it at the goal). Measured on the
-  tight scenes' misses: 15° of slack solved none of 27 within 30 000 states, 45° 4, the
-  whole range 8.
-* **Repair** (``seed``): where the best-first search reached the target but the hand
-  cannot follow its path clear, both trees are first grown along that path from its two
-  ends as far as its motions are valid, and ``Settings.sampling_path_share`` of the
-  samples are drawn about it, so the gap (usually one turn of the hand) is what is left to
-  sample.
-* **Goal region** (:func:`goal_configurations`): the legal swivel solutions at the target
-  that the arm and a hand clear, strongest first, at the chest rotation Table 1 gives there
-  and at the start's; at most ``Settings.sampling_goals`` of them, spread over the swivel
-  circle.
-* **Extension**: ``Settings.sampling_range`` arm lengths at most per extension; motions
-  are checked at every search step (``Settings.step``) of the metric, so every instant is
-  within half a step of a checked state: clear by at least half the clearance, the margin
-  the motion keeps between its keys.
-* **Samples**: uniform in the box of joint limits for the start's tree; for the goals'
-  tree, ``Settings.sampling_near_share`` of them with the wrist near the target
-  (:func:`near_target`), so that it grows out through the narrow place a hand goes in by.
-* **Budget**: ``Settings.sampling_budget`` states tested (200 000: OMPL's RRTConnect
-  solved the tight scenes with up to about 190 000 checks of the same test; at 30 000
-  Reach missed 27 of the 211 it solved, at 200 000 with the whole chest range 2 of those
-  27), counted, not timed, so the same input gives the same answer on any machine.
-  Random numbers come from ``numpy.random.default_rng(Settings.sampling_seed)``.
-* **Path**: shortcut in joint space (``Settings.sampling_shortcuts`` random pairs, then
-  a greedy pass from the start), then subdivided so that neighbouring poses are at most
-  one search step apart (the farthest-moving point of the arm and hand), each angle within
-  the smoothness bound and the hand within its turn per step: the same kind of dense,
-  validated pose sequence the best-first search hands to the timing
-  (:class:`~reach_addon.core.motion.PathSampler` interpolates between neighbours exactly
-  as the motion checks here did).
+:func:`sampling_steps` runs RRT-Connect (Kuffner & LaValle, ICRA 2000) over the seven
+joints the core animates (chest rotation, α, β, γ, elbow flexion and the wrist's two
+angles, degrees), with the generator's validity (:class:`StateValidity`): one tree from the
+start, one from a goal region (:func:`goal_configurations`), each extended toward random
+configurations and greedily connected to the other. Distances approximate the wrist's
+travel in arm lengths (:class:`JointSpace`); motions are checked at every search step. The
+budget is ``Settings.sampling_budget`` states tested (counted, not timed) and random numbers
+come from ``Settings.sampling_seed``, so the same input gives the same answer. The path is
+shortcut and subdivided into the same dense, validated pose sequence the best-first search
+hands to the timing.
 """
 
 from __future__ import annotations
@@ -65,7 +21,9 @@ import numpy as np
 
 from . import ik
 from .arm import ArmConfig, Pose, forward_kinematics, hand_direction_floats
+from .body_capsules import body_capsules_at, segment_hits_body
 from .errors import NO_PATH
+from .limits import on_elbow_side, side_normal
 from .numeric import SCALAR, cross
 from .search import SearchResult
 
@@ -84,7 +42,7 @@ class JointSpace:
     ``start``: the configuration row (7,) a plan starts from. The box of limits, the
     elevation limit (:attr:`elevation_max`) and the elbow's side (:attr:`require_side`) are
     then widened to take it in, as the search widens them for a move from a pose outside
-    them (:func:`~reach_addon.core.ik.move_limits`): the start is the rig's own pose.
+    them (:func:`~reach_addon.core.limits.move_limits`): the start is the rig's own pose.
     """
 
     def __init__(self, arm, settings, start=None):
@@ -106,7 +64,7 @@ class JointSpace:
             self.lo, self.hi = np.minimum(self.lo, q), np.maximum(self.hi, q)
             self.elevation_max = max(self.elevation_max, math.hypot(q[1], q[2]))
             if self.require_side:
-                self.require_side = ik.on_elbow_side(arm, ArmConfig.from_array(q[:5]))
+                self.require_side = on_elbow_side(arm, ArmConfig.from_array(q[:5]))
         spine = float(np.hypot(arm.shoulder[0], arm.shoulder[1]))
         fore = arm.forearm_length / length
         hand = max(arm.hand_length / length, 0.05)
@@ -190,9 +148,9 @@ class StateValidity:
     Legal (the elevation limit and, if required, the elbow side of Algorithm 1; the box of
     :class:`JointSpace`'s bounds is the sampler's, which never leaves it), clear of the
     body's own capsules as the configuration generator tests them
-    (:func:`~reach_addon.core.ik.segment_hits_body`), and clear of the obstacles by the
-    core's :class:`~reach_addon.core.collision.CollisionChecker` (arm and, if it is checked,
-    hand, with the clearance margin). ``calls`` counts the states tested.
+    (:func:`~reach_addon.core.body_capsules.segment_hits_body`), and clear of the obstacles
+    by the core's :class:`~reach_addon.core.collision.CollisionChecker` (arm and, if it is
+    checked, hand, with the clearance margin). ``calls`` counts the states tested.
     """
 
     def __init__(self, arm, settings, checker, space: JointSpace | None = None):
@@ -214,18 +172,18 @@ class StateValidity:
             return False
         sternum, shoulder, elbow, wrist, hand = joints = joints_of_one(arm, q)
         if self.elbow_rule:
-            nx, ny, nz, degenerate = ik.side_normal(wrist, shoulder, self.waist, m=SCALAR)
+            nx, ny, nz, degenerate = side_normal(wrist, shoulder, self.waist, m=SCALAR)
             side = ((elbow[0] - shoulder[0]) * nx + (elbow[1] - shoulder[1]) * ny
                     + (elbow[2] - shoulder[2]) * nz)
             if not (side > 0 or degenerate):
                 return False
         if arm.body_capsules:
-            caps = ik.body_capsules_at(arm, q[0])
+            caps = body_capsules_at(arm, q[0])
             mid = [0.5 * (shoulder[i] + elbow[i]) for i in range(3)]
-            if ik.segment_hits_body(mid, elbow, arm.upper_arm_radius, caps) or \
-                    ik.segment_hits_body(elbow, wrist, arm.forearm_radius, caps) or \
+            if segment_hits_body(mid, elbow, arm.upper_arm_radius, caps) or \
+                    segment_hits_body(elbow, wrist, arm.forearm_radius, caps) or \
                     (self.checker.check_hand and
-                     ik.segment_hits_body(wrist, hand, arm.hand_radius, caps)):
+                     segment_hits_body(wrist, hand, arm.hand_radius, caps)):
                 return False
         return not self.checker.collides(arm.to_world_points(np.array(joints)), include_hand=True)
 

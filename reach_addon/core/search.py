@@ -1,72 +1,29 @@
 """Best-first search of wrist positions with backtracking (paper, "Guided path planning").
 
-The paper: "[a] best first search, which essentially minimizes the distance to the target
-guiding node. Given a potential end-effector pose, the IK solver finds all valid poses ...
-If the pose with maximum strength has no collision with the environment, it is displayed
-and reach planning continues. Otherwise, it is discarded and the next maximum strength pose
-from the IK solver is tested for collision. If all poses have been tested, the path planner
-backtracks to another potential end-effector position. The path planning terminates in
-success if the target position is visited, or in failure if backtrack happens at the
-starting position."
-
-The text on how candidate positions are generated and how far apart they are is lost. Our
-choices (each a setting):
-
-* **Step** ``Settings.step`` = 0.02 arm lengths. Table 2 pins it down: total path length
-  over nodes in solution is 1.07/54, 2.99/149, 2.69/135 and 5.68/282, i.e. 0.0198 to
-  0.0201 arm lengths in every task.
-* **Candidates** around a node: the straight step toward the current guiding node plus
-  ``Settings.directions`` steps along directions spread evenly on the sphere (a Fibonacci
-  lattice, the same every time); when the target is within one step, the target itself.
-  They are tried best first: nearest to the guiding node after the step (ties by a fixed
-  index order). The search is depth-first in that order: the first candidate that gets a
-  valid pose becomes the current node; a node whose candidates are all used up is left
-  (backtracking) and its parent tries its next candidate.
-* **Blocked neighbourhoods**: a node's candidates within ``Settings.blocked_radius`` steps
-  of a position its parent tried and found blocked are moved to the end of its list
-  (kept, in the same relative order, so the search can still backtrack through them).
-  Sliding along an obstacle, the greedy order would otherwise try the same two or three
-  directions into the obstacle again at every node (one step on, a step in the same
-  direction lands one step from the blocked position); with the memory the search tries
-  them once per obstacle face, not once per node. On the demo's reach over a crate this
-  cut the positions tested from 230 to about 120 with the same path.
-* **Visited** positions: a candidate within ``Settings.visited_resolution`` steps of a
-  position already tested (a hash grid of that size) is skipped, so the search never loops.
-* **Guiding nodes** are passed once the wrist comes within ``Settings.guide_radius`` cells.
-* **The hand leads** (ours; the paper has no hand in the search). Where the hand is kept
-  continuous, the pose the generator gives the target itself (its strongest clear arm, the
-  most relaxed clear hand) says which hand the target needs. If that is not the relaxed
-  hand, then within ``Settings.hand_lead`` hand lengths of the target every step and every
-  turn in place tries the hand samples nearest that one first (within the turn a step
-  allows). A hand that must tilt to fit at the target — into a drawer over its front wall
-  — tilts on the way in. Without it the search reached the drawer's opening with the hand
-  straight, found it blocked there and spent its whole budget round the opening (2,983
-  positions, then the sampling planner); with it, 62 positions for a 54-position path. On
-  Table 2's tasks the node counts are the same either way.
-* **Termination**: success within ``Settings.goal_tolerance`` of the target; a caller may
-  also stop at a depth (chase reach commits a few steps per frame); failure when
-  backtracking leaves the start, after ``Settings.node_budget`` tested positions, or after
-  ``Settings.stall_budget`` tested positions without getting closer to the target. On
-  failure the path to the closest position reached is kept (closest approach).
-
-"Nodes searched" counts the wrist positions handed to the configuration generator, "nodes
-in solution" the positions on the final path (the start included), as in Table 2.
-
-:class:`BestFirstSearch` is resumable: :meth:`~BestFirstSearch.run` takes a node allowance,
-so an interactive caller can spread one search over several UI ticks and get exactly the
-result of one uninterrupted run.
+Around the current node the candidates are the straight step toward the current guiding
+node (or the target), ``Settings.directions`` steps of ``Settings.step`` arm lengths spread
+evenly on the sphere, the target itself when within a step, and the hand turned in place.
+They are tried nearest the goal first; the first that the configuration generator gives a
+valid pose becomes the next node, and a node whose candidates are used up is left
+(backtracking). The search succeeds within ``Settings.goal_tolerance`` of the target and
+fails when backtracking leaves the start, after ``Settings.node_budget`` tested positions,
+or after ``Settings.stall_budget`` without getting closer (the path to the closest position
+is kept). "Nodes searched" counts the positions handed to the generator, "nodes in
+solution" the positions of the path, start included (Table 2). :class:`BestFirstSearch` is
+resumable: :meth:`~BestFirstSearch.run` takes a node allowance and gives the same result
+however it is sliced.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
 
-from .arm import ArmConfig, Pose, frame_turn
+from .arm import Pose
 from .errors import NO_PATH
 from .generator import ConfigurationGenerator
 
@@ -111,7 +68,7 @@ class SearchResult:
     #: states the sampling planner tested (its own count, beside nodes_searched)
     states_tested: int = 0
     #: a chase's frame held its pose: its first step would have touched as the keys
-    #: interpolate (:func:`chase_step`)
+    #: interpolate (:func:`~reach_addon.core.chase.chase_step`)
     held: bool = False
 
     @property
@@ -347,128 +304,3 @@ class BestFirstSearch:
         return SearchResult(self.success, None if self.success else self.reason,
                             self.path_to(end), self.nodes_searched, self.elapsed,
                             self.closest_distance, self.target, self.guides)
-
-
-#: Degrees a turn may exceed its bound by round-off alone (the search's own hand-turn
-#: bound leaves poses right at it).
-TURN_ROUND_OFF = 0.01
-
-
-def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
-             halvings: int = 10) -> Pose | None:
-    """A pose part of the way from ``a`` to ``b`` whose hand turns at most ``bound`` degrees
-    from ``a``'s (roll included, :func:`~reach_addon.core.arm.frame_turn`),
-    and that is clear as a key and as the keys from ``a`` interpolate
-    (:meth:`ConfigurationGenerator.key_clear`, ``transition_problem``): the angles of the
-    two poses, the wrist's two and the roll included, blended at the largest share found by
-    ``halvings`` bisections; None if no share is clear. A chase cannot slow down its frames:
-    where one step of its search turns the hand faster than the bound (a twist of the upper
-    arm near its bound turns the forearm 15° and more), the frame takes only part of it."""
-    qa, qb = a.config.as_array(), b.config.as_array()
-    delta = qb - qa
-    delta[3] = (delta[3] + 180.0) % 360.0 - 180.0            # the twist the short way
-    ha, hb = np.asarray(a.hand, dtype=float), np.asarray(b.hand, dtype=float)
-
-    def at(t):
-        config = ArmConfig.from_array(qa + t * delta)
-        pose = generator.config_pose(config, tuple((ha + t * (hb - ha)).tolist()))
-        return replace(pose, roll=a.roll + t * (b.roll - a.roll))
-
-    lo, hi = 0.0, 1.0
-    for _ in range(halvings):
-        mid = 0.5 * (lo + hi)
-        if frame_turn(a, at(mid)) <= bound:
-            lo = mid
-        else:
-            hi = mid
-    while lo > 1e-3:
-        pose = at(lo)
-        if generator.key_clear(pose) and generator.transition_problem(a, pose) is None:
-            return pose
-        lo *= 0.5
-    return None
-
-
-def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int,
-               fps: float = 24.0, strict: bool = False):
-    """One frame of a chase: a best-first search from ``previous`` toward ``target``
-    (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
-    along. The hand is kept continuous; where that does not reach the target and a search
-    with the hand free does, or where it is stuck (not half a step nearer) and the free one
-    gets a step nearer, the free one is taken (it is not run where neither can happen: the
-    kept hand got half a step nearer and the target is farther than the frame's steps
-    reach). The pose committed is the farthest along
-    the path (at most ``steps``) that the arm and hand reach clear as the keys interpolate
-    (:meth:`ConfigurationGenerator.transition_problem`) and, unless that pose is on the
-    target, whose hand has turned (its roll included,
-    :func:`~reach_addon.core.arm.frame_turn`) no more than the hand turn speed in space
-    allows in a frame at ``fps``. (The hand pass
-    then smooths the hand and reports what it could not). Returns (the pose committed,
-    the search result, with the nodes of both searches counted). Where even the first pose
-    along the path touches something as the keys interpolate, the arm holds its pose for
-    the frame if that pose is clear (a chase may fall behind; it does not pass through
-    anything to keep up), and the search with the hand free is tried as where the kept one
-    is stuck; an obstacle that moved into the pose itself is left by the first step.
-
-    ``strict`` (where the hand pass found it could not keep the hand within its bound,
-    :func:`~reach_addon.core.tasks.chase_steps`): the turn is bounded on the target too,
-    and where even the first pose along the path turns the hand (with the search's own
-    wrist angles) faster than the bound, the frame takes part of the way to it
-    (:func:`part_way`); the chase then falls behind rather than turn the hand faster than
-    the bound (the wrist's angles alone could not make up for an arm turning too fast over
-    several frames in a row)."""
-    s = generator.settings
-    view = generator.for_reach(previous, target, fit_chest=False)
-    turn = s.hand_space_turn_speed / fps       # the hand's whole turn in a frame, roll too
-    results = []
-    stuck = False
-    for continuity in (True, False):
-        searcher = BestFirstSearch(view, previous, target,
-                                   node_budget=s.chase_nodes_per_frame,
-                                   stall_budget=s.chase_nodes_per_frame, depth_limit=steps,
-                                   hand_continuity=continuity)
-        searcher.run()
-        result = searcher.result()
-        # the frame's pose: as far along as the wrist may go, but no farther than the
-        # arm and hand can get to straight, as the keys interpolate (else the chase slows)
-        k = min(steps, len(result.path) - 1)
-        while k > 1 and view.transition_problem(previous, result.path[k]) is not None:
-            k -= 1
-        if k == 1 and view.transition_problem(previous, result.path[1]) is not None and \
-                view.key_clear(previous):
-            k = 0                                  # the arm holds for the frame
-            result.held = True
-        on_target = result.success and k == len(result.path) - 1
-        if not on_target or strict:
-            # while catching up, the hand turns (roll included) no faster than the limit:
-            # the farthest pose along the path that keeps to it; on the target, keeping to
-            # it wins (unless strict)
-            while k > 1 and frame_turn(previous, result.path[k]) > turn:
-                k -= 1
-        pose = result.path[k]
-        if strict and k > 0 and frame_turn(previous, pose) > turn + TURN_ROUND_OFF:
-            pose = part_way(view, previous, pose, turn)
-            if pose is None:
-                k, pose, result.held = 0, previous, True
-        if pose is result.path[0]:
-            # a pose of its own (the frames' caches are kept by the poses' identities)
-            pose = replace(pose)
-        results.append((math.dist(pose.wrist.tolist(), result.target.tolist()), pose, result))
-        if result.success and k > 0:
-            break
-        if continuity:
-            # The free search is taken only where it reaches the target or where the kept
-            # hand is stuck; it cannot reach a target farther than its steps go (each
-            # move carries the wrist a step at most), so it runs only where one can be.
-            before = math.dist(previous.wrist.tolist(), result.target.tolist())
-            stuck = results[0][0] >= before - 0.5 * generator.step_length
-            if not stuck and before > steps * generator.step_length + searcher.tolerance:
-                break
-    best = results[0]
-    if len(results) > 1 and (results[1][2].success or
-                             (stuck and results[1][0] < best[0] - generator.step_length)):
-        best = results[1]
-    pose, result = best[1], best[2]
-    result.nodes_searched = sum(r[2].nodes_searched for r in results)
-    result.search_time_s = sum(r[2].search_time_s for r in results)
-    return pose, result

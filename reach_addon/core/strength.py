@@ -1,55 +1,16 @@
 """The shoulder strength model of Zhao, Liu & Badler (2005), section "Human strength model".
 
-Angles are in degrees, strengths in the paper's units (percent of a reference exertion, as
-read off Mital & Faard's and Pandya & Micocci's curves). Every function accepts floats or
-numpy arrays and broadcasts.
+Angles in degrees, in the convention of :mod:`reach_addon.core.arm` (α abduction, β
+flexion, γ humeral twist); strengths in the paper's units (percent of a reference
+exertion). Every function takes floats or numpy arrays and broadcasts.
 
-Shoulder angle convention (defined in :mod:`reach_addon.core.arm`, repeated here because
-the strength curves are read with it): with the arm hanging, α = β = 0; arm straight out
-to the side, α = 90 (abduction); arm straight forward, β = 90 (flexion); overhead, 180;
-negative α is adduction across the body, negative β is extension behind it; γ is humeral
-twist (internal rotation positive).
-
-The three-level ranking of the paper:
-
-1. ``f_R = f_H + f_V``: how many of the two directions fall below their preferred level;
-2. within ``f_R = 0`` the least exertion ``f_E``; within ``f_R = 1`` the largest strength
-   gain ``f_S``; within ``f_R = 2`` the balanced gain ``f_T``;
-3. the elbow's preferred side (Algorithm 1, in :mod:`reach_addon.core.ik`).
-
-:func:`rank_order` implements levels 1 and 2 (and takes level 3 as an optional first key).
-
-Two readings of α and β
------------------------
-The paper calls α and β the "horizontal" and "vertical" shoulder rotations behind S_H and
-S_V but does not define them further, and its sources measured differently (reference 11,
-Mital & Faard, pulled "in the horizontal plane"). ``Settings.strength_reading`` chooses
-which angles the curves are read at (:func:`strength_angles`):
-
-* ``"split"`` (default): the arm's elevation θ from hanging split by the direction φ it is
-  raised toward, α = θ cos φ and β = θ sin φ (the joint angles of :mod:`~reach_addon.core.arm`
-  themselves). Arm out to the side by 90°: α = 90, β = 0; forward by 90°: α = 0, β = 90.
-* ``"horizontal"``: α is the upper arm's direction in the horizontal plane, from straight
-  ahead toward the arm's side (0 forward, 90 to the side, 180 behind, negative across the
-  body), and β its elevation θ from hanging.
-
-f_R (SL_H = S_H(60°), SL_V = S_V(60°), the defaults) for the arm raised 60° and 90°:
-
-=======================  =========  ==============
-arm raised               ``split``  ``horizontal``
-=======================  =========  ==============
-60° sideways             0          1
-90° sideways             1          2
-60° forward              0          0
-90° forward              1          1
-=======================  =========  ==============
-
-``split`` is the default because it is continuous: near hanging both angles go to zero
-whichever way the arm swings, so the category of a nearly hanging arm does not change
-with a degree of swing. Under ``horizontal`` the direction of an arm hanging within a
-degree of vertical can be anything, and S_H jumps between its forward value (65) and its
-behind value (34) as the arm sways; it also calls an arm held 10° out to the side as
-weak horizontally as one held at shoulder height. (Tested: tests/core/test_strength.py.)
+The paper's three-level ranking: (1) ``f_R = f_H + f_V``, how many of the two directions
+fall below their preferred level; (2) within ``f_R = 0`` the least exertion ``f_E``, within
+``f_R = 1`` the largest strength gain ``f_S``, within ``f_R = 2`` the balanced gain
+``f_T``; (3) the elbow's preferred side (Algorithm 1, :mod:`~reach_addon.core.limits`).
+:func:`rank_order` implements levels 1 and 2 (level 3 as an optional first key).
+``Settings.strength_reading`` chooses the angles the curves are read at
+(:func:`strength_angles`).
 """
 
 from __future__ import annotations
@@ -178,9 +139,23 @@ def strength_angles(alpha_deg, beta_deg, reading="split"):
         split:\\ (α_S, β_S) = (α, β) \\qquad
         horizontal:\\ (α_S, β_S) = (\\operatorname{atan2}(α, β),\\ \\sqrt{α^2 + β^2})
 
-    With α = θ cos φ and β = θ sin φ, atan2(α, β) is the upper arm's horizontal direction
-    from straight ahead toward the arm's side and √(α² + β²) = θ its elevation (see the
-    module docstring). Floats or arrays.
+    ``reading`` (``Settings.strength_reading``): ``"split"`` reads the curves at the joint
+    angles themselves, the elevation θ split by the direction φ it is raised toward (α = θ
+    cos φ, β = θ sin φ); ``"horizontal"`` at the upper arm's direction in the horizontal
+    plane from straight ahead toward the arm's side (0 forward, 90 to the side, 180
+    behind, negative across the body), atan2(α, β), and its elevation √(α² + β²) = θ.
+    Floats or arrays.
+
+    f_R (SL_H = S_H(60°), SL_V = S_V(60°), the defaults) for the arm raised 60° and 90°:
+
+    =======================  =========  ==============
+    arm raised               ``split``  ``horizontal``
+    =======================  =========  ==============
+    60° sideways             0          1
+    90° sideways             1          2
+    60° forward              0          0
+    90° forward              1          1
+    =======================  =========  ==============
     """
     if reading == "split":
         return alpha_deg, beta_deg

@@ -1,57 +1,15 @@
 """Body (chest) rotation read from the reach direction: the paper's Table 1.
 
-The paper (after Delleman 2003) found a linear relation between the horizontal direction
-of a reach and the rotation of the chest about the vertical axis::
-
-    reach distance   slope   intercept   starting angle
-    75 cm            0.50    -26.7       53°
-    85 cm            0.45    -18.9       42°
-
-    chest rotation = max(0, reach direction × slope + intercept)
-
-The chest turns only once the direction passes the starting angle (-intercept / slope):
-distal segments move first, the trunk joins for sideward reaches.
-
-Frame: the *canonical arm frame* of :mod:`reach_addon.core.arm` — origin on the vertical
-axis through the spine at chest height, x toward the reaching arm's side, y forward, z up.
-Reach direction is the horizontal angle of the wrist from straight ahead, positive toward
-the reaching side (90° = straight out to that side, 180° = behind, negative = across the
-body).
-
-How the distance is measured and scaled (the paper is silent; each choice a setting):
-
-* **Measured to the point the hand reaches**, as a reach distance is measured on a person:
-  the horizontal distance from the body's vertical axis to the hand, not to the wrist.
-  The hand is taken to continue the reach outward:
-  :math:`d = \\sqrt{x_w^2 + y_w^2} + k_{hand} L_{hand}`, with ``k_hand`` =
-  ``Settings.table1_hand_point`` (1 = the fingertips, the default; 0.4 = the centre of a
-  grip, since fingertip reach ≈ grip reach + 60 % of hand length in Pheasant's
-  *Bodyspace* conventions; 0 = the wrist). The fingertips are the default because a
-  1.75 m figure that does not lean (ours does not) can put its fingertips, but not the
-  centre of its grip, 85 cm from its spine axis: with the grip the 85 cm row would lie
-  beyond every figure's reach and Table 1 could never be met there.
-* **Scaled to the study's population** by arm length: :math:`d_{table} = d ×
-  L_{ref} / L_{figure}` with :math:`L_{ref}` = ``Settings.table1_arm_length_m``, 0.58 m
-  shoulder to wrist, the arm of a 1.75 m adult by Drillis & Contini's segment proportions
-  (upper arm 0.186 H, forearm 0.146 H; Drillis, Contini & Bluestein 1964, *Body segment
-  parameters*). So a full-size adult whose hand is 75 or 85 cm out reads exactly the
-  table's rows, and a figure of any size reads the rows at the same share of its reach.
-* **Between the rows** slope and intercept are interpolated linearly in distance.
-* **Outside the rows** the same straight lines in distance are extrapolated, as the paper
-  describes the data: "the starting rotation degree varies according to the target
-  distance", so a nearer target starts turning the chest at a larger direction (62.7° at
-  65 cm, 77° at 45 cm) and a farther one sooner. No fade to zero at an invented distance.
-  The starting angle is kept within [0°, 180°] (the intercept is never positive), so a
-  reach straight ahead never turns the chest.
-* **Across the body** (negative direction) the formula gives 0: Table 1 covers reaches to
-  the arm's own side only.
-* **The cap**, ``Settings.chest_rotation_max`` (60° by default), limits the chest's turn
-  against the feet. Table 1 measures the chest against the room, the pelvis's turn on the
-  hips included; the figure's pelvis stays, so the keyed chest carries the whole turn.
-  Standing people turn the chest against the feet by about 96° at most (trunk on pelvis
-  32.6°, pelvis 63.8°: Montgomery, Boocock & Hing 2011, *Clinical Biomechanics*
-  26:707–712, twenty men, maximal standing rotation); 60° keeps well inside that and still
-  above every value the two rows give up to 170° of direction (58.3° on the 75 cm row).
+The paper (after Delleman 2003) gives the chest's rotation about the vertical axis as
+``max(0, direction × slope + intercept)``, with slope 0.50 and intercept -26.7 at a reach
+distance of 75 cm, 0.45 and -18.9 at 85 cm. The direction is the wrist's horizontal angle
+from straight ahead in the canonical arm frame (:mod:`reach_addon.core.arm`), positive
+toward the reaching side; angles in degrees. The distance is measured to the point the
+hand reaches and scaled to the study's population by arm length
+(:func:`table1_distance`); between and beyond the rows, slope and intercept are
+interpolated and extrapolated linearly in distance; the rotation is capped at
+``Settings.chest_rotation_max``. Along one reach the chest hands over from its start
+rotation to Table 1, phased behind the arm (:class:`ChestPath`).
 """
 
 from __future__ import annotations

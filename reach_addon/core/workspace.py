@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import ik
+from .body_capsules import body_capsules_at, segment_hits_body, self_collision
 from .generator import ConfigurationGenerator
 from .steps import drain
 
@@ -214,9 +215,9 @@ def _any_clear(generator: ConfigurationGenerator, sol, row: int, order) -> bool:
     ends there."""
     arm = generator.arm
     body = float(sol.body[row])
-    capsules = ik.body_capsules_at(arm, body)
+    capsules = body_capsules_at(arm, body)
     wrist = sol.wrists[row].tolist()
-    if ik.segment_hits_body(wrist, wrist, arm.forearm_radius, capsules):
+    if segment_hits_body(wrist, wrist, arm.forearm_radius, capsules):
         return False
 
     def candidates():
@@ -225,7 +226,7 @@ def _any_clear(generator: ConfigurationGenerator, sol, row: int, order) -> bool:
             yield from sol.joints(row, order[1:])
 
     for pose in candidates():
-        if not ik.self_collision(arm, body, pose[None], include_hand=False,
+        if not self_collision(arm, body, pose[None], include_hand=False,
                                  capsules=capsules)[0] and \
                 not generator.checker.collides(arm.to_world_points(pose), include_hand=False):
             return True

@@ -162,7 +162,7 @@ def test_a_drift_within_the_tolerance_that_carries_the_wrist_off_its_target_is_r
     tolerance = settings.goal_tolerance * length
     bpy.context.view_layer.update()
     goal = np.array(target.matrix_world.translation)
-    plan = core.tasks.Planner(info.arm, None, settings).plan(
+    plan = core.Planner(info.arm, None, settings).plan(
         core.Task("reach", goal[None], info.start, names=("Cup",)))
     seg = plan.segments[0]
     assert plan.success and seg.frame_end == len(plan.poses) - 1

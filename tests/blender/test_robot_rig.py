@@ -183,7 +183,7 @@ def test_body_capsules_leave_room_for_the_arm_it_stands_with(fresh, addon, rig):
         assert gap(caps[name], caps[name].radius) == pytest.approx(rig.START_BODY_GAP, abs=1e-6)
         assert rig.MIN_BODY_RADIUS * proportional[name] < caps[name].radius < proportional[name]
     assert caps["head"].radius == pytest.approx(proportional["head"], rel=1e-9)
-    assert not addon.core.ik.self_collision(a, 0.0, j[None])[0]
+    assert not addon.core.body_capsules.self_collision(a, 0.0, j[None])[0]
 
 
 @pytest.mark.parametrize("key", ("mixamo", "makehuman", "robot"))

@@ -8,7 +8,8 @@ from geometry import HANGING, standard_arm
 from reach_addon.core import ArmConfig, ArmModel, ReachError, Settings, forward_kinematics
 from reach_addon.core.arm import (REACH_SLACK, bend_direction, config_from_joints, shoulder_angles,
                                   reach_sphere, twist_angle, upper_arm_direction)
-from reach_addon.core.ik import move_limits, on_elbow_side, solve
+from reach_addon.core.ik import solve
+from reach_addon.core.limits import move_limits, on_elbow_side
 
 
 @pytest.mark.parametrize("direction, alpha, beta", [

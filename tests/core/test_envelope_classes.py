@@ -15,6 +15,7 @@ from reach_addon.batch import _grid_points
 from reach_addon.core import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, Planner,
                               Settings, TARGET_IN_OBSTACLE)
 from reach_addon.core import envelope
+from reach_addon.core.diagnosis import diagnose_target
 from reach_addon.core.steps import drain
 
 SCENES = {
@@ -65,7 +66,7 @@ def test_every_point_is_classed_as_the_planner_answers_there(arm, name):
             expected = envelope.CHEST if still is None and abs(chest) > 1e-9 else pose.f_r
             assert (cls, f_r) == (expected, pose.f_r), p
         else:
-            why = gen.diagnose_target(p)
+            why = diagnose_target(gen, p)
             if why is not None and why.reason in (OUT_OF_REACH, NEEDS_LEAN, NEEDS_STEP):
                 assert (cls, f_r) == (envelope.OUT, -1), p
             else:

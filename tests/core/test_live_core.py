@@ -12,7 +12,7 @@ from reach_addon.core import (NEEDS_STEP, NO_PATH, START_IN_COLLISION, TARGET_IN
                               Planner, ReachError, Settings, Task)
 from reach_addon.core.live import CLOSEST, REACHED, LiveSession
 from reach_addon.core.steps import drain
-from reach_addon.core.tasks import chase_steps
+from reach_addon.core.chase import chase_steps
 from reach_addon.core.workspace import build_workspace, workspace_steps
 from reach_addon.demo import WORKPLACE
 

@@ -15,7 +15,7 @@ import pytest
 
 from geometry import HANGING
 
-from reach_addon.core import Planner, Settings, ik
+from reach_addon.core import Planner, Settings, body_capsules, ik
 from reach_addon.core.arm import ArmConfig, pose_from_config
 from reach_addon.core.sampling import joints_of, joints_of_one, pose_row
 from reach_addon.demo import WORKPLACE, demo_tasks
@@ -81,7 +81,7 @@ def test_validity_is_the_cores_acceptance(planner, space):
         # Algorithm 1: the elbow on the side of n = (s - w) × (a - s), or P degenerate
         n = np.cross(joints[1] - joints[3], arm.waist - joints[1])
         legal &= bool((joints[2] - joints[1]) @ n > 0 or np.linalg.norm(n) < 1e-9)
-        body_clear = not ik.self_collision(arm, float(row[0]), joints[None], include_hand=True)[0]
+        body_clear = not body_capsules.self_collision(arm, float(row[0]), joints[None], include_hand=True)[0]
         clear = not checker.collides(arm.to_world_points(joints), include_hand=True)
         expected = bool(legal and body_clear and clear)
         assert validity.valid(list(row)) == expected, row

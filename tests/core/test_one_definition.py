@@ -5,11 +5,13 @@ import math
 
 import numpy as np
 
-from reach_addon.core import Settings, ik
+from reach_addon.core import Settings
+from reach_addon.core.body_capsules import body_capsules_at
 from reach_addon.core.arm import (forward_kinematics, hand_angles, hand_basis, hand_coefficients,
                                   hand_direction, hand_direction_floats)
 from reach_addon.core.collision import Obstacles
 from reach_addon.core.generator import ConfigurationGenerator
+from reach_addon.core.limits import twist_change
 from reach_addon.core.torso import rotate_about_spine
 from reach_addon.samples import standard_arm
 
@@ -55,7 +57,7 @@ def test_the_chest_turns_the_body_capsules_by_one_rotation():
     assert any(c.turns_with_chest for c in arm.body_capsules)
     assert any(not c.turns_with_chest for c in arm.body_capsules)
     for body in (0.0, 17.5, -42.0, 90.0):
-        floats = ik.body_capsules_at(arm, body)
+        floats = body_capsules_at(arm, body)
         for c, (a, b, mid, half, r) in zip(arm.body_capsules, floats):
             ea = rotate_about_spine(c.a, body) if c.turns_with_chest else c.a
             eb = rotate_about_spine(c.b, body) if c.turns_with_chest else c.b
@@ -69,8 +71,8 @@ def test_the_twist_change_is_the_short_way_round():
     rng = np.random.default_rng(5)
     gamma = rng.uniform(-720, 720, 500)
     previous = rng.uniform(-180, 180, 500)
-    change = ik.twist_change(gamma, previous)
+    change = twist_change(gamma, previous)
     # the least |γ - γ_prev + 360 k| over whole turns k
     expected = np.min(np.abs(gamma[:, None] - previous[:, None] + 360.0 * np.arange(-4, 5)), axis=1)
     np.testing.assert_allclose(change, expected, atol=1e-9)
-    assert ik.twist_change(179.0, -179.0) == 2.0
+    assert twist_change(179.0, -179.0) == 2.0

@@ -12,6 +12,7 @@ from geometry import (HANGING, arm_penetration, obstacles, run_steps, shelf, sta
 from reach_addon.core import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH,
                               START_HELD, START_IN_COLLISION, TARGET_IN_OBSTACLE,
                               ArmConfig, Obstacles, Planner, ReachError, Settings, Task, plan)
+from reach_addon.core.diagnosis import what_holds
 from reach_addon.core.motion import minimum_jerk
 
 WALL = {"Crate": [((-0.60, -0.36, 0.70), (0.00, -0.30, 1.08))]}
@@ -197,10 +198,10 @@ def test_what_holds_an_arm_that_cannot_move(arm):
     block = {"Block": [(tuple(centre - 0.01), tuple(centre + 0.01))]}
     gen = Planner(arm, obstacles(block)).generator
     assert gen.solve(start.wrist, hand_scale=None) is not None   # the start itself is clear
-    held = gen.what_holds(start, [side])
+    held = what_holds(gen, start, [side])
     assert held is not None and (held.kind, held.what, held.steps, held.tried) == \
         ("obstacle", "Block", 1, 1), held
-    assert gen.what_holds(start, [side, -side]) is None
+    assert what_holds(gen, start, [side, -side]) is None
     p = plan(Task("reach", BEHIND_WALL[None], HANGING), arm, obstacles(WALL),
              Settings(node_budget=40, guided_fallback=False, sampling_fallback=False))
     assert not p.success and p.reason == NO_PATH
@@ -539,8 +540,8 @@ def test_a_chase_frame_skips_the_free_search_only_where_it_could_not_be_taken(ar
     where it may reach the target (within the frame's steps) or where the kept hand is
     stuck. The premise: a free search of ``steps`` steps never carries the wrist farther
     than a step per move, so a target beyond that is never reached."""
-    from reach_addon.core.search import BestFirstSearch, chase_step
-    from reach_addon.core.tasks import chase_steps_per_frame
+    from reach_addon.core.chase import chase_step, chase_steps_per_frame
+    from reach_addon.core.search import BestFirstSearch
 
     s = Settings()
     planner = Planner(arm, obstacles({"Table": table((-0.3, -0.6), (1.0, 0.5), 0.95)}), s)

@@ -125,9 +125,9 @@ def _raised(elevation_deg, toward):
 
 
 def _documented_table():
-    """The f_R table in core.strength's docstring: {(elevation, toward): (split, horizontal)}."""
+    """The f_R table in strength_angles' docstring: {(elevation, toward): (split, horizontal)}."""
     rows = {}
-    for line in strength.__doc__.splitlines():
+    for line in strength.strength_angles.__doc__.splitlines():
         words = line.split()
         if len(words) == 4 and words[1] in ("sideways", "forward") and words[0].endswith("°"):
             rows[(float(words[0][:-1]), words[1])] = (int(words[2]), int(words[3]))

@@ -70,6 +70,7 @@ def _grid_by_definition(planner, ws):
     inside an obstacle; a free cell is valid when one of its best ``max_pose_tries`` legal
     candidates clears the body and the obstacles."""
     from reach_addon.core import ik
+    from reach_addon.core.body_capsules import self_collision
 
     gen, arm, settings = planner.generator, planner.arm, planner.settings
     n = ws.n
@@ -89,7 +90,7 @@ def _grid_by_definition(planner, ws):
         if order.size == 0:
             continue
         joints = sol.joints(row, order)
-        body = ik.self_collision(arm, float(sol.body[row]), joints, include_hand=False)
+        body = self_collision(arm, float(sol.body[row]), joints, include_hand=False)
         valid[flat] = any(not gen.checker.collides(arm.to_world_points(j), include_hand=False)
                           for j in joints[~body])
     return occupied.reshape(n, n, n), valid.reshape(n, n, n)

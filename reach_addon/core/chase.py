@@ -1,0 +1,351 @@
+"""The chase reach: the target moves (one position per frame) and every frame is re-planned
+from the last.
+
+:func:`chase_steps` plans a whole chase (one planner per frame, so obstacles may move);
+:func:`chase_step` plans one frame: a best-first search with
+``Settings.chase_nodes_per_frame`` nodes, committing at most
+:func:`chase_steps_per_frame` steps (``Settings.chase_max_speed``) and a hand turn within
+``Settings.hand_space_turn_speed``. A start in contact leads with its escape
+(:func:`escape_frames`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from .arm import ArmConfig, Pose, frame_turn
+from .diagnosis import diagnose_target
+from .errors import NO_PATH, START_IN_COLLISION, require_finite
+from .generator import ConfigurationGenerator
+from .hand import HandReport, plan_hand
+from .motion_check import motion_stats
+from .results import Plan, Segment, Stats
+from .search import BestFirstSearch, SearchResult
+from .settings import Settings
+from .tasks import Task
+
+
+#: Degrees a turn may exceed its bound by round-off alone (the search's own hand-turn
+#: bound leaves poses right at it).
+TURN_ROUND_OFF = 0.01
+
+
+def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
+             halvings: int = 10) -> Pose | None:
+    """A pose part of the way from ``a`` to ``b`` whose hand turns at most ``bound`` degrees
+    from ``a``'s (roll included, :func:`~reach_addon.core.arm.frame_turn`),
+    and that is clear as a key and as the keys from ``a`` interpolate
+    (:meth:`ConfigurationGenerator.key_clear`, ``transition_problem``): the angles of the
+    two poses, the wrist's two and the roll included, blended at the largest share found by
+    ``halvings`` bisections; None if no share is clear. A chase cannot slow down its frames:
+    where one step of its search turns the hand faster than the bound (a twist of the upper
+    arm near its bound turns the forearm 15° and more), the frame takes only part of it."""
+    qa, qb = a.config.as_array(), b.config.as_array()
+    delta = qb - qa
+    delta[3] = (delta[3] + 180.0) % 360.0 - 180.0            # the twist the short way
+    ha, hb = np.asarray(a.hand, dtype=float), np.asarray(b.hand, dtype=float)
+
+    def at(t):
+        config = ArmConfig.from_array(qa + t * delta)
+        pose = generator.config_pose(config, tuple((ha + t * (hb - ha)).tolist()))
+        return replace(pose, roll=a.roll + t * (b.roll - a.roll))
+
+    lo, hi = 0.0, 1.0
+    for _ in range(halvings):
+        mid = 0.5 * (lo + hi)
+        if frame_turn(a, at(mid)) <= bound:
+            lo = mid
+        else:
+            hi = mid
+    while lo > 1e-3:
+        pose = at(lo)
+        if generator.key_clear(pose) and generator.transition_problem(a, pose) is None:
+            return pose
+        lo *= 0.5
+    return None
+
+
+def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int,
+               fps: float = 24.0, strict: bool = False):
+    """One frame of a chase: a best-first search from ``previous`` toward ``target``
+    (canonical) with ``Settings.chase_nodes_per_frame`` nodes, stopping ``steps`` steps
+    along. Returns (the pose committed, the search result, with the nodes and time of every
+    search of the frame counted).
+
+    The hand is kept continuous; a search with the hand free is taken where the kept one
+    does not reach the target and the free one does, or where the kept one is stuck (not
+    half a step nearer) and the free one gets a step nearer (it runs only where one of
+    these can happen). The pose committed is :func:`_commit`'s: at most ``steps`` along
+    the path, clear as the keys interpolate, the hand's turn in space within
+    ``Settings.hand_space_turn_speed`` / ``fps``; with ``strict`` (where the hand pass
+    could not keep the hand within its bound, :func:`chase_steps`) that bound holds on the
+    target too and a first step too fast is taken only part of the way (:func:`part_way`).
+    Where no pose along the path is clear the arm holds its pose (``result.held``)."""
+    s = generator.settings
+    view = generator.for_reach(previous, target, fit_chest=False)
+    turn = s.hand_space_turn_speed / fps       # the hand's whole turn in a frame, roll too
+    results = []              # (distance left to the target, pose committed, search result)
+    stuck = False
+    for continuity in (True, False):
+        searcher = BestFirstSearch(view, previous, target,
+                                   node_budget=s.chase_nodes_per_frame,
+                                   stall_budget=s.chase_nodes_per_frame, depth_limit=steps,
+                                   hand_continuity=continuity)
+        searcher.run()
+        result = searcher.result()
+        pose, k = _commit(view, previous, result, steps, turn, strict)
+        results.append((math.dist(pose.wrist.tolist(), result.target.tolist()), pose, result))
+        if result.success and k > 0:
+            break
+        if continuity:
+            # the free search cannot reach a target farther than its steps go (each move
+            # carries the wrist a step at most): it runs only where its result can be kept
+            before = math.dist(previous.wrist.tolist(), result.target.tolist())
+            stuck = results[0][0] >= before - 0.5 * generator.step_length
+            if not stuck and before > steps * generator.step_length + searcher.tolerance:
+                break
+    best = results[0]
+    if len(results) > 1 and (results[1][2].success or
+                             (stuck and results[1][0] < best[0] - generator.step_length)):
+        best = results[1]
+    pose, result = best[1], best[2]
+    result.nodes_searched = sum(r[2].nodes_searched for r in results)
+    result.search_time_s = sum(r[2].search_time_s for r in results)
+    return pose, result
+
+
+def _commit(view: ConfigurationGenerator, previous: Pose, result: SearchResult, steps: int,
+            turn: float, strict: bool):
+    """(the pose a chase frame commits to, its index k along ``result.path``; 0: the arm
+    holds): the farthest pose at most ``steps`` along that the arm and hand reach from
+    ``previous`` clear as the keys interpolate
+    (:meth:`ConfigurationGenerator.transition_problem`) and, unless it is on the target
+    (or ``strict``), whose hand turns (roll included, :func:`~reach_addon.core.arm.frame_turn`)
+    at most ``turn`` degrees. Where even the first pose touches between the keys and
+    ``previous`` is clear, or (``strict``) no part of the way to a too fast first pose is
+    clear, the arm holds and ``result.held`` is set. The pose is never ``previous`` itself
+    (the frames' caches are kept by the poses' identities)."""
+    k = min(steps, len(result.path) - 1)
+    while k > 1 and view.transition_problem(previous, result.path[k]) is not None:
+        k -= 1
+    if k == 1 and view.transition_problem(previous, result.path[1]) is not None and \
+            view.key_clear(previous):
+        k = 0                                  # the arm holds for the frame
+        result.held = True
+    on_target = result.success and k == len(result.path) - 1
+    if not on_target or strict:
+        while k > 1 and frame_turn(previous, result.path[k]) > turn:
+            k -= 1
+    pose = result.path[k]
+    if strict and k > 0 and frame_turn(previous, pose) > turn + TURN_ROUND_OFF:
+        pose = part_way(view, previous, pose, turn)
+        if pose is None:
+            k, pose, result.held = 0, previous, True
+    if pose is result.path[0]:
+        pose = replace(pose)
+    return pose, k
+
+
+def chase_steps_per_frame(settings: Settings, fps: float) -> int:
+    """Search steps the wrist may take in one frame: ``chase_max_speed / fps / step``."""
+    return max(1, int(settings.chase_max_speed / fps / settings.step + 1e-9))
+
+
+def chase_steps(planners, task: Task, chunk: int = 1):
+    """Plan a chase with one planner per frame (``planners[f]`` holds the obstacles at
+    frame ``f``; pass the same planner for frames where nothing moved): each frame is
+    re-planned from the previous frame's pose against the obstacles *at that frame*. A
+    generator like :meth:`Planner.plan_steps`: yields (fraction, message) every ``chunk``
+    frames and returns the :class:`Plan`. With one planner for every frame this is
+    :meth:`Planner.plan` of the chase task (which calls it so). A frame whose pose is hit
+    by an obstacle that moved into it fails the chase, naming the obstacle and the frame."""
+    t0 = time.perf_counter()
+    planners = list(planners)
+    if task.kind != "chase":
+        raise ValueError("chase_steps plans chase tasks")
+    if len(planners) != len(task.targets):
+        raise ValueError(f"one planner per frame: {len(task.targets)} frames, "
+                         f"{len(planners)} planners")
+    first = planners[0]
+    start = first.generator.config_pose(task.start, task.start_hand)
+    require_finite("start pose", start.joints)
+    way_out, failed = first.start_escape(task, start)
+    if failed is not None:
+        failed.stats.planning_time_s = time.perf_counter() - t0
+        return failed
+    chase = _Chase(planners, task, start, way_out)
+    hand = yield from chase.run(chunk)
+    plan = chase.plan(hand)
+    plan.stats.planning_time_s = time.perf_counter() - t0
+    return plan
+
+
+class _Chase:
+    """One chase being planned (:func:`chase_steps`): its frames' poses (the start, the
+    escape's frames, then one per chased frame) and, per chased frame, (its search result,
+    the contact of an obstacle that moved into its pose or None)."""
+
+    def __init__(self, planners: list, task: Task, start: Pose, way_out):
+        self.planners, self.task, self.start, self.way_out = planners, task, start, way_out
+        self.arm, self.settings = planners[0].arm, planners[0].settings
+        s = self.settings
+        self.steps = chase_steps_per_frame(s, task.fps)
+        self.trajectory = self.arm.to_canonical_points(task.targets)
+        self.poses = [start] + escape_frames(way_out, self.steps, len(self.trajectory),
+                                             s.hand_space_turn_speed / task.fps)
+        self.lead = len(self.poses)       # the chased frames start here
+        self.frames: list = []
+
+    def run(self, chunk: int):
+        """Chase every frame, then hand the frames to the hand pass; where it could not keep
+        the hand within its bound (the forearm itself turned too fast), chase again from that
+        frame on, strictly (:func:`chase_step`). A generator: yields (fraction, message)
+        every ``chunk`` frames and returns the hand pass's report; :attr:`frames` are then
+        the chase's. Where the strict chase misses the target at the end that the first,
+        loose one caught, the loose one is kept (catching the target wins)."""
+        n = len(self.trajectory)
+        strict_from = n
+        loose = None              # (poses, frames, hand) of a first chase that caught it
+        while True:
+            yield from self._chase_frames(strict_from, chunk)
+            hand = self._hand()
+            late = self._first_too_fast(hand)
+            caught = float(np.linalg.norm(self.poses[-1].wrist - self.trajectory[-1])) <= \
+                self.settings.goal_tolerance * self.arm.arm_length
+            if strict_from < n and not caught and loose is not None:
+                self.poses, self.frames, hand = loose
+                return hand
+            if late is None or late >= strict_from:
+                return hand
+            if strict_from == n and caught:
+                loose = (list(self.poses), list(self.frames), hand)
+            strict_from = late
+            del self.poses[late:], self.frames[late - self.lead:]
+
+    def _chase_frames(self, strict_from: int, chunk: int):
+        """Plan the frames not planned yet (:func:`chase_step`), strictly from frame
+        ``strict_from``; yields progress every ``chunk`` frames."""
+        task, arm, planners, poses = self.task, self.arm, self.planners, self.poses
+        n = len(self.trajectory)
+        for f in range(self.lead + len(self.frames), n):
+            if chunk and f % chunk == 0:
+                yield f / n, f"chasing '{task.name(0)}': frame {f}"
+            gen = planners[f].generator
+            nxt, res = chase_step(gen, poses[-1], self.trajectory[f], self.steps, task.fps,
+                                  strict=f >= strict_from)
+            poses.append(nxt)
+            contact = gen.checker.first_hit(arm.to_world_points(nxt.joints)) \
+                if planners[f] is not planners[f - 1] else None
+            self.frames.append((res, contact))
+
+    def _hand(self) -> HandReport:
+        """The hand pass over the frames (no frames inserted: they are the target's)."""
+        return plan_hand([p.generator for p in self.planners], self.poses, self.task.fps,
+                         may_insert=False, arcs=range(len(self.poses)),
+                         escape=escape_of(self.way_out, self.poses))
+
+    def _first_too_fast(self, hand: HandReport):
+        """The first chased frame into which the hand turns faster than its bound in space
+        (:func:`~reach_addon.core.arm.frame_turn`), or None."""
+        bound = self.settings.hand_space_turn_speed / self.task.fps + TURN_ROUND_OFF
+        p = hand.poses
+        return next((k + 1 for k in range(self.lead - 1, len(p) - 1)
+                     if frame_turn(p[k], p[k + 1]) > bound), None)
+
+    def plan(self, hand: HandReport) -> Plan:
+        """The chase's :class:`Plan` (one segment) from the hand pass's report."""
+        task, arm, s = self.task, self.arm, self.settings
+        poses = hand.poses
+        stats = self._stats(hand)
+        reason, message = self._outcome(poses, stats)
+        seg = Segment(0, task.name(0), task.targets[-1], reason is None, reason, message, 0,
+                      len(poses) - 1, stats,
+                      arm.to_world_points(np.array([p.wrist for p in poses])), np.zeros((0, 3)),
+                      "chase")
+        total = Stats()
+        total.add(stats)
+        total.frames = len(poses)
+        return Plan(task, arm, s, poses, [seg], total, self.planners[0].built_workspace)
+
+    def _stats(self, hand: HandReport) -> Stats:
+        """The chase's statistics: nodes and search time of every frame, the wrist's path
+        length, and the motion's (:func:`~reach_addon.core.motion_check.motion_stats`)."""
+        poses, frames, length = hand.poses, self.frames, self.arm.arm_length
+        stats = Stats()
+        stats.nodes_searched = sum(res.nodes_searched for res, _c in frames)
+        stats.search_time_s = sum(res.search_time_s for res, _c in frames)
+        stats.nodes_in_solution = sum(min(self.steps, len(res.path) - 1)
+                                      for res, _c in frames) + 1
+        path = np.array([p.wrist for p in poses])
+        stats.path_length_arm_lengths = float(
+            np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) / length
+        motion_stats(stats, self.arm, poses, [p.generator.checker for p in self.planners],
+                     stats.path_length_arm_lengths, hand=hand)
+        return stats
+
+    def _outcome(self, poses, stats: Stats):
+        """(reason, message) of the chase: an obstacle that moved into the arm, the target
+        caught, or why the wrist did not catch it."""
+        s, name, trajectory = self.settings, self.task.name(0), self.trajectory
+        length = self.arm.arm_length
+        hit = next(((self.lead + i, c) for i, (_r, c) in enumerate(self.frames)
+                    if c is not None), None)
+        gap = float(np.linalg.norm(poses[-1].wrist - trajectory[-1])) / length
+        if hit is not None:
+            f, (part, obstacle) = hit
+            return START_IN_COLLISION, (
+                f"'{obstacle}' moves into the arm (at the {part}) on frame {f} of the chase of "
+                f"'{name}' and no clear pose was found; change the obstacle's motion or the "
+                "chase speed limit")
+        if gap <= s.goal_tolerance:
+            on_target = sum(float(np.linalg.norm(p.wrist - trajectory[f])) <=
+                            s.goal_tolerance * length
+                            for f, p in enumerate(poses) if f >= self.lead)
+            return None, f"caught '{name}' ({on_target} of {len(poses) - 1} frames on target)"
+        last = self.planners[-1]
+        diagnosis = diagnose_target(last.generator, trajectory[-1])
+        fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,
+                            trajectory[-1])
+        reason, message = last.explain_failure(name, fake, diagnosis, self.start)
+        if reason == NO_PATH:
+            held = sum(res.held for res, _c in self.frames)
+            message = (f"the wrist did not catch '{name}' by the last frame ({gap:.2f} arm "
+                       "lengths behind)")
+            message += (f": on {held} frame(s) the arm held still where its next step would "
+                        "have touched an obstacle as the keys interpolate; slow the target "
+                        "there or give the arm more room" if held else
+                        "; raise the chase speed limit or the nodes per frame")
+        return reason, message
+
+
+def escape_frames(way_out, steps_per_frame: int, frames: int, turn: float = math.inf) -> list:
+    """The frames of a chase that leave a start in contact (:mod:`~reach_addon.core.contact`):
+    from each frame's pose, the farthest pose of the escape at most ``steps_per_frame``
+    steps on to which the hand turns (roll included) no more than ``turn`` degrees, at
+    least the next one (its last included), at most ``frames`` - 1 of them; none without
+    one."""
+    if way_out is None:
+        return []
+    poses = way_out.poses
+    picked, at = [], 0
+    while at < len(poses) - 1 and len(picked) < frames - 1:
+        nxt = min(at + steps_per_frame, len(poses) - 1)
+        while nxt > at + 1 and frame_turn(poses[at], poses[nxt]) > turn:
+            nxt -= 1
+        picked.append(poses[nxt])
+        at = nxt
+    return picked
+
+
+def escape_of(way_out, poses):
+    """The hand pass's ``escape`` for a chase, whose frames' "arc lengths" are their
+    numbers: frames before the escape's end are checked with its thinner arm."""
+    if way_out is None:
+        return None
+    end = next((k for k, p in enumerate(poses) if p is way_out.poses[-1]), 0)
+    return way_out.generator, float(end)
+
