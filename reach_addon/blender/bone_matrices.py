@@ -102,7 +102,7 @@ def local_matrices(armature, keyed, targets_arm, start_pose):
 
     ``keyed``: role → bone name; ``targets_arm``: role → armature-space targets (F, 4, 4);
     ``start_pose``: bone name → armature-space pose matrix at the start (every bone). The
-    keyed hand's palm siblings (:func:`.rig.hand_group`) are keyed too, right after it,
+    keyed hand's palm siblings (:func:`.hand_reading.hand_group`) are keyed too, right after it,
     each carried rigidly by the hand's turn."""
     bones = armature.data.bones
     name_to_role = {name: role for role, name in keyed.items()}
@@ -153,7 +153,7 @@ def bone_roles(info, chest: bool) -> tuple:
 
 
 def palm_targets(armature, hand, target, start_pose) -> dict:
-    """The keyed hand's palm siblings (:func:`.rig.hand_group`), each carried rigidly by the
+    """The keyed hand's palm siblings (:func:`.hand_reading.hand_group`), each carried rigidly by the
     hand's turn: palm → armature-space targets (F, 4, 4); the hand itself included."""
     carry = target @ np.linalg.inv(start_pose[hand])[None]
     out = {hand: target}

@@ -274,7 +274,7 @@ class PipelineRun:
         """Stage 4 (yields the planners' progress): each task planned in turn, each one's
         motion starting on the frame after the last one's: ``plans``, a
         :class:`.bake.KeyedPlan` per task. A chase among obstacles that move is planned
-        frame by frame among each frame's obstacles (:func:`~reach_addon.core.tasks.
+        frame by frame among each frame's obstacles (:func:`~reach_addon.core.chase.
         chase_steps`); any other task among the places moving obstacles take
         (:func:`~reach_addon.core.sweep.plan_among_moving`). ``planner`` is the last
         planner used; a start refused that the skin shows clear becomes ``start_held``

@@ -67,7 +67,7 @@ def segment_frames(arm: ArmModel, pose: Pose, hand=None) -> np.ndarray:
     u × b) with u the upper arm's direction and b the bend direction; (f, h, f × h) with
     h = u × b the elbow's hinge; (d, g, d × g) with d the hand's direction and g the hinge
     made perpendicular to it. The hand's frame is turned by the palm's roll ψ about d and
-    the forearm's by ``FOREARM_SHARE`` · ψ about f (``bake.target_matrices``). ``hand``:
+    the forearm's by ``FOREARM_SHARE`` · ψ about f (``blender.bone_matrices.target_matrices``). ``hand``:
     the wrist's two angles (degrees) instead of the pose's own."""
     body, *limbs = _frames(pose, hand)
     return np.array([spine_rotation_matrix(body)] + [np.array(cols).T for cols in limbs])

@@ -37,9 +37,9 @@ class Task:
     own hand), which the motion starts from. ``orientations``: the targets' world rotations
     (k, 3, 3), for ``Settings.match_orientation`` (:mod:`~reach_addon.core.orient`; None:
     positions only). ``start_palm``: the palm's normal at the first frame (canonical; the
-    rig's, :func:`~reach_addon.blender.rig.palm_normal`), None for the palm at forearm
+    rig's, :func:`~reach_addon.blender.hand_reading.palm_normal`), None for the palm at forearm
     neutral; ``start_fingers``: the fingers' direction then (canonical; the wrist to the
-    middle finger's knuckle, :func:`~reach_addon.blender.rig.finger_axis`), None for the
+    middle finger's knuckle, :func:`~reach_addon.blender.hand_reading.finger_axis`), None for the
     hand's own direction."""
 
     kind: str

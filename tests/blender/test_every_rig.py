@@ -25,9 +25,9 @@ planner:
 A pair the planner cannot do yet is an ``xfail(strict=True)`` in :data:`XFAIL`, with the
 cause found for it, so the suite records it and says when it is fixed. There is none now.
 The last four were chases turning the hand 15.2–49° in a frame: a chase's frames are tied
-to the clock, and its step (``core.search.chase_step``) bounded the turn only down to one
+to the clock, and its step (``core.chase.chase_step``) bounded the turn only down to one
 search step while catching up, and not at all on the target; it now takes part of a step
-(``core.search.part_way``) where one turns the hand faster than the bound.
+(``core.chase.part_way``) where one turns the hand faster than the bound.
 
 Each rig is made once per module (imported, its clip stopped, saved to a .blend in a
 temporary folder) and the file opened again for each scene.

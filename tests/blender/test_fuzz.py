@@ -32,7 +32,7 @@ def test_the_subset_has_every_feature_of_the_campaign():
 #: seed that stops being one fails it too (the list stays true). None now: the six the
 #: cross-check found first (91, 134, 144, 189: a turned trunk reaches the target; 118,
 #: 198: a tapering arm's capsule stood out of its skin at the start) are fixed
-#: (``ConfigurationGenerator.target_chest``; the start's skin, ``pipeline._start_as_it_shows``).
+#: (``ConfigurationGenerator.target_chest``; the start's skin, ``results.start_as_it_shows``).
 KNOWN_FALSE_REFUSALS: dict = {}
 
 
@@ -61,7 +61,7 @@ def test_the_campaigns_grazes_between_keys_are_clear_now():
     arm touched an obstacle between two keys. 799 and 901 with no clearance (0.0010 and
     0.0047 arm lengths in) and 3777 after leaving a start in contact (0.0002): Blender's
     Bézier curves bowed away from the linear span; the bake now checks those instants as
-    Blender evaluates them and makes such spans linear (``bake.straighten``). 849 with no
+    Blender evaluates them and makes such spans linear (``straighten.straighten``). 849 with no
     clearance (0.0035 in): the planner checked the straight line between its angles,
     which parts from Blender's linear span where the hand turns fast; it now checks
     Blender's (``core.keys``), and its hand pass, which found no clear hand at some frame

@@ -159,7 +159,7 @@ def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_not_refused(tmp_path):
     farther from them. Reach used to refuse that start (start_in_collision), which the skin
     check calls a false refusal: it says the skin is clear. Now the claim is what holds:
     the arm cannot move from its start (``start_held``), the capsule being Reach's model
-    of the arm (``pipeline._start_as_it_shows``, the skin measured on the start frame)."""
+    of the arm (``results.start_as_it_shows``, the skin measured on the start frame)."""
     arm, info = humanoid(skin_radius=0.04)
     hand = arm.pose.bones["mixamorig:RightHand"]
     mw = arm.matrix_world

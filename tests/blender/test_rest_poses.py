@@ -2,8 +2,8 @@
 bent backward and a rolled hand, an elbow bent up, a hand rolled against the forearm.
 
 The limits on the arm's joints (the humeral twist within [-90°, 90°], Algorithm 1's elbow
-side) bound where a move may go, never where it starts (``core.ik.move_limits``,
-``core.ik.on_elbow_side``). A T-posed arm whose elbow is bent 1° backward reads as a twist of
+side) bound where a move may go, never where it starts (``core.limits.move_limits``,
+``core.limits.on_elbow_side``). A T-posed arm whose elbow is bent 1° backward reads as a twist of
 -180°, outside the limits and off the elbow's side: before, every pose a step away was
 refused (the twist may change 15° a step and had to land inside [-90°, 90°]), the search
 never left the start, and every reach ended ``no_path`` with the closest approach the
@@ -47,7 +47,7 @@ def test_a_t_posed_arm_reaches_past_a_wall(fresh, addon, key):
     info = rig.build(arm, "right")
     start = info.start
     if "back" in key:                       # the case that failed: off the limits and the side
-        assert abs(start.gamma) > 170.0 and not addon.core.ik.on_elbow_side(info.arm, start)
+        assert abs(start.gamma) > 170.0 and not addon.core.limits.on_elbow_side(info.arm, start)
     (target,) = everyday.build("wall", info, arm)
     pipeline = addon.blender.pipeline
     request = pipeline.Request(arm.name, [target.name], side="right", frame_start=1, draw=False)
