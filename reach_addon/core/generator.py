@@ -114,18 +114,22 @@ class ConfigurationGenerator:
     def target_chest(self, wrist) -> float | None:
         """The chest rotation a reach should arrive at ``wrist`` with: the first of
         :meth:`chest_candidates` at which a legal pose puts the arm and a hand there clear
-        (:meth:`solve`). Table 1's wherever it fits (the paper's model, kept wherever it
-        can be); where it puts no clear arm on the target (the shoulder turned out of
-        reach, the elbow into a shelf board) the nearest rotation that does, as a person
-        turns the trunk to get at a thing. None if none does. Remembered per target."""
+        (:meth:`solve`, every ranked pose tried: whether a target fits does not depend on
+        the search's speed limit ``max_pose_tries``). Table 1's wherever it fits (the
+        paper's model, kept wherever it can be); where it puts no clear arm on the target
+        (the shoulder turned out of reach, the elbow into a shelf board) the nearest
+        rotation that does, as a person turns the trunk to get at a thing. None if none
+        does. Remembered per target."""
         key = tuple(np.round(np.asarray(wrist, dtype=float), 12).tolist())
         cache = self._target_chests
         if key not in cache:
             if len(cache) >= 64:
                 cache.clear()
+            wrist = np.asarray(wrist, dtype=float)
+            every = int(360.0 / self.settings.swivel_step) + 1    # every swivel candidate
             cache[key] = next((b for b in self.chest_candidates(wrist)
-                               if self.solve(np.asarray(wrist, dtype=float),
-                                             body_rotation=b) is not None), None)
+                               if self.solve(wrist, body_rotation=b, tries=every) is not None),
+                              None)
         return cache[key]
 
     def move_scale(self, previous: Pose, wrist) -> float:
@@ -201,7 +205,8 @@ class ConfigurationGenerator:
         return caps
 
     def solve(self, wrist, previous: Pose | None = None, body_rotation=None,
-              hand_scale: float | None = None, toward=None) -> Pose | None:
+              hand_scale: float | None = None, toward=None,
+              tries: int | None = None) -> Pose | None:
         """The strongest legal, collision-free pose with the wrist at ``wrist`` (canonical)
         that is within the smoothness bound of ``previous`` (if given); None if there is
         none. After a None, :attr:`hand_blocked` says whether some arm pose there was clear
@@ -214,7 +219,7 @@ class ConfigurationGenerator:
         (:meth:`hand_order`). Without it any clear hand will do.
 
         The candidates of :func:`~reach_addon.core.ik.solve` are tried in strength order
-        (at most ``Settings.max_pose_tries``): the arm (clavicle, upper arm, forearm)
+        (at most ``tries``, by default ``Settings.max_pose_tries``): the arm (clavicle, upper arm, forearm)
         against the obstacles and the body, then the hand at each wrist angle, then the
         swing from ``previous`` (:meth:`_swing_clear`). Obstacle distances are measured
         once per joint and shared (:class:`~reach_addon.core.collision.CollisionChecker`):
@@ -234,7 +239,7 @@ class ConfigurationGenerator:
         max_change = None if previous is None else self.max_change(previous, wrist)
         sol = ik.solve(self.arm, wrist[None], st, None if previous is None else previous.config,
                        body_rotation, max_change)
-        order = sol.ranked(0, st.elbow_side)[: st.max_pose_tries]
+        order = sol.ranked(0, st.elbow_side)[: st.max_pose_tries if tries is None else tries]
         if not order:
             return None
         at = self._position(sol, w_c, w_w, d_w)
