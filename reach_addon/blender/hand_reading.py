@@ -169,19 +169,35 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     return axis, length, spread
 
 
-def _knuckle(chain, wrist, axis) -> np.ndarray:
-    """Where a finger chain (joints, world) leaves the palm: its first joint, or its second
-    where its first bone is a metacarpal (the chain has four bones or more and starts within
-    a quarter of its reach from the wrist along the hand's ``axis``)."""
-    reach = float((chain[-1] - wrist) @ axis)
-    if len(chain) >= 5 and float((chain[0] - wrist) @ axis) <= 0.25 * reach:
-        return chain[1]
-    return chain[0]
+#: Knuckles closer together than this share of the fingers' reach do not make a knuckle
+#: line (:func:`knuckles`).
+KNUCKLE_SPREAD = 0.1
+
+
+def knuckles(chains, wrist, axis) -> list:
+    """Where each finger chain (joints, world) leaves the palm: its first joint, or its
+    second where its first bone is a metacarpal (the chain has four bones or more and starts
+    within a quarter of its reach from the wrist along the hand's ``axis``); and where the
+    chains' knuckles so found all but coincide (fingers that spring from one point, as a
+    Quaternius alien's do: less than :data:`KNUCKLE_SPREAD` of the fingers' reach apart),
+    each one's next joint, where the fingers have parted."""
+    def first(chain):
+        reach = float((chain[-1] - wrist) @ axis)
+        return 1 if len(chain) >= 5 and float((chain[0] - wrist) @ axis) <= 0.25 * reach else 0
+
+    at = [first(c) for c in chains]
+    points = [c[i] for c, i in zip(chains, at)]
+    if len(chains) >= 2:
+        reach = max(float(np.linalg.norm(c[-1] - wrist)) for c in chains)
+        if max(float(np.linalg.norm(p - q)) for p in points for q in points) \
+                < KNUCKLE_SPREAD * reach:
+            points = [c[min(i + 1, len(c) - 1)] for c, i in zip(chains, at)]
+    return points
 
 
 def finger_axis(armature, group, hand_axis) -> np.ndarray:
     """The direction the fingers point in the pose on screen (world, unit): the wrist to the
-    middle finger's knuckle (:func:`_knuckle`), read by position (:func:`digits`): the
+    middle finger's knuckle (:func:`knuckles`), read by position (:func:`digits`): the
     fingers but the thumb, in their order across the hand from the thumb's side, the second
     (index, *middle*, ring, little; a three-fingered hand's middle one); of two fingers
     beside a thumb the one nearer it; of two without one, or an even count without a thumb,
@@ -192,8 +208,7 @@ def finger_axis(armature, group, hand_axis) -> np.ndarray:
     fingers = found.fingers
     if not fingers:
         return axis
-    knuckles = [_knuckle(c, found.wrist, axis) for c in fingers]
-    rel = [k - found.wrist for k in knuckles]
+    rel = [k - found.wrist for k in knuckles(fingers, found.wrist, axis)]
     lateral = [r - (r @ axis) * axis for r in rel]
     if found.thumb is not None:
         t = found.chains[found.thumb].mean(0) - found.wrist
@@ -284,11 +299,13 @@ def _across_palm(armature, group, hand_axis, d, to_canonical):
     # each chain's knuckle (the thumb: its joints on average; its root may sit with the
     # others' at the wrist) as an offset across the fingers' direction (canonical)
     axis = np.asarray(hand_axis, dtype=float)
-    lateral = [to_canonical @ ((c.mean(0) if i == found.thumb else _knuckle(c, found.wrist, axis))
-                               - found.wrist) for i, c in enumerate(found.chains)]
-    lateral = [v - (v @ d) * d for v in lateral]
-    fingers = [v for i, v in enumerate(lateral) if i != found.thumb]
-    thumb = lateral[found.thumb] if found.thumb is not None else None
+
+    def across_d(point):
+        v = to_canonical @ (point - found.wrist)
+        return v - (v @ d) * d
+
+    fingers = [across_d(k) for k in knuckles(found.fingers, found.wrist, axis)]
+    thumb = across_d(found.chains[found.thumb].mean(0)) if found.thumb is not None else None
     across, source = None, None
     if len(fingers) >= 2:
         pairs = [(float(np.linalg.norm(p - q)), k, j) for k, p in enumerate(fingers)
