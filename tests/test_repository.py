@@ -111,6 +111,27 @@ def _import_cycles(*args):
                           cwd=ROOT, capture_output=True, text=True, timeout=60)
 
 
+#: The most lines a module, and a function or method, of the extension may have: a module
+#: that grows past it does two jobs, a function past it wants named steps (CONTRIBUTING).
+MODULE_LINES, FUNCTION_LINES = 600, 80
+
+
+def test_modules_and_functions_stay_small():
+    long_modules, long_functions = [], []
+    for path in sorted((ROOT / "reach_addon").rglob("*.py")):
+        text = path.read_text()
+        name = path.relative_to(ROOT)
+        if text.count("\n") > MODULE_LINES:
+            long_modules.append(f"{name}: {text.count(chr(10))} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                length = node.end_lineno - node.lineno + 1
+                if length > FUNCTION_LINES:
+                    long_functions.append(f"{name}:{node.lineno} {node.name}: {length} lines")
+    assert not long_modules, long_modules
+    assert not long_functions, long_functions
+
+
 def test_reach_has_no_import_cycles():
     """tools/import_cycles.py (run by make test too) finds no cycle in reach_addon."""
     done = _import_cycles()
