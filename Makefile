@@ -80,9 +80,11 @@ bench: setup
 # independently; one worker process per core. A fixed-seed subset runs in make test.
 FUZZ_N ?= 10000
 FUZZ_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+# kept results: a campaign stopped part way carries on when run again on the same code
+FUZZ_RUNS ?= out/fuzz-runs
 
 fuzz: setup
-	$(PY) bench/fuzz.py --count $(FUZZ_N) --jobs $(FUZZ_JOBS) --out bench/fuzz.json
+	$(PY) bench/fuzz.py --count $(FUZZ_N) --jobs $(FUZZ_JOBS) --resume $(FUZZ_RUNS) --out bench/fuzz.json
 	$(PY) bench/readme.py
 
 # The extension zip: manifest + package + bundled presets staged into one folder, then

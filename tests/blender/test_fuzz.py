@@ -195,3 +195,39 @@ def test_a_contradicted_refusal_is_counted_as_a_false_refusal():
         {"seed": 2, "target": "B", "reason": "no_path", "detail": "found a path"}]
     line = summary.cross_check_counts(counts)
     assert "**2 decided**" in line and "**1 false refusals**; seed 2 `no_path` ('B')" in line
+
+
+def test_a_stopped_campaign_carries_on_where_it_stopped(tmp_path):
+    """``make fuzz --resume``: the results kept in the campaign's folder are not run again;
+    a scene started and not finished (the line a stopped worker leaves) is."""
+    seeds = [3, 7, 8]
+    runs = tmp_path / "runs"
+    first = campaign.run_campaign(seeds[:2], jobs=1, subframes=1, timeout_s=300, quick=True,
+                                  runs=runs)
+    (kept,) = runs.glob("worker-*.jsonl")
+    # as a worker stopped part way leaves it: seed 8 started, no result
+    with open(kept, "a", encoding="utf-8") as out:
+        out.write('{"seed": 8, "event": "start"}\n')
+    assert sorted(campaign.kept_results(runs)) == [3, 7]
+    again = campaign.run_campaign(seeds, jobs=2, subframes=1, timeout_s=300, quick=True,
+                                  runs=runs)
+    assert [r["seed"] for r in again] == seeds
+    assert again[:2] == first                       # kept, not run again
+    new = [p for p in runs.glob("worker-*.jsonl") if p != kept]
+    assert [sorted(campaign._read_results(p)[0]) for p in new] == [[8]]   # only the rest ran
+    assert again[2]["category"] in checks.GOOD
+
+
+def test_the_code_digest_follows_the_code_not_the_scheduler(tmp_path):
+    import shutil
+
+    root = tmp_path / "repo"
+    for d in ("reach_addon", "verification"):
+        shutil.copytree(campaign.ROOT / d, root / d, ignore=shutil.ignore_patterns("__pycache__"))
+    before = campaign.code_digest(root)
+    assert before == campaign.code_digest(campaign.ROOT)
+    (root / "verification" / "fuzz" / "campaign.py").write_text("# the scheduler only\n")
+    assert campaign.code_digest(root) == before
+    core = root / "reach_addon" / "core" / "search.py"
+    core.write_text(core.read_text() + "\n# a change\n")
+    assert campaign.code_digest(root) != before

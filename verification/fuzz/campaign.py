@@ -7,13 +7,17 @@
 ``traceback`` where there are any). :func:`run_campaign` runs seeds on worker processes
 (``python -m verification.fuzz.campaign``, each a Blender of its own) and returns the results
 in seed order; a worker that dies or stalls gives its scene ``escaped_exception`` or
-``timeout`` and is restarted on the seeds after it. ``bench/fuzz.py`` (``make fuzz``) and
-``tests/blender/test_fuzz.py`` call it; :mod:`verification.fuzz.summary` counts the results.
+``timeout`` and is restarted on the seeds after it. Given a ``runs`` folder, the workers'
+result files are kept there and a later call with the same folder runs only the seeds it
+lacks (:func:`code_digest` says whether the code is still the same). ``bench/fuzz.py``
+(``make fuzz``) and ``tests/blender/test_fuzz.py`` call it; :mod:`verification.fuzz.summary`
+counts the results.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import shutil
@@ -143,6 +147,32 @@ def _worker_command(seeds: list, results: Path, subframes: int, quick: bool,
         (["--quick"] if quick else []) + ([] if shapes else ["--standard-rigs"])
 
 
+#: This module, left out of :func:`code_digest`.
+_SCHEDULER = "verification/fuzz/campaign.py"
+
+
+def code_digest(root: Path = ROOT) -> str:
+    """SHA-256 over the files a scene's outcome depends on: the add-on
+    (``reach_addon/**/*.py``) and the checks (``verification/**/*.py``), less this module,
+    which only schedules them. Two campaigns with the same digest bake and judge every seed
+    alike, so one may carry on the other's results."""
+    h = hashlib.sha256()
+    files = sorted(p for d in ("reach_addon", "verification") for p in (root / d).rglob("*.py")
+                   if p.relative_to(root).as_posix() != _SCHEDULER)
+    for p in files:
+        h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def kept_results(runs: Path) -> dict:
+    """The results by seed that the worker files in ``runs`` hold (a scene started but not
+    finished is not one of them: it runs again)."""
+    done: dict = {}
+    for path in sorted(runs.glob("worker-*.jsonl")):
+        done.update(_read_results(path)[0])
+    return done
+
+
 def _read_results(path: Path) -> tuple:
     """(results by seed, the last seed started without a result) of a worker's file."""
     done, started = {}, None
@@ -161,23 +191,35 @@ def _read_results(path: Path) -> tuple:
 
 def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: float = 600.0,
                  progress=None, quick: bool = False,
-                 cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> list:
+                 cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True,
+                 runs: Path | None = None) -> list:
     """Run ``seeds`` on ``jobs`` worker processes, each taking a contiguous range; returns
     the results in seed order. A worker that dies or stalls past ``timeout_s`` on one
     scene gives that seed ``escaped_exception`` or ``timeout`` and is restarted on the
     seeds after it. ``cross_check_s``: OMPL's seconds per refusal of the cross-check (0:
-    none); ``quick``, ``shapes``: as :func:`generate` takes them."""
+    none); ``quick``, ``shapes``: as :func:`generate` takes them. ``runs``: a folder that
+    keeps the workers' result files; the seeds whose results it already holds
+    (:func:`kept_results`) are not run again. The caller makes sure they came from the same
+    code and settings (``bench/fuzz.py --resume``)."""
     seeds = [int(s) for s in seeds]
-    jobs = max(1, min(jobs, len(seeds)))
-    bounds = np.linspace(0, len(seeds), jobs + 1).round().astype(int)
-    queues = [seeds[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
-    tmp = Path(tempfile.mkdtemp(prefix="reach-fuzz-runs-"))
     results: dict = {}
+    if runs is not None:
+        runs.mkdir(parents=True, exist_ok=True)
+        wanted = set(seeds)
+        results = {s: r for s, r in kept_results(runs).items() if s in wanted}
+    todo = [s for s in seeds if s not in results]
+    if not todo:
+        return [results[s] for s in seeds]
+    jobs = max(1, min(jobs, len(todo)))
+    bounds = np.linspace(0, len(todo), jobs + 1).round().astype(int)
+    queues = [todo[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+    tmp = Path(tempfile.mkdtemp(prefix="reach-fuzz-runs-"))
+    out_dir = runs if runs is not None else tmp
     workers = {}
     t_start = time.monotonic()
 
     def launch(k, queue):
-        path = tmp / f"worker-{k}-{len(queue)}-{queue[0]}.jsonl"
+        path = out_dir / f"worker-{k}-{len(queue)}-{queue[0]}.jsonl"
         log = open(tmp / f"worker-{k}.log", "ab")
         proc = subprocess.Popen(_worker_command(queue, path, subframes, quick, cross_check_s,
                                                 shapes),
