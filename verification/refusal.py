@@ -13,8 +13,8 @@ input file, with a :class:`Verdict` whose ``status`` is one of :data:`STATUSES`:
     the check ran but cannot decide (a start the core's own test refuses; an arm without
     skin whose bones are clear);
 ``unchecked``
-    the reason is not one this module checks (a chase's pursuit, a later leg of a
-    sequence, a start inside the character's own body capsules, ``target_in_obstacle``
+    the reason is not one this module checks (a chase's pursuit, a later target of any
+    task but a chase, a start inside the character's own body capsules, ``target_in_obstacle``
     outside every closed mesh, bad input).
 
 The path claim (:data:`PATH_REASONS`) is checked by :func:`check_path_claim`: OMPL's
@@ -23,7 +23,9 @@ problem rebuilt by the pipeline's readers (:func:`rebuild`), toward a goal regio
 states with the wrist within the goal tolerance (:func:`goal_region`); ``budget_s``
 seconds (and at most ``max_states`` states) where that region is not empty. The start
 claim (``start_in_collision``) by :func:`check_start`: Blender's evaluated skin of the
-reaching arm and hand against the obstacles' triangles (:mod:`verification.geometry`).
+reaching arm and hand against the obstacles' triangles (:mod:`verification.geometry`), or,
+where the claim is that the chest lies inside a closed mesh, that point by ray parity; a
+later target's start (where the one before it ended, at its own frame) is unchecked.
 ``target_in_obstacle`` by :func:`check_target_inside`. Obstacles are this module's own
 reading of the README's rules (:func:`scene_obstacles`). The method in full, and why:
 ``docs/design.md``, *The refusal cross-check*.
@@ -577,6 +579,8 @@ def check_start(context, armature, info, exclude, collection=None, *, target: st
     bones = arm_bones(armature, info)
     obstacles = scene_obstacles(context, character_objects_of(armature, scene) | set(exclude),
                                 collection)
+    if ENCLOSED in message:
+        return _check_enclosed(v, info, obstacles, message, t0)
     skin, meshes = _arm_skin(context, armature, bones)
     mw = np.array(armature.matrix_world)
     segs = [(n, mw[:3, :3] @ np.array(armature.pose.bones[n].head) + mw[:3, 3],
@@ -624,6 +628,33 @@ def check_start(context, armature, info, exclude, collection=None, *, target: st
                     f"({sum(len(t) for _l, t, _c in obstacles)} triangles), the nearest "
                     + (f"{least / length:.4f} arm lengths away" if least < 0.5 * length
                        else "farther than half an arm length"))
+    v.seconds = round(time.perf_counter() - t0, 4)
+    return v
+
+
+#: The words of the claim that the chest lies inside a closed mesh (core.planner).
+ENCLOSED = "is enclosed by the mesh"
+
+
+def _check_enclosed(v: Verdict, info, obstacles, message: str, t0: float) -> Verdict:
+    """The claim that the chest (the arm's root, the rig model's sternum) lies inside the
+    closed mesh the message names: confirmed when ray parity puts that point inside it,
+    a false refusal when the mesh is closed and the point outside, unchecked when the
+    mesh is not one this module reads as closed."""
+    arm = info.arm
+    sternum = arm.to_world[:3, :3] @ arm.sternum + arm.to_world[:3, 3]
+    named = message.split(ENCLOSED, 1)[1].split("'")[1]
+    v.method = "point_in_mesh"
+    found = [(tris, shut) for label, tris, shut in obstacles if label == named]
+    if not found or not found[0][1]:
+        v.detail = (f"'{named}' is not a closed obstacle by this module's reading: the chest "
+                    "inside it is not checked")
+    elif geometry.points_inside(sternum[None], found[0][0])[0]:
+        v.status, v.clearance = CONFIRMED, 0.0
+        v.detail = f"the chest (the arm's root) is inside the closed '{named}' by ray parity"
+    else:
+        v.status = FALSE_REFUSAL
+        v.detail = f"the chest (the arm's root) is outside the closed '{named}' by ray parity"
     v.seconds = round(time.perf_counter() - t0, 4)
     return v
 
@@ -734,9 +765,9 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
     """Cross-check every refused target of a bake report on the open file (the bake's
     input; see :func:`rebuild` for ``task``, ``obstacles``, ``overrides``). Returns one
     :class:`Verdict` per failed task, in the report's order. The path claim is searched
-    from the rig's start pose; a later target of a ``sequence`` or ``guided`` task starts
-    where the one before it ended, which only the planner knows, so only its goal region
-    is checked there. A chase's ``no_path`` (the wrist did not catch up) is unchecked; its
+    from the rig's start pose; a later target of any task but a chase starts where the one
+    before it ended, which only the planner knows, so only its goal region is checked
+    there (its start claim is unchecked). A chase's ``no_path`` (the wrist did not catch up) is unchecked; its
     other reasons are about the target's last position, searched from the start. Leaves
     the scene at the start frame."""
     import bpy
@@ -751,6 +782,11 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
     out, start_verdict = [], None
     for i, t in failed:
         reason, name, message = t["reason"], t["target"], t.get("message") or ""
+        if reason == START_IN_COLLISION and task != "chase" and i > 0:
+            out.append(Verdict(name, reason, UNCHECKED,
+                               "a later target's start is where the one before it ended, at "
+                               "its own frame, which only the planner knows: not checked"))
+            continue
         if reason == START_IN_COLLISION:
             if start_verdict is None or "own body" in message or "moves into" in message:
                 start_verdict = check_start(context, armature, problem.info, problem.targets,
@@ -771,7 +807,7 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
                                    "a chase's no_path says the wrist did not catch the moving "
                                    "target in time (a pursuit at a speed limit): not checked"))
                 continue
-            later = task in ("sequence", "guided") and i > 0
+            later = task != "chase" and i > 0
             out.append(check_path_claim(problem.planner, problem.start_row,
                                         arm.to_canonical_points(point), target=name,
                                         reason=reason, budget_s=budget_s,

@@ -215,30 +215,46 @@ class Obstacles:
         axis ray) and to rays grazing an edge."""
         if self.tree is None:
             return False
+        return sum(len(hits) % 2 for hits in self._crossings(point)) >= 4
+
+    def _crossings(self, point) -> list:
+        """The triangle indices each of the six axis rays from ``point`` crosses, in order."""
         p = require_finite("point", point)
-        odd = 0
         reach = 2.0 * self.size + float(np.abs(p).max())
         # past a face before casting on: the BVH works in 32-bit floats, whose step near a
         # coordinate x is about 1.2e-7 |x|, so a nudge of the scene's size alone (1e-7 of
         # a 28 cm box standing a metre from the origin) lands on the face just crossed and
         # counts it again and again
         nudge = 1e-6 * (self.size + float(np.abs(p).max()))
+        out = []
         for direction in _AXES:
             origin = p.copy()
-            crossings = 0
+            hits = []
             travelled = 0.0
             for _ in range(10000):
-                loc, _n, _i, dist = self.tree.ray_cast(tuple(origin), direction, reach - travelled)
+                loc, _n, index, dist = self.tree.ray_cast(tuple(origin), direction,
+                                                          reach - travelled)
                 if loc is None:
                     break
-                crossings += 1
+                hits.append(index)
                 travelled += dist + nudge
                 origin = np.asarray(loc) + np.asarray(direction) * nudge
-            odd += crossings % 2
-        return odd >= 4
+            out.append(hits)
+        return out
 
     def enclosing_owner(self, point) -> str:
-        """Name of the obstacle nearest to ``point`` (for messages)."""
+        """Name of the obstacle that encloses ``point`` by its own ray parity (the first
+        whose crossings are odd along at least four of the six axis rays), else of the
+        obstacle nearest to it (for messages)."""
+        if self.tree is not None and self.triangle_owner is not None and self.owner_names:
+            per_owner: dict = {}
+            for hits in self._crossings(point):
+                owners = [int(self.triangle_owner[int(i)]) for i in hits]
+                for o in set(owners):
+                    per_owner[o] = per_owner.get(o, 0) + owners.count(o) % 2
+            inside = sorted(o for o, odd in per_owner.items() if odd >= 4)
+            if inside:
+                return self.owner_names[inside[0]]
         hit = self.nearest(point, 10.0 * self.size)
         return self.owner(None if hit is None else hit[2])
 

@@ -95,6 +95,25 @@ def test_the_campaigns_chases_keep_the_hand_clear_between_keys():
         [r["detail"] for r in results]
 
 
+def test_the_campaigns_false_refusals_are_good_outcomes_now():
+    """The five false refusals of the full campaign at 4289954 (in its first 1,193 scenes):
+
+    - 5170 ``arm_does_not_fit`` and 5257 ``out_of_reach``: a pose fits 0.0047 arm lengths
+      from the target, within the goal tolerance (5170), or only at a swivel angle between
+      the search's 5° samples with the elbow folded to its limit (5257); the search now
+      tries the rim of the tolerance ball and a 1° swivel before it refuses;
+    - 5310 ``needs_lean``, 0.001 arm lengths short: the diagnosis now counts the ball;
+    - 5278 ``start_in_collision``, the chest inside a closed mesh that the arm's skin does
+      not touch: the cross-check now tests that claim on the chest's point;
+    - 5221 ``start_in_collision`` of a reach's second target, which starts where the first
+      ended, at its own frame, with an animated box moved on: unchecked now, as its path
+      claim already was."""
+    seeds = [5170, 5221, 5257, 5278, 5310]
+    results = campaign.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
+    assert [(r["seed"], r["category"]) for r in results
+            if r["category"] not in checks.GOOD] == []
+
+
 def test_refusals_are_counted_by_their_words_whatever_the_names_hold():
     """fuzz.json counts refusals by their words with names and numbers taken out; a name
     holding a quote (the generator's "Cup'") must not split a refusal into two keys."""

@@ -299,6 +299,19 @@ def test_open_and_closed_meshes_inside_test():
     assert Obstacles(None).point_inside((0, 0, 0)) is False
 
 
+def test_the_mesh_named_as_enclosing_a_point_is_the_one_that_does():
+    """A room round the character and a small box beside its chest: the box is the nearer
+    surface, the room the one that encloses the chest (fuzz seed 92 named the box)."""
+    obs = obstacles({"Room": [((-3, -3, -1), (3, 3, 3))],
+                     "Box": [((0.05, -0.1, 1.3), (0.25, 0.1, 1.5))]})
+    chest = (0.0, 0.0, 1.4)
+    assert obs.point_inside(chest)
+    assert obs.enclosing_owner(chest) == "Room"
+    assert obs.enclosing_owner((0.15, 0.0, 1.4)) == "Room"    # inside both: each one's parity
+    outside = obstacles({"Box": [((0.05, -0.1, 1.3), (0.25, 0.1, 1.5))]})
+    assert outside.enclosing_owner(chest) == "Box"           # none encloses it: the nearest
+
+
 @pytest.mark.parametrize("size, far", [(0.16, 1.2), (0.02, 30.0), (5.0, 4000.0)])
 def test_inside_a_small_box_far_from_the_origin(size, far):
     """A box small against its distance from the origin (a 16 cm crate round a hand a
@@ -571,3 +584,32 @@ def test_a_chase_frame_skips_the_free_search_only_where_it_could_not_be_taken(ar
         np.linalg.norm(far - start.wrist)
     pose, frame = chase_step(gen, start, near, steps)
     assert frame.success and np.linalg.norm(pose.wrist - near) <= s.goal_tolerance * arm.arm_length
+
+
+def test_a_target_beyond_reach_by_less_than_the_tolerance_is_reached(arm):
+    """The search succeeds within ``goal_tolerance`` of the target, so a target a hair
+    beyond the turned shoulder's reach, nearer than the tolerance, is reached on the rim
+    of its tolerance ball (search.goal_ball), not refused as needs_lean (fuzz seed 5310:
+    0.001 arm lengths short, a false refusal the cross-check's OMPL found)."""
+    s = Settings(chest_rotation=False)
+    forward = np.array([0.0, -1.0, 0.0])
+    out = 0.4 * s.goal_tolerance * arm.arm_length
+    target = shoulder_of(arm) + forward * (arm.arm_length + out)
+    p = plan(Task("reach", target[None], HANGING), arm, None, s)
+    assert p.success, p.message
+    assert np.linalg.norm(p.wrist_trajectory()[-1] - target) <= s.goal_tolerance * arm.arm_length
+    beyond = shoulder_of(arm) + forward * (arm.arm_length + 3.0 * s.goal_tolerance * arm.arm_length)
+    p = plan(Task("reach", beyond[None], HANGING, names=("Cup",)), arm, None, s)
+    assert not p.success and p.reason == NEEDS_LEAN, p.message
+
+
+def test_the_ball_leads_toward_the_shoulder():
+    from reach_addon.core.search import GOAL_BALL, goal_ball
+
+    s = Settings()
+    target, shoulder = np.array([1.0, 0.0, 0.0]), np.zeros(3)
+    ball = goal_ball(target, s, 2.0, (shoulder,))
+    r = GOAL_BALL * s.goal_tolerance * 2.0
+    assert len(ball) == 1 + s.directions
+    assert np.allclose(ball[0], [1.0 - r, 0.0, 0.0])
+    assert np.allclose(np.linalg.norm(ball - target, axis=1), r)
