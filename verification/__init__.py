@@ -11,6 +11,8 @@ under ``reach_addon/`` imports it; ``tests/`` and ``bench/`` both import it. The
 - :mod:`verification.race`: the harness racing Reach against OMPL on one problem;
 - :mod:`verification.tight`: tight scenes sized to an arm's own limbs;
 - :mod:`verification.table1`: Table 1 measured on baked motion;
+- :mod:`verification.naturalness`: wrist bend and chicken-wing frames measured on baked
+  motion;
 - :mod:`verification.fuzz`: the fuzz campaign's scenes, their building in Blender, the
   checks of each outcome, the campaign's workers and its summary.
 

@@ -31,7 +31,8 @@ from . import body as body_mod
 from . import rig as rig_mod
 from . import viz
 from .bake import KeyedPlan
-from .results import arm_note, measure_orientation, start_as_it_shows, task_results
+from .results import (arm_note, measure_naturalness, measure_orientation, start_as_it_shows,
+                      task_results)
 from .scene import (KEPT, ObstacleCache, character_objects, finite, gather_pieces,
                     visit_obstacles)
 
@@ -354,7 +355,8 @@ class PipelineRun:
 
     def report(self) -> None:
         """Stage 7: the :class:`Outcome` (``outcome``), a result per target; a baked result's
-        orientation measured on the evaluated bones (:func:`.results.measure_orientation`);
+        orientation and naturalness measured on the evaluated bones
+        (:func:`.results.measure_orientation`, :func:`.results.measure_naturalness`);
         the carried-target note added to every message."""
         baked = self.baked
         outcome = Outcome(self.request, self.info, [k.pair for k in self.plans], [],
@@ -367,6 +369,7 @@ class PipelineRun:
         if outcome.baked:
             measure_orientation(self.context, self.armature, self.info, outcome.results,
                                 self.settings)
+            measure_naturalness(self.context, self.armature, self.info, outcome.results)
         for r in outcome.results if self.still else ():
             r.message += f"; {self.still}"
         self.outcome = outcome

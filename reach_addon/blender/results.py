@@ -1,7 +1,7 @@
 """What a pipeline run reports per target (:class:`TaskResult`), and the readings that
 correct a plan's own account by what Blender shows: a start the skin shows clear
-(:func:`start_as_it_shows`) and the hand's orientation on the baked bones
-(:func:`measure_orientation`).
+(:func:`start_as_it_shows`), the hand's orientation on the baked bones
+(:func:`measure_orientation`) and how natural the baked arm is (:func:`measure_naturalness`).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from ..core import START_HELD, START_IN_COLLISION
 from ..core.arm import frame_angle
 from ..core.orient import palm_frame, wanted_axes
 from . import hand_reading
+from .rig import rest_hand_axis
 from .skin import skin_clearance
 
 
@@ -129,3 +130,42 @@ def measure_orientation(context, armature, info, results, settings) -> None:
         error = float(frame_angle(palm_frame(d, to_world @ n), palm_frame(finger, palm)))
         r.stats["orientation_error_deg"] = error
         r.stats["orientation_met"] = error <= settings.orientation_tolerance
+
+
+#: Arm lengths the elbow must be above the shoulder, and the wrist below it, for a frame to
+#: count as a chicken wing (:func:`measure_naturalness`).
+WING_MARGIN = 0.1
+
+
+def measure_naturalness(context, armature, info, results) -> None:
+    """Put, in place, into each baked result of ``results`` (:class:`TaskResult`) what
+    Blender's evaluated bones show over its frames: ``mean_wrist_bend_deg`` and
+    ``max_wrist_bend_deg``, the angle between the hand's axis
+    (:func:`.hand_reading.hand_shape`) and where the rig's rest pose would hold it on the
+    forearm as it is (:func:`.rig.rest_hand_axis`), replacing the plan's own figures; and
+    ``chicken_wing_frames``, the frames with the elbow more than :data:`WING_MARGIN` arm
+    lengths above the shoulder and the wrist more than that below it (along the body's up
+    axis). Changes the scene's frame."""
+    scene = context.scene
+    bones = info.bones.arms[info.side]
+    hands = info.hand_bones or (bones.hand,)
+    up, length = np.asarray(info.frame.up, dtype=float), info.arm.arm_length
+    mw = np.array(armature.matrix_world)
+    pb = armature.pose.bones
+    for r in results:
+        if not r.bones_keyed or r.frame_end < r.frame_start:
+            continue
+        bends, wings = [], []
+        for f in range(r.frame_start, r.frame_end + 1):
+            scene.frame_set(f)
+            axis, _l, _s = hand_reading.hand_shape(armature, hands[0], info.arm.forearm_length,
+                                                   hands)
+            rest = rest_hand_axis(armature, bones, axis)
+            bends.append(float(np.degrees(np.arccos(np.clip(axis @ rest, -1.0, 1.0)))))
+            s, e, w = (mw[:3, :3] @ np.array(pb[n].head) + mw[:3, 3]
+                       for n in (bones.upper_arm, bones.forearm, bones.hand))
+            if (e - s) @ up > WING_MARGIN * length and (w - s) @ up < -WING_MARGIN * length:
+                wings.append(f)
+        r.stats["mean_wrist_bend_deg"] = float(np.mean(bends))
+        r.stats["max_wrist_bend_deg"] = float(np.max(bends))
+        r.stats["chicken_wing_frames"] = len(wings)

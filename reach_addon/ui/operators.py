@@ -383,6 +383,9 @@ def result_lines(props) -> list:
             lines.append(f"  wrist bend {st['mean_wrist_bend_deg']:.0f}° mean, "
                          f"{st['max_wrist_bend_deg']:.0f}° max; turn ≤ "
                          f"{st['max_wrist_turn_deg_per_frame']:.0f}°/frame")
+            if st.get("chicken_wing_frames"):
+                lines.append(f"  elbow lifted over a low hand on {st['chicken_wing_frames']} "
+                             "frame(s)")
             if st.get("touching_transitions") or st.get("unbounded_hand_turns"):
                 lines.append(f"  hand: {st['touching_transitions']} frame(s) touching between "
                              f"keys, {st['unbounded_hand_turns']} turn(s) over the limit")
