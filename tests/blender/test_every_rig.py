@@ -60,10 +60,12 @@ TURN_ROUNDING = 0.01
 XFAIL: dict = {}
 
 
-def cases():
+def cases(xfail=None):
+    """Every (rig, scene), a pair of ``xfail`` (default :data:`XFAIL`) marked strict."""
+    xfail = XFAIL if xfail is None else xfail
     for kind in KINDS:
         for scene in everyday.SCENES:
-            reason = XFAIL.get((kind, scene))
+            reason = xfail.get((kind, scene))
             marks = [pytest.mark.xfail(strict=True, reason=reason)] if reason else []
             yield pytest.param(kind, scene, id=f"{kind}-{scene}", marks=marks)
 

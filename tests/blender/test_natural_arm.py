@@ -24,7 +24,7 @@ import json
 import bpy
 import everyday
 import pytest
-from test_every_rig import KINDS, rig_file  # noqa: F401  (the fixture)
+from test_every_rig import cases, rig_file  # noqa: F401  (the fixture)
 
 from verification import naturalness
 
@@ -48,14 +48,6 @@ XFAIL = {
 }
 
 
-def cases():
-    for kind in KINDS:
-        for scene in everyday.SCENES:
-            reason = XFAIL.get((kind, scene))
-            marks = [pytest.mark.xfail(strict=True, reason=reason)] if reason else []
-            yield pytest.param(kind, scene, id=f"{kind}-{scene}", marks=marks)
-
-
 def bake(addon, rig_file, kind, scene):  # noqa: F811
     path, name = rig_file(kind)
     bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
@@ -68,7 +60,7 @@ def bake(addon, rig_file, kind, scene):  # noqa: F811
     return arm, info, pipeline.run(bpy.context, request, bake=True)
 
 
-@pytest.mark.parametrize("kind, scene", list(cases()))
+@pytest.mark.parametrize("kind, scene", list(cases(XFAIL)))
 def test_the_arm_looks_natural(addon, rig_file, kind, scene):  # noqa: F811
     arm, info, outcome = bake(addon, rig_file, kind, scene)
     tasks = outcome.results
