@@ -10,7 +10,7 @@ Why each choice: ``docs/design/blender.md``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import bpy
 import numpy as np
@@ -124,9 +124,6 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     joints, bend = forward_kinematics(arm, start.as_array())
     start_hand = hand_angles(joints[2] - joints[1], bend, joints[3] - joints[2],
                              inv[:3, :3] @ hand_axis)
-    rest_hand = hand_angles(joints[2] - joints[1], bend, joints[3] - joints[2],
-                            inv[:3, :3] @ rest_hand_axis(armature, arm_bones, hand_axis))
-    arm = replace(arm, rest_hand=(float(rest_hand[0]), float(rest_hand[1])))
     palm, palm_source = palm_normal(armature, hands, hand_axis, frame.up, inv[:3, :3])
     fingers = inv[:3, :3] @ finger_axis(armature, hands, hand_axis)
     return RigInfo(armature.name, bmap, frame, arm, side, start,
@@ -143,7 +140,7 @@ def rest_hand_axis(armature, arm_bones, hand_axis) -> np.ndarray:
     """Where the hand would point (world, unit) with the forearm as it is now and the wrist
     as the rest pose holds it: ``hand_axis`` (world) carried by the hand bone's rotation
     relative to the forearm bone from now back to rest,
-    ``R_f · (R_f⁰ᵀ R_h⁰) · (R_fᵀ R_h)ᵀ``, bones in armature space (⁰: rest)."""
+    ``R_f · (R_f⁰ᵀ R_h⁰) · (R_fᵀ R_h)ᵀ · R_fᵀ``, bones in armature space (⁰: rest)."""
     bones, pb = armature.data.bones, armature.pose.bones
     fa, hand = arm_bones.forearm, arm_bones.hand
     rel_rest = _rotation(bones[fa].matrix_local).T @ _rotation(bones[hand].matrix_local)

@@ -60,7 +60,6 @@ class ArmModel:
     ``sternum`` is the IK root, ``shoulder`` the glenohumeral centre at rest (chest
     rotation 0), ``waist`` the point Algorithm 1 uses for the body plane. ``to_world`` is a
     4×4 rigid transform (a reflection allowed, no scale) from canonical to world space.
-    ``rest_hand``: the wrist's neutral (:func:`wrist_bend`).
     """
 
     sternum: np.ndarray
@@ -78,10 +77,6 @@ class ArmModel:
     name: str = "arm"
     #: metres per figure unit (Blender's unit scale), for messages in centimetres
     metres_per_unit: float = 1.0
-    #: the wrist's two angles (degrees, :func:`hand_direction`) where the rig's rest pose
-    #: holds the hand against the forearm: the wrist's neutral, toward which the hand
-    #: relaxes and from which its bend is measured (a rig may model the hand slightly bent)
-    rest_hand: tuple = (0.0, 0.0)
 
     def __post_init__(self):
         label = f"arm '{self.name}'"
@@ -325,15 +320,6 @@ def hand_coefficients(wrist_bend_deg: float, wrist_side_deg: float) -> tuple:
     the rows (f, p, h) of :func:`hand_basis` (:func:`hand_direction`)."""
     b, s = math.radians(wrist_bend_deg), math.radians(wrist_side_deg)
     return (math.cos(b) * math.cos(s), math.sin(b) * math.cos(s), math.sin(s))
-
-
-def wrist_bend(coefficients, rest_hand=(0.0, 0.0)):
-    """How far (degrees) the hand's direction is from the wrist's neutral ``rest_hand``:
-    the angle between the two directions relative to the forearm,
-    ``acos(c · c_rest)`` for their :func:`hand_coefficients` ``c`` (…, 3)."""
-    c0 = np.asarray(hand_coefficients(*rest_hand))
-    dot = np.asarray(coefficients, float) @ c0
-    return np.degrees(np.arccos(np.clip(dot, -1.0, 1.0)))
 
 
 def hand_basis(upper, bend, forearm) -> tuple:

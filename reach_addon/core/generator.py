@@ -18,7 +18,7 @@ import numpy as np
 
 from . import ik, keys
 from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, hand_coefficients,
-                  pose_from_config, wrist_bend)
+                  pose_from_config)
 from .body_capsules import body_capsules_at, segment_hits_body, self_collision
 from .collision import (CollisionChecker, Obstacles, fan_segment_distances,
                         point_segment_distance)
@@ -50,9 +50,8 @@ class ConfigurationGenerator:
         # (cos bend · cos side, sin bend · cos side, sin side) of each sample: the hand
         # direction's components along f, p and h (arm.hand_direction).
         self._hand_coefficients = {h: hand_coefficients(*h) for h in self.hand_samples}
-        # each sample's bend from the wrist's neutral (degrees): the most relaxed hand is
-        # tried first
-        self._relax = {h: float(wrist_bend(c, arm.rest_hand))
+        # each sample's bend from neutral (degrees): the most relaxed hand is tried first
+        self._relax = {h: math.degrees(math.acos(max(-1.0, min(1.0, c[0]))))
                        for h, c in self._hand_coefficients.items()}
         self._hand_orders = {}
         self._capsule_cache = {}
@@ -185,7 +184,7 @@ class ConfigurationGenerator:
                 return math.degrees(math.acos(max(-1.0, min(1.0, dot))))
 
             turns = {h: turn(h) for h in self.hand_samples}
-            bend0 = float(wrist_bend(c0, self.arm.rest_hand))
+            bend0 = math.degrees(math.acos(max(-1.0, min(1.0, c0[0]))))
             bound = self.settings.hand_step_turn * scale
             bound = max(bound, min(turns.values()) + 0.5 * bound)
             within = [h for h in self.hand_samples if turns[h] <= bound + 1e-9]
@@ -274,7 +273,7 @@ class ConfigurationGenerator:
                 hand = (0.0, 0.0)
             else:
                 if hands is None:
-                    hands = self.hand_order(self.arm.rest_hand, 180.0) \
+                    hands = self.hand_order((0.0, 0.0), 180.0) \
                         if previous is None or hand_scale is None else \
                         self.hand_order(previous.hand, hand_scale, toward)
                 tip, hand = self._place_hand(at[3], e_c, w_c, w_w, d_w, bend, at[-1], hands,

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from .arm import Pose, hand_coefficients, hand_orientation, wrist_bend
+from .arm import Pose, hand_coefficients, hand_orientation
 from .hand_grid import HandGrid, wrist_turn
 from .orient import best_roll_error, frame_weights
 
@@ -163,7 +163,7 @@ class HandDP:
                 m[:] = np.inf
                 m[own, own] = keep
             arg = np.argmin(m, axis=0)
-            bend_own = float(wrist_bend(c[own], self.arm.rest_hand))
+            bend_own = math.degrees(math.acos(max(-1.0, min(1.0, float(c[own, 0])))))
             node[own] = s.wrist_relax_weight * (bend_own / 45.0) ** 2 + \
                 (self.LOOSE_COST if id(poses[k]) in self._loose else 0.0)
             best = m[arg, cols] + node
