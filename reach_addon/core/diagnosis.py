@@ -19,7 +19,6 @@ from .arm import Pose, hand_coefficients
 from .body_capsules import body_hit, self_collision
 from .errors import ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, TARGET_IN_OBSTACLE
 from .numeric import cross
-from .search import goal_ball
 
 #: How far the body's up axis, read from the bones, may be off the true vertical (degrees;
 #: the Quaternius test rig's, hips to chest, leans 6.8° at rest): a target is reported too
@@ -115,7 +114,7 @@ def _refusal(generator, start: Pose, wrist) -> tuple:
             first = first or ("hand", "", "hand")
     return first or ("limits", "", "")
 
-def diagnose_target(generator, wrist, ball: bool = True) -> Diagnosis | None:
+def diagnose_target(generator, wrist) -> Diagnosis | None:
     """Why a wrist position can never be reached, or None if some legal pose there is
     clear, hand included. A :class:`Diagnosis`:
 
@@ -128,14 +127,10 @@ def diagnose_target(generator, wrist, ball: bool = True) -> Diagnosis | None:
     * ``NEEDS_LEAN`` / ``NEEDS_STEP`` / ``OUT_OF_REACH``: no legal arm pose puts the
       wrist there (:meth:`_beyond_reach`).
 
-    With ``ball``, a target with a clear pose anywhere on the rim of its tolerance ball
-    (:func:`~reach_addon.core.search.goal_ball`, toward and away from the shoulder first)
-    is reachable, as the search's success is (False: the exact point, as the reach
-    envelope classes it). Every chest rotation of the range counts
-    (:meth:`chest_candidates`), not Table 1's alone: a target a turned trunk reaches is
-    reachable (:meth:`target_chest`); the reason given is read at the rotation nearest
-    Table 1's that has legal poses, and beyond reach from the turn that brings the
-    shoulder nearest the target."""
+    Every chest rotation of the range counts (:meth:`chest_candidates`), not Table 1's
+    alone: a target a turned trunk reaches is reachable (:meth:`target_chest`); the
+    reason given is read at the rotation nearest Table 1's that has legal poses, and
+    beyond reach from the turn that brings the shoulder nearest the target."""
     wrist = np.asarray(wrist, dtype=float)
     arm, checker = generator.arm, generator.checker
     world = arm.to_world_points(wrist)
@@ -143,11 +138,6 @@ def diagnose_target(generator, wrist, ball: bool = True) -> Diagnosis | None:
         return Diagnosis(TARGET_IN_OBSTACLE, obstacle=generator.obstacles.enclosing_owner(world))
     if generator.target_chest(wrist) is not None:
         return None
-    arm_length = generator.arm.arm_length
-    rim = goal_ball(wrist, generator.settings, arm_length,
-                    (arm.shoulder, 2.0 * wrist - arm.shoulder)) if ball else ()
-    if ball and any(generator.target_chest(p) is not None for p in rim):
-        return None             # a pose within the tolerance fits: the search's success
     nearest = None           # the chest rotation whose shoulder is nearest the target
     for chest in generator.chest_candidates(wrist):
         sol = ik.solve(arm, wrist[None], generator.settings, body_rotation=chest)

@@ -25,7 +25,7 @@ from .body_capsules import body_capsules_at, segment_hits_body
 from .errors import NO_PATH
 from .limits import on_elbow_side, side_normal
 from .numeric import SCALAR, cross
-from .search import SearchResult, goal_ball
+from .search import SearchResult
 
 #: Joint order of a configuration row: the core's five angles, then the hand's two.
 JOINT_NAMES = ("body", "alpha", "beta", "gamma", "elbow", "wrist_bend", "wrist_side")
@@ -196,8 +196,7 @@ def goal_configurations(generator, target, start: Pose, validity: StateValidity)
     rotation of ``generator.chest`` (Table 1 along this reach) and at the start's; for each,
     the most relaxed hand sample that is clear. Taken round-robin over the chest rotations
     and, within one, spread over the swivel circle (every other ranked solution first) so
-    that the region is not one narrow cluster. Where the target's own point gives none, the
-    rim of its tolerance ball (:func:`~reach_addon.core.search.goal_ball`) does."""
+    that the region is not one narrow cluster."""
     s, arm = generator.settings, generator.arm
     target = np.asarray(target, dtype=float)
     bodies = [start.config.body_rotation]
@@ -208,33 +207,26 @@ def goal_configurations(generator, target, start: Pose, validity: StateValidity)
     else:
         bodies = [0.0]
     hands = sorted(generator.hand_samples, key=lambda h: generator._relax[h])
-    per_body = [_goal_rows(arm, s, target[None], body, hands, validity) for body in bodies]
-    if not any(per_body):       # the target's own point gives none: the rim of its ball
-        ball = goal_ball(target, s, arm.arm_length, (arm.shoulder, start.wrist))
-        per_body = [_goal_rows(arm, s, ball, body, hands, validity) for body in bodies]
+    per_body = []
+    for body in bodies:
+        sol = ik.solve(arm, target[None], s, None, body)
+        ranked = sol.ranked(0, s.elbow_side)
+        spread = ranked[::2] + ranked[1::2]
+        rows = []
+        for k in spread:
+            config = sol.config(0, k).as_array()
+            for hand in hands:
+                q = np.concatenate([config, hand])
+                if validity.valid(q):
+                    rows.append(q)
+                    break
+        per_body.append(rows)
     out = []
     while any(per_body) and len(out) < s.sampling_goals:
         for rows in per_body:
             if rows and len(out) < s.sampling_goals:
                 out.append(rows.pop(0))
     return out
-
-
-def _goal_rows(arm, s, points, body: float, hands, validity) -> list:
-    """Valid rows (7,) with the wrist on any of ``points`` (n, 3) at chest rotation ``body``:
-    each legal swivel solution, spread over the circle, with the most relaxed clear hand."""
-    sol = ik.solve(arm, points, s, None, body)
-    rows = []
-    for i in range(len(points)):
-        ranked = sol.ranked(i, s.elbow_side)
-        for k in ranked[::2] + ranked[1::2]:
-            config = sol.config(i, k).as_array()
-            for hand in hands:
-                q = np.concatenate([config, hand])
-                if validity.valid(q):
-                    rows.append(q)
-                    break
-    return rows
 
 
 class _Tree:

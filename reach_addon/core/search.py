@@ -2,8 +2,7 @@
 
 Around the current node the candidates are the straight step toward the current guiding
 node (or the target), ``Settings.directions`` steps of ``Settings.step`` arm lengths spread
-evenly on the sphere, the target itself when within a step, and the hand turned in place;
-before it refuses, the :data:`GOAL_BALL` rim of the tolerance ball round the target.
+evenly on the sphere, the target itself when within a step, and the hand turned in place.
 They are tried nearest the goal first; the first that the configuration generator gives a
 valid pose becomes the next node, and a node whose candidates are used up is left
 (backtracking). The search succeeds within ``Settings.goal_tolerance`` of the target and
@@ -27,25 +26,6 @@ import numpy as np
 from .arm import Pose
 from .errors import NO_PATH
 from .generator import ConfigurationGenerator
-
-
-#: Before a search refuses, positions at this share of ``goal_tolerance`` from the target in
-#: every search direction are tried from the closest position (:meth:`BestFirstSearch._last_try`).
-GOAL_BALL = 0.9
-#: The swivel step (degrees) of the last try before a refusal.
-FINE_SWIVEL_STEP = 1.0
-
-
-def goal_ball(target, settings, arm_length: float, toward=()) -> np.ndarray:
-    """The rim of the target's tolerance ball, (n, 3): ``target`` + :data:`GOAL_BALL` ×
-    ``goal_tolerance`` arm lengths toward each point of ``toward`` first (the shoulder:
-    the one point of the ball within reach of a target just beyond it lies that way),
-    then along each of ``Settings.directions`` directions."""
-    target = np.asarray(target, dtype=float)
-    r = GOAL_BALL * settings.goal_tolerance * arm_length
-    ways = [np.asarray(p, dtype=float) - target for p in toward]
-    ways = [w / np.linalg.norm(w) for w in ways if np.linalg.norm(w) > 1e-12]
-    return target + r * np.vstack(ways + [sphere_directions(int(settings.directions))])
 
 
 @lru_cache(maxsize=8)
@@ -224,7 +204,6 @@ class BestFirstSearch:
             k = len(out)
             while k > 0 and math.dist(out[k - 1], g) < near:
                 k -= 1
-            k = min(k, len(out) - node.exact)     # the exact targets stay last
             out[k:k] = turns[::-1]
         return out
 
@@ -307,38 +286,6 @@ class BestFirstSearch:
         self.done = True
         self.success = success
         self.reason = reason
-        if not success and reason is not None:
-            self._last_try()
-
-    def _last_try(self) -> None:
-        """Before a refusal: where the closest position is within a step of the target,
-        the rim of the tolerance ball round the target (:func:`goal_ball`), toward the
-        shoulder and that position first; then the target and the rim again with the
-        swivel circle sampled every :data:`FINE_SWIVEL_STEP` degrees
-        (:meth:`~reach_addon.core.generator.ConfigurationGenerator.finer`). Reaching any
-        of it is a success, so a target is not refused where its exact point leaves the
-        arm a fraction of a millimetre short of room while a pose within the tolerance
-        fits, nor where the only clear swivel angles lie between the search's samples.
-        Each position tried counts as a node."""
-        node = self.nodes[self.closest]
-        w = node.pose.wrist
-        if self.closest_distance > self.step:
-            return
-        gen = self.generator
-        ball = goal_ball(self.target, gen.settings, gen.arm.arm_length, (gen.arm.shoulder, w))
-        tries = [(gen, p) for p in ball] + \
-            [(gen.finer(FINE_SWIVEL_STEP), p) for p in [self.target, *ball]]
-        for g, point in tries:
-            self.nodes_searched += 1
-            pose = g.solve(point, node.pose, hand_scale=g.move_scale(node.pose, point.tolist())) \
-                if self.hand_continuity else g.solve(point, node.pose)
-            if pose is not None:
-                self.nodes.append(_Node(pose, self.closest, node.guide, node.depth + 1))
-                self.stack.append(len(self.nodes) - 1)
-                self.closest = len(self.nodes) - 1
-                self.closest_distance = math.dist(pose.wrist.tolist(), self.target_list)
-                self.success, self.reason = True, None
-                return
 
     def path_to(self, index: int) -> list:
         out = []
