@@ -31,6 +31,8 @@ WING_MARGIN = 0.1
 MEAN_BEND_MAX = 12.0
 #: The largest wrist bend (degrees) a reach may have where no obstacle forces it.
 MAX_BEND_MAX = 45.0
+#: Degrees of bend from which a frame counts as bent (RULA's risk threshold).
+FORCED_FROM = 15.0
 
 
 def _unit_columns(m: np.ndarray) -> np.ndarray:

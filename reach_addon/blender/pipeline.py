@@ -369,7 +369,8 @@ class PipelineRun:
         if outcome.baked:
             measure_orientation(self.context, self.armature, self.info, outcome.results,
                                 self.settings)
-            measure_naturalness(self.context, self.armature, self.info, outcome.results)
+            measure_naturalness(self.context, self.armature, self.info, outcome.results,
+                                self.obstacles)
         for r in outcome.results if self.still else ():
             r.message += f"; {self.still}"
         self.outcome = outcome

@@ -137,15 +137,19 @@ def measure_orientation(context, armature, info, results, settings) -> None:
 WING_MARGIN = 0.1
 
 
-def measure_naturalness(context, armature, info, results) -> None:
+def measure_naturalness(context, armature, info, results, obstacles=None) -> None:
     """Put, in place, into each baked result of ``results`` (:class:`TaskResult`) what
     Blender's evaluated bones show over its frames: ``mean_wrist_bend_deg`` and
     ``max_wrist_bend_deg``, the angle between the hand's axis
     (:func:`.hand_reading.hand_shape`) and where the rig's rest pose would hold it on the
-    forearm as it is (:func:`.rig.rest_hand_axis`), replacing the plan's own figures; and
+    forearm as it is (:func:`.rig.rest_hand_axis`), replacing the plan's own figures;
     ``chicken_wing_frames``, the frames with the elbow more than :data:`WING_MARGIN` arm
     lengths above the shoulder and the wrist more than that below it (along the body's up
-    axis). Changes the scene's frame."""
+    axis); and with ``obstacles`` (the run's :class:`~reach_addon.core.collision.Obstacles`)
+    ``forced_bend_frames``, the frames bent more than :data:`FORCED_FROM` where the hand
+    held at its rest alignment would touch an obstacle (:func:`relaxed_hand_hits`), and
+    ``bend_forced_by``, the obstacle it touches most often (None without any). Changes
+    the scene's frame."""
     scene = context.scene
     bones = info.bones.arms[info.side]
     hands = info.hand_bones or (bones.hand,)
@@ -155,7 +159,7 @@ def measure_naturalness(context, armature, info, results) -> None:
     for r in results:
         if not r.bones_keyed or r.frame_end < r.frame_start:
             continue
-        bends, wings = [], []
+        bends, wings, forced = [], [], []
         for f in range(r.frame_start, r.frame_end + 1):
             scene.frame_set(f)
             axis, _l, _s = hand_reading.hand_shape(armature, hands[0], info.arm.forearm_length,
@@ -166,6 +170,32 @@ def measure_naturalness(context, armature, info, results) -> None:
                        for n in (bones.upper_arm, bones.forearm, bones.hand))
             if (e - s) @ up > WING_MARGIN * length and (w - s) @ up < -WING_MARGIN * length:
                 wings.append(f)
+            if obstacles is not None and bends[-1] > FORCED_FROM:
+                hit = relaxed_hand_hits(obstacles, info.arm, w, rest)
+                if hit is not None:
+                    forced.append(hit)
         r.stats["mean_wrist_bend_deg"] = float(np.mean(bends))
         r.stats["max_wrist_bend_deg"] = float(np.max(bends))
         r.stats["chicken_wing_frames"] = len(wings)
+        if obstacles is not None:
+            r.stats["forced_bend_frames"] = len(forced)
+            r.stats["bend_forced_by"] = max(set(forced), key=forced.count) if forced else None
+
+
+#: Degrees of wrist bend from which a frame's bend is asked whether an obstacle forced it
+#: (RULA scores a wrist beyond 15° from neutral as a risk).
+FORCED_FROM = 15.0
+
+
+def relaxed_hand_hits(obstacles, arm, wrist, rest_axis):
+    """The obstacle (name) the hand would touch held at its rest alignment at ``wrist``
+    (world): its capsule from the wrist along ``rest_axis`` for the hand's length, with
+    the hand's radius (:class:`~reach_addon.core.arm.ArmModel`), sampled every half
+    radius; None if it is clear."""
+    radius, length = arm.hand_radius, arm.hand_length
+    n = max(2, int(np.ceil(length / (0.5 * max(radius, 1e-9)))) + 1)
+    for t in np.linspace(0.0, 1.0, n):
+        hit = obstacles.nearest(wrist + t * length * rest_axis, radius)
+        if hit is not None:
+            return obstacles.owner(hit[2])
+    return None

@@ -383,6 +383,9 @@ def result_lines(props) -> list:
             lines.append(f"  wrist bend {st['mean_wrist_bend_deg']:.0f}° mean, "
                          f"{st['max_wrist_bend_deg']:.0f}° max; turn ≤ "
                          f"{st['max_wrist_turn_deg_per_frame']:.0f}°/frame")
+            if st.get("bend_forced_by"):
+                lines.append(f"  wrist bent by '{st['bend_forced_by']}' on "
+                             f"{st['forced_bend_frames']} frame(s)")
             if st.get("chicken_wing_frames"):
                 lines.append(f"  elbow lifted over a low hand on {st['chicken_wing_frames']} "
                              "frame(s)")

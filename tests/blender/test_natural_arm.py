@@ -8,13 +8,18 @@ bend), and the elbow more than 0.1 arm lengths above the shoulder while the wris
 than that below it (chicken wing), over every frame of the motion. Each reach must keep the
 mean bend within 12° and the largest within 45°, with no chicken wing; and the report's
 own figures (``blender.results.measure_naturalness``, another construction: the hand's
-axis from its fingers against where the rest pose would hold it) must agree with the
-measured ones.
+axis from its fingers against where the rest pose would hold it; the body's up axis) must
+agree with the measured ones.
+
+A bend beyond those figures passes only where the report names the obstacle that forced
+it (``bend_forced_by``) and the hand turned back to its rest alignment would indeed touch
+an obstacle (:func:`relaxed_hand_touches`, exact distances to the evaluated triangles) on
+every frame bent beyond 45°, the other frames keeping the mean within 12°.
 
 The pairs the planner does not do yet are ``xfail(strict=True)`` in :data:`XFAIL`, with
-what was measured: the wrist bent by a shelf board or the wall's top, where the report does
-not yet say that an obstacle forced it, and elbows lifted over a low hand, which the
-swivel's choice has no comfort term against yet (issue "A natural arm").
+what was measured: bends that last longer than the obstacle forces them, and elbows lifted
+over a low hand, which the swivel's choice has no comfort term against yet (issue "A
+natural arm").
 """
 
 from __future__ import annotations
@@ -22,29 +27,45 @@ from __future__ import annotations
 import json
 
 import bpy
+import clearance
 import everyday
+import numpy as np
 import pytest
-from test_every_rig import cases, rig_file  # noqa: F401  (the fixture)
+from test_every_rig import cases, obstacle_triangles, rig_file  # noqa: F401  (the fixture)
 
 from verification import naturalness
+from verification.geometry import segment_triangle_distances
 
 #: How far the report's mean and largest bend may lie from the measured ones (degrees): the
 #: two read the hand's axis differently (its fingers' middle, its bone's y axis), and a
 #: wrist bend turns the two by a little more or less.
 MEAN_AGREES, MAX_AGREES = 2.0, 6.0
+#: How many chicken-wing frames the report and the measure may count apart.
+WING_FRAMES_AGREE = 1
 
 _WING = "elbow lifted over a low hand: no elbow-comfort term in the swivel's choice yet"
-_FORCED = "bend forced by the scene, not yet reported as forced"
-#: (rig, scene) → what keeps it from the goal, as measured at this commit.
+_LONG = "the bend lasts longer than the obstacle forces it"
+_REST = ("the hand pass relaxes the hand toward the forearm's line, not the rig's rest "
+         "alignment (the fix, on branch wip-ball-rest, waits on a chase check)")
+#: (rig, scene) → what keeps it from the goal, as measured at this commit ("forced": the
+#: report names the obstacle and the relaxed hand would touch it on those frames).
 XFAIL = {
-    ("gomakehuman", "wall"): f"max bend 67° over the wall's top; 2 wing frames: {_FORCED}",
-    ("gomakehuman", "shelf"): f"max bend 66° at the slot, 8 wing frames: {_WING}",
+    ("quaternius", "wall"): f"mean bend 13.7°, nothing forcing it: {_REST}",
+    ("quaternius", "sequence"): f"mean bend 17.4°, nothing forcing it: {_REST}",
+    ("quaternius", "chase"): f"mean bend 18.5°, nothing forcing it: {_REST}",
+    ("malebase", "sequence"): f"mean bend 14.2°, nothing forcing it: {_REST}",
+    ("gomakehuman", "sequence"): f"forced by 'Table' on 2 frames, the others' mean 13.5°: {_REST}",
+    ("gomakehuman", "shelf"): f"max bend 66° at the slot; 7 wing frames: {_WING}",
     ("gomakehuman", "chase"): f"6 wing frames: {_WING}",
-    ("malebase", "chase"): f"5 wing frames: {_WING}",
-    ("goblin", "shelf"): f"mean 26°, max 75° into the slot: {_FORCED}",
-    ("knight", "shelf"): f"mean 16°, max 74° into the slot: {_FORCED}",
-    ("robot", "wall"): f"max bend 57°: {_FORCED}",
-    ("robot", "shelf"): f"mean 24°, max 73° into the slot: {_FORCED}",
+    ("malebase", "chase"): f"2 wing frames: {_WING}",
+    ("goblin", "shelf"): f"forced by 'Shelf top' on 12 frames, but bent 45-75° with a "
+                         f"relaxed hand clear on frames 35-41: {_LONG}",
+    ("knight", "shelf"): f"forced by 'Shelf outer side' on 6 frames, but bent beyond 45° "
+                         f"with a relaxed hand clear on frames 28, 30-33: {_LONG}",
+    ("robot", "wall"): f"forced by 'Wall' on 7 frames, but bent beyond 45° with a relaxed "
+                       f"hand clear on frame 16: {_LONG}",
+    ("robot", "shelf"): f"forced by 'Shelf bottom' on 7 frames, but bent beyond 45° with a "
+                        f"relaxed hand clear on frames 21-26: {_LONG}",
 }
 
 
@@ -60,8 +81,32 @@ def bake(addon, rig_file, kind, scene):  # noqa: F811
     return arm, info, pipeline.run(bpy.context, request, bake=True)
 
 
+def _rotation(m):
+    m = np.array(m)[:3, :3]
+    return m / np.linalg.norm(m, axis=0)
+
+
+def relaxed_hand_touches(arm, info, check, tris) -> bool:
+    """Would the hand, turned back at the wrist to its rest alignment on the forearm as it
+    is now, come within its radius of ``tris``? The hand's capsule as the clearance check
+    reads it (wrist to the fingers' far end), rotated by ``Rf (Rf⁰ᵀ Rh⁰) (Rfᵀ Rh)ᵀ Rfᵀ``
+    (armature space, ⁰: rest), against the triangles by exact segment distances."""
+    b = info.bones.arms["right"]
+    bones, pb = arm.data.bones, arm.pose.bones
+    rf = _rotation(pb[b.forearm].matrix)
+    back = rf @ (_rotation(bones[b.forearm].matrix_local).T @ _rotation(bones[b.hand].matrix_local)) \
+        @ (rf.T @ _rotation(pb[b.hand].matrix)).T @ rf.T
+    mw = np.array(arm.matrix_world)[:3, :3]
+    _part, wrist, tip, radius = check.capsules()[2]
+    relaxed = wrist + mw @ (back @ np.linalg.solve(mw, tip - wrist))
+    return float(segment_triangle_distances(wrist, relaxed, tris)[0]) < radius
+
+
 @pytest.mark.parametrize("kind, scene", list(cases(XFAIL)))
 def test_the_arm_looks_natural(addon, rig_file, kind, scene):  # noqa: F811
+    """Natural, or bent only where the report says an obstacle forced it and the relaxed
+    hand there would indeed touch one (:func:`relaxed_hand_touches`): every frame bent
+    beyond 45° is such a frame, and the others keep the mean within 12°."""
     arm, info, outcome = bake(addon, rig_file, kind, scene)
     tasks = outcome.results
     assert outcome.baked and all(t.success for t in tasks)
@@ -78,8 +123,28 @@ def test_the_arm_looks_natural(addon, rig_file, kind, scene):  # noqa: F811
     # the report says what the bones show
     assert abs(reported_mean - figures.mean_bend) <= MEAN_AGREES
     assert abs(reported_max - figures.max_bend) <= MAX_AGREES
-    assert reported_wings == len(figures.wing_frames)
+    # (a frame at the margin may count on one side only: the report's up is the body's,
+    # the measure's the world's)
+    assert abs(reported_wings - len(figures.wing_frames)) <= WING_FRAMES_AGREE
     # and what they show is natural
     assert not figures.wing_frames, f"chicken wing at frames {figures.wing_frames}"
-    assert figures.mean_bend <= naturalness.MEAN_BEND_MAX, figures.summary()
-    assert figures.max_bend <= naturalness.MAX_BEND_MAX, figures.summary()
+    if figures.mean_bend <= naturalness.MEAN_BEND_MAX and \
+            figures.max_bend <= naturalness.MAX_BEND_MAX:
+        return
+    # or bent where an obstacle forces it, as the report says and the relaxed hand shows
+    named = {t.stats.get("bend_forced_by") for t in tasks} - {None}
+    assert named, f"bent without a reason: {figures.summary()}"
+    check, tris = clearance.Arm(arm, info), obstacle_triangles(addon, arm)
+    forced = set()
+    for f, bend in zip(figures.frames, figures.bends):
+        if bend > naturalness.FORCED_FROM:
+            bpy.context.scene.frame_set(f)
+            if relaxed_hand_touches(arm, info, check, tris):
+                forced.add(f)
+    over = [f for f, bend in zip(figures.frames, figures.bends)
+            if bend > naturalness.MAX_BEND_MAX and f not in forced]
+    free = [bend for f, bend in zip(figures.frames, figures.bends) if f not in forced]
+    print(f"FORCED by {sorted(named)} on {len(forced)} frames; unforced mean "
+          f"{np.mean(free) if free else 0.0:.1f}")
+    assert not over, f"bent beyond 45° where a relaxed hand is clear: frames {over}"
+    assert not free or np.mean(free) <= naturalness.MEAN_BEND_MAX
