@@ -144,11 +144,8 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     finger joints (heads and tails of the bones below the hand bones ``group``, helper
     bones left out); ``length``: the farthest joint along it, clipped to 0.4 ..
     :data:`HAND_REACH_MAX` × ``forearm_len``; ``spread``: the farthest joint from the
-    axis. A hand with no fingers points from the wrist to the middle of its skin (the
-    vertices its bones move, :func:`~.skin.skin_points`) and is as long as that skin
-    reaches along it; without a skin it points along its bones (the tails' mean: an
-    importer may have set them anywhere, as glTF's do) and is 0.74 forearm long (Drillis
-    & Contini). It has no spread. ``group``: the hand's bones
+    axis. A hand with no fingers points along its bones (the tails' mean), is 0.74
+    forearm long (Drillis & Contini) and has no spread. ``group``: the hand's bones
     (:func:`hand_group`; default the hand bone alone). The axis is the hand capsule's,
     the middle of its mass; the fingers' direction is :func:`finger_axis`."""
     mw = np.array(armature.matrix_world)
@@ -158,7 +155,9 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
             if not set(tokens(b.name)) & HELPER]
     wrist = mw[:3, :3] @ np.array(pb.head) + mw[:3, 3]
     if not kids:
-        return _fingerless_shape(armature, group, wrist, forearm_len)
+        tails = np.mean([np.array(armature.pose.bones[n].tail) for n in group], axis=0)
+        axis = mw[:3, :3] @ (tails - np.array(pb.head))
+        return axis / max(float(np.linalg.norm(axis)), 1e-12), 0.74 * forearm_len, 0.0
     rel = np.array([p for b in kids for p in (b.head, b.tail)]) @ mw[:3, :3].T + mw[:3, 3] - wrist
     axis = rel.mean(0)
     if np.linalg.norm(axis) < 1e-9:
@@ -168,27 +167,6 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     length = float(np.clip(along.max(), 0.4 * forearm_len, HAND_REACH_MAX * forearm_len))
     spread = float(np.linalg.norm(rel - along[:, None] * axis, axis=1).max())
     return axis, length, spread
-
-
-#: Fewest skin vertices that give a fingerless hand its axis (:func:`hand_shape`).
-SKIN_POINTS_MIN = 8
-
-
-def _fingerless_shape(armature, group, wrist, forearm_len) -> tuple:
-    """(axis, length, 0) of a hand without finger bones (:func:`hand_shape`)."""
-    rel = skin_points(armature, set(group)) - wrist
-    if len(rel) >= SKIN_POINTS_MIN:
-        axis = rel.mean(0)
-        if np.linalg.norm(axis) > 0.1 * forearm_len:
-            axis = axis / float(np.linalg.norm(axis))
-            length = float(np.clip((rel @ axis).max(), 0.4 * forearm_len,
-                                   HAND_REACH_MAX * forearm_len))
-            return axis, length, 0.0
-    mw = np.array(armature.matrix_world)
-    tails = np.mean([np.array(armature.pose.bones[n].tail) for n in group], axis=0)
-    head = np.array(armature.pose.bones[group[0]].head)
-    axis = mw[:3, :3] @ (tails - head)
-    return axis / max(float(np.linalg.norm(axis)), 1e-12), 0.74 * forearm_len, 0.0
 
 
 #: Knuckles closer together than this share of the fingers' reach do not make a knuckle
