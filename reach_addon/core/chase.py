@@ -94,7 +94,7 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
         searcher = BestFirstSearch(view, previous, target,
                                    node_budget=s.chase_nodes_per_frame,
                                    stall_budget=s.chase_nodes_per_frame, depth_limit=steps,
-                                   hand_continuity=continuity)
+                                   hand_continuity=continuity, last_try=False)
         searcher.run()
         result = searcher.result()
         pose, k = _commit(view, previous, result, steps, turn, strict)

@@ -19,6 +19,7 @@ from .arm import Pose, hand_coefficients
 from .body_capsules import body_hit, self_collision
 from .errors import ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, TARGET_IN_OBSTACLE
 from .numeric import cross
+from .search import last_tries
 
 #: How far the body's up axis, read from the bones, may be off the true vertical (degrees;
 #: the Quaternius test rig's, hips to chest, leans 6.8° at rest): a target is reported too
@@ -114,9 +115,23 @@ def _refusal(generator, start: Pose, wrist) -> tuple:
             first = first or ("hand", "", "hand")
     return first or ("limits", "", "")
 
-def diagnose_target(generator, wrist) -> Diagnosis | None:
+def fit_within_tolerance(generator, wrist):
+    """Where the point ``wrist`` itself has no clear pose at any chest rotation
+    (:meth:`~reach_addon.core.generator.ConfigurationGenerator.target_chest`): the first
+    of the search's last tries (:func:`~reach_addon.core.search.last_tries`, all within
+    the goal tolerance) that has one, as ``(generator, point, chest)``, or None. The
+    search's success is within the tolerance, so a target refused must have none."""
+    for g, point in last_tries(generator, wrist):
+        chest = g.target_chest(point)
+        if chest is not None:
+            return g, point, chest
+    return None
+
+
+def diagnose_target(generator, wrist, ball: bool = True) -> Diagnosis | None:
     """Why a wrist position can never be reached, or None if some legal pose there is
-    clear, hand included. A :class:`Diagnosis`:
+    clear, hand included, or (with ``ball``) one within the goal tolerance
+    (:func:`fit_within_tolerance`). A :class:`Diagnosis`:
 
     * ``TARGET_IN_OBSTACLE``: the target is inside a closed obstacle (or every legal
       pose there passes through the character's own body);
@@ -137,6 +152,8 @@ def diagnose_target(generator, wrist) -> Diagnosis | None:
     if generator.obstacles.point_inside(world):
         return Diagnosis(TARGET_IN_OBSTACLE, obstacle=generator.obstacles.enclosing_owner(world))
     if generator.target_chest(wrist) is not None:
+        return None
+    if ball and fit_within_tolerance(generator, wrist) is not None:
         return None
     nearest = None           # the chest rotation whose shoulder is nearest the target
     for chest in generator.chest_candidates(wrist):

@@ -8,7 +8,12 @@ legal pose clear there, hand included (:func:`exhaustive`); ``chest``, reachable
 because the chest turns; ``blocked``, within reach but with no room for the arm or hand
 (:func:`~reach_addon.core.diagnosis.diagnose_target`); ``out``, no legal arm pose puts the
 wrist there at any chest rotation of the range. It classifies the *end* pose: a point in a
-closed box with room inside is reachable here and ``no_path`` for Plan.
+closed box with room inside is reachable here and ``no_path`` for Plan. And it classifies
+the point itself at the search's swivel step: a search that refuses nothing within its goal
+tolerance (:func:`~reach_addon.core.search.last_tries`: the tolerance ball's rim, a 1°
+swivel) may reach a point classed ``blocked`` or ``out`` that lies within the tolerance of
+a clear pose. Asking those tries at every point would cost the envelope about fifteen times
+its time for a band a few millimetres wide.
 """
 
 from __future__ import annotations

@@ -83,6 +83,22 @@ class ConfigurationGenerator:
             self._between_keys = loose
         return loose
 
+    def finer(self, swivel_step: float) -> ConfigurationGenerator:
+        """This generator with the swivel circle sampled every ``swivel_step`` degrees and
+        every legal candidate tried (for the last try before a refusal,
+        :func:`~reach_addon.core.search.last_tries`). The chest follows this one's. Made
+        once per step and kept."""
+        kept = self.__dict__.setdefault("_finer", {})
+        fine = kept.get(swivel_step)
+        if fine is None:
+            fine = ConfigurationGenerator(
+                self.arm, self.obstacles,
+                self.settings.replace(swivel_step=swivel_step,
+                                      max_pose_tries=int(math.ceil(360.0 / swivel_step))))
+            kept[swivel_step] = fine
+        fine.chest = self.chest
+        return fine
+
     def for_reach(self, start: Pose, target, fit_chest: bool = True) -> ConfigurationGenerator:
         """A view of this generator for one reach from ``start`` to ``target``: the chest
         rotation follows :class:`~reach_addon.core.torso.ChestPath` instead of Table 1

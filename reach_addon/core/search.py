@@ -2,7 +2,8 @@
 
 Around the current node the candidates are the straight step toward the current guiding
 node (or the target), ``Settings.directions`` steps of ``Settings.step`` arm lengths spread
-evenly on the sphere, the target itself when within a step, and the hand turned in place.
+evenly on the sphere, the target itself when within a step, and the hand turned in place;
+before it refuses, the rim of the tolerance ball round the target (:func:`last_tries`).
 They are tried nearest the goal first; the first that the configuration generator gives a
 valid pose becomes the next node, and a node whose candidates are used up is left
 (backtracking). The search succeeds within ``Settings.goal_tolerance`` of the target and
@@ -26,6 +27,43 @@ import numpy as np
 from .arm import Pose
 from .errors import NO_PATH
 from .generator import ConfigurationGenerator
+
+
+#: Before a search refuses, positions this share of ``goal_tolerance`` from the target are
+#: tried from the closest position (:func:`last_tries`).
+GOAL_BALL = 0.9
+#: The swivel step (degrees) of the last try before a refusal.
+FINE_SWIVEL_STEP = 1.0
+
+
+def goal_ball(target, settings, arm_length: float, toward=()) -> np.ndarray:
+    """The rim of the target's tolerance ball, (n, 3): ``target`` + :data:`GOAL_BALL` ×
+    ``goal_tolerance`` × ``arm_length`` toward each point of ``toward`` first, then along
+    each of ``Settings.directions`` directions (:func:`sphere_directions`)."""
+    target = np.asarray(target, dtype=float)
+    r = GOAL_BALL * settings.goal_tolerance * arm_length
+    ways = [np.asarray(p, dtype=float) - target for p in toward]
+    ways = [w / np.linalg.norm(w) for w in ways if np.linalg.norm(w) > 1e-12]
+    return target + r * np.vstack(ways + [sphere_directions(int(settings.directions))])
+
+
+def last_tries(generator, target) -> list:
+    """The positions tried before a target is refused, in order, as (generator, canonical
+    point) pairs: the rim of its tolerance ball (:func:`goal_ball`; toward the shoulder
+    first, where the one point of the ball within reach of a target just beyond it lies,
+    then straight away from it) with ``generator``; then the target and the rim's first two
+    with the swivel circle sampled every :data:`FINE_SWIVEL_STEP` degrees
+    (:meth:`~reach_addon.core.generator.ConfigurationGenerator.finer`: a clear swivel
+    window narrower than the search's step, as an elbow folded to its limit has). The
+    search's last try (:meth:`BestFirstSearch._last_try`) and the diagnosis of a refusal
+    (:func:`~reach_addon.core.diagnosis.fit_within_tolerance`) use these same positions,
+    so a target is refused only where neither finds a pose."""
+    target = np.asarray(target, dtype=float)
+    shoulder = np.asarray(generator.arm.shoulder, dtype=float)
+    rim = goal_ball(target, generator.settings, generator.arm.arm_length,
+                    (shoulder, 2.0 * target - shoulder))
+    fine = generator.finer(FINE_SWIVEL_STEP)
+    return [(generator, p) for p in rim] + [(fine, p) for p in (target, rim[0], rim[1])]
 
 
 @lru_cache(maxsize=8)
@@ -89,9 +127,10 @@ class BestFirstSearch:
     def __init__(self, generator: ConfigurationGenerator, start: Pose, target, guides=None,
                  guide_radius: float = 0.0, node_budget: int | None = None,
                  stall_budget: int | None = None, depth_limit: int | None = None,
-                 hand_continuity: bool = True):
+                 hand_continuity: bool = True, last_try: bool = True):
         s = generator.settings
         self.generator = generator
+        self.last_try = last_try
         self.target = np.asarray(target, dtype=float)
         self.guides = np.zeros((0, 3)) if guides is None else np.asarray(guides, dtype=float)
         self.guide_radius = guide_radius
@@ -204,6 +243,7 @@ class BestFirstSearch:
             k = len(out)
             while k > 0 and math.dist(out[k - 1], g) < near:
                 k -= 1
+            k = min(k, len(out) - node.exact)     # the exact targets stay last
             out[k:k] = turns[::-1]
         return out
 
@@ -286,6 +326,31 @@ class BestFirstSearch:
         self.done = True
         self.success = success
         self.reason = reason
+        if not success and reason is not None and self.last_try:
+            self._last_try()
+
+    def _last_try(self) -> None:
+        """Before a refusal (unless made with ``last_try=False``, as a chase's frames are:
+        a pursuit keeps to its own steps and its own account of the gap), where the closest
+        position is within a step of the target: the positions of :func:`last_tries`, each
+        solved from the closest position's pose and counted as a node. Reaching any of
+        them is a success: a target is not refused where its own point leaves the arm a
+        fraction of a millimetre short of room while a pose within the tolerance fits, nor
+        where the only clear swivel angles lie between the search's samples."""
+        node = self.nodes[self.closest]
+        if self.closest_distance > self.step:
+            return
+        for g, point in last_tries(self.generator, self.target):
+            self.nodes_searched += 1
+            pose = g.solve(point, node.pose, hand_scale=g.move_scale(node.pose, point.tolist())) \
+                if self.hand_continuity else g.solve(point, node.pose)
+            if pose is not None:
+                self.nodes.append(_Node(pose, self.closest, node.guide, node.depth + 1))
+                self.stack.append(len(self.nodes) - 1)
+                self.closest = len(self.nodes) - 1
+                self.closest_distance = math.dist(pose.wrist.tolist(), self.target_list)
+                self.success, self.reason = True, None
+                return
 
     def path_to(self, index: int) -> list:
         out = []

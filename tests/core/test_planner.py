@@ -585,3 +585,31 @@ def test_a_chase_frame_skips_the_free_search_only_where_it_could_not_be_taken(ar
     pose, frame = chase_step(gen, start, near, steps)
     assert frame.success and np.linalg.norm(pose.wrist - near) <= s.goal_tolerance * arm.arm_length
 
+
+def test_a_target_beyond_reach_by_less_than_the_tolerance_is_reached(arm):
+    """The search succeeds within ``goal_tolerance`` of the target, so a target a hair
+    beyond the turned shoulder's reach, nearer than the tolerance, is reached on the rim
+    of its tolerance ball (search.goal_ball), not refused as needs_lean (fuzz seed 5310:
+    0.001 arm lengths short, a false refusal the cross-check's OMPL found)."""
+    s = Settings(chest_rotation=False)
+    forward = np.array([0.0, -1.0, 0.0])
+    out = 0.4 * s.goal_tolerance * arm.arm_length
+    target = shoulder_of(arm) + forward * (arm.arm_length + out)
+    p = plan(Task("reach", target[None], HANGING), arm, None, s)
+    assert p.success, p.message
+    assert np.linalg.norm(p.wrist_trajectory()[-1] - target) <= s.goal_tolerance * arm.arm_length
+    beyond = shoulder_of(arm) + forward * (arm.arm_length + 3.0 * s.goal_tolerance * arm.arm_length)
+    p = plan(Task("reach", beyond[None], HANGING, names=("Cup",)), arm, None, s)
+    assert not p.success and p.reason == NEEDS_LEAN, p.message
+
+
+def test_the_ball_leads_toward_the_shoulder():
+    from reach_addon.core.search import GOAL_BALL, goal_ball
+
+    s = Settings()
+    target, shoulder = np.array([1.0, 0.0, 0.0]), np.zeros(3)
+    ball = goal_ball(target, s, 2.0, (shoulder,))
+    r = GOAL_BALL * s.goal_tolerance * 2.0
+    assert len(ball) == 1 + s.directions
+    assert np.allclose(ball[0], [1.0 - r, 0.0, 0.0])
+    assert np.allclose(np.linalg.norm(ball - target, axis=1), r)
