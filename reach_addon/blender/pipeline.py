@@ -8,8 +8,7 @@ drawing is :mod:`.viz`, the results :mod:`.results`.
 
 Bad input raises :class:`~reach_addon.core.ReachError` *before* anything in the scene is
 changed. The scene's current frame is restored when the work ends, however it ends. Why
-chases, moving obstacles and carried targets are read as they are:
-``docs/design/blender.md``.
+chases, moving obstacles and carried targets are read as they are: ``docs/design/blender.md``.
 """
 
 from __future__ import annotations
@@ -555,13 +554,15 @@ def run(context, request: Request, bake: bool = True) -> Outcome:
 class EnvelopeOutcome:
     """The reach envelope of one arm (:mod:`reach_addon.core.envelope`) with where its points
     are: ``world`` (n, 3) and ``shoulder`` (n, 3), the shoulder-frame coordinates (forward,
-    outward, up; arm lengths) a batch study's shoulder grid uses."""
+    outward, up; arm lengths) a batch study's shoulder grid uses, and the configuration
+    generator that classified them (the planner's, with every ranked pose tried)."""
 
     request: Request
     rig: rig_mod.RigInfo
     envelope: envelope_mod.Envelope
     world: np.ndarray
     shoulder: np.ndarray
+    generator: object = None
 
 
 def envelope_steps(context, request: Request, chunk: int = 64, world=None):
@@ -590,7 +591,8 @@ def envelope_steps(context, request: Request, chunk: int = 64, world=None):
     env = yield from relay(envelope_mod.envelope_steps(planner.generator, points, chunk),
                            lambda done: (0.05 + 0.95 * done, f"{round(done * len(points))} of "
                                          f"{len(points)} points"))
-    return EnvelopeOutcome(request, info, env, info.arm.to_world_points(points), coords)
+    return EnvelopeOutcome(request, info, env, info.arm.to_world_points(points), coords,
+                           planner.generator)
 
 
 def envelope(context, request: Request, world=None) -> EnvelopeOutcome:

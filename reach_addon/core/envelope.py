@@ -9,11 +9,13 @@ because the chest turns; ``blocked``, within reach but with no room for the arm 
 (:func:`~reach_addon.core.diagnosis.diagnose_target`); ``out``, no legal arm pose puts the
 wrist there at any chest rotation of the range. It classifies the *end* pose: a point in a
 closed box with room inside is reachable here and ``no_path`` for Plan. And it classifies
-the point itself at the search's swivel step: a search that refuses nothing within its goal
-tolerance (:func:`~reach_addon.core.search.last_tries`: the tolerance ball's rim, a 1°
-swivel) may reach a point classed ``blocked`` or ``out`` that lies within the tolerance of
-a clear pose. Asking those tries at every point would cost the envelope about fifteen times
-its time for a band a few millimetres wide.
+the point itself at the search's swivel step (``Settings.swivel_step``), while a search
+asks its last tries before it refuses (:func:`~reach_addon.core.search.last_tries`: the
+tolerance ball's rim, a 1° swivel): a plan may reach a point classed ``blocked`` whose
+only clear swivel window is narrower than the step (or, with it, find a stronger pose than
+the envelope's), and one classed ``blocked`` or ``out`` within the tolerance of a clear
+pose (5 of the 125 points of the Blender test's plate grid). Asking those tries at every
+point cost the envelope's tests about fifteen times their time.
 """
 
 from __future__ import annotations

@@ -8,8 +8,10 @@ target's envelope class (the same pipeline, asked for one point), which must be 
 the envelope gives that grid point, so the counts per class are the same; and the planned
 reach must bear the class out: reached where the envelope says reachable, failed as
 "out of reach" (needs a lean, a step, or is beyond the joints) where it says out, as
-"inside an obstacle" or "the arm does not fit" where it says blocked, and never ending in a
-stronger posture than the strongest the envelope found there.
+"inside an obstacle" or "the arm does not fit" where it says blocked (unless a pose within
+the goal tolerance fits: the envelope classes the point itself, the search succeeds within
+the tolerance), and never ending in a stronger posture than the strongest the envelope
+found there.
 """
 
 import csv
@@ -66,6 +68,15 @@ def open_plate(plate):
     return bpy.context.scene
 
 
+def stronger_at_fine_swivel(addon, generator, point, f_r) -> bool:
+    """Does the swivel circle sampled at the search's last try's step give a clear pose of
+    strength category ``f_r`` or stronger at ``point`` (canonical)?"""
+    fine = generator.finer(addon.core.search.FINE_SWIVEL_STEP)
+    chest = fine.target_chest(point)
+    pose = None if chest is None else fine.solve(point, body_rotation=chest)
+    return pose is not None and pose.f_r <= f_r
+
+
 def compute(addon, scene):
     assert bpy.ops.reach.envelope("INVOKE_DEFAULT") == {"FINISHED"}
     return addon.blender.envelope.last(scene)
@@ -85,8 +96,8 @@ def test_envelope_agrees_with_a_batch_study_point_for_point(addon, plate):
     classes = addon.core.envelope.CLASSES
     by_point = {tuple(np.round(t["point"], 6)): t for t in tasks}   # (the panel keeps
     # its settings in 32-bit floats)
-    agreed = 0
-    for coords, code, f_r in zip(outcome.shoulder, env.classes, env.f_r):
+    agreed, within = 0, []
+    for coords, point, code, f_r in zip(outcome.shoulder, env.points, env.classes, env.f_r):
         task = by_point[tuple(np.round(coords, 6))]
         name = classes[int(code)]
         where = f"point {coords} ({name}): {task['reason']} {task['message']}"
@@ -94,18 +105,32 @@ def test_envelope_agrees_with_a_batch_study_point_for_point(addon, plate):
         assert task["envelope_f_r"] == int(f_r), where
         if code <= addon.core.envelope.CHEST:
             assert task["success"], where
-            assert task["final_f_r"] >= f_r, where      # never stronger than the strongest
+            if task["final_f_r"] < f_r:
+                # never stronger than the strongest at the envelope's swivel step, unless
+                # the search's last try (a 1° swivel) found the stronger one
+                assert stronger_at_fine_swivel(addon, outcome.generator, point,
+                                               task["final_f_r"]), where
+                within.append(coords)
             agreed += task["final_f_r"] == f_r
+        elif task["success"] or task["reason"] == "no_path":
+            # the envelope classes the point itself; a search, and the diagnosis of its
+            # refusal, ask its last tries within the goal tolerance too: where the plan
+            # reached such a point or found it reachable, a fit must be there
+            assert addon.core.diagnosis.fit_within_tolerance(outcome.generator, point), where
+            within.append(coords)
         elif code == addon.core.envelope.BLOCKED:
-            assert not task["success"] and task["reason"] in BLOCKED_REASONS, where
+            assert task["reason"] in BLOCKED_REASONS, where
         else:
-            assert not task["success"] and task["reason"] in OUT_REASONS, where
+            assert task["reason"] in OUT_REASONS, where
     counts = env.counts()
     assert counts == {c: sum(t["envelope_class"] == c for t in tasks) for c in classes}
     reachable = sum(counts[c] for c in classes[:4])
     # every kind of point is on this grid, and most reaches end in the strongest posture
     assert reachable >= 15 and counts["blocked"] >= 1 and counts["out"] >= 30
     assert agreed >= 0.8 * reachable, (agreed, reachable)
+    # points with a clear swivel window only narrower than the envelope's step (5 of the
+    # 125 at 6da0bdd), or a clear pose only within the goal tolerance
+    assert len(within) <= 8, within
 
 
 def test_cached_until_the_pose_the_scene_or_the_settings_change(addon, plate):
