@@ -1,5 +1,6 @@
 """Write the README's Performance table from ``bench/results.json`` (``make bench`` runs
-this after ``bench/run.py``) and its fuzz campaign's counts from ``bench/fuzz.json``
+this after ``bench/run.py``; a row from ``bench/compare.py``'s ``bench/compare.json`` where
+there is one) and its fuzz campaign's counts from ``bench/fuzz.json``
 (``make fuzz`` runs it after ``bench/fuzz.py``; the words are
 :func:`verification.fuzz.summary.fuzz_counts`), so the figures there are the bench's,
 never copied by hand.
@@ -54,7 +55,7 @@ def _ms(seconds) -> str:
     return "–" if seconds is None else f"{1000 * seconds:.0f}"
 
 
-def table(r: dict) -> str:
+def table(r: dict, compare: dict | None = None) -> str:
     m = r["machine"]
     t2, race = r.get("table2", []), r.get("ompl", [])
     paper = {row["task"]: row for row in t2}
@@ -161,6 +162,16 @@ def table(r: dict) -> str:
                      f"{_pairs(race, 'reach_mean_f_r', 'ompl_mean_f_r', ' vs ', '{:.2f}')} | |")
         lines.append(f"| interpolated samples touching, Reach vs OMPL (a–d) | "
                      f"{_pairs(race, 'reach_collisions', 'ompl_collisions', ' vs ')} | 0 |")
+    if compare:
+        per = " / ".join(f"{row['paired_ratio']:.2f}" for row in compare["rows"])
+        same = sum(row["same_plan"] for row in compare["rows"])
+        lines.append(
+            f"| whole plan, Reach at {compare['head']} over Reach at {compare['base']} on one "
+            f"clock (`bench/compare.py`: {compare['rounds']} paired rounds; Table 2 (a–d), then "
+            f"the everyday reaches {', '.join(r['task'] for r in compare['rows'][4:])}) | "
+            f"{per}; geometric mean {compare['geometric_mean_paired_ratio']:.2f}×; Python "
+            f"calls {compare['geometric_mean_calls_ratio']:.3f}× | "
+            f"{same} of {len(compare['rows'])} plans identical; ≤ 1 is no slower |")
     tight = (r.get("tight") or {}).get("summary", {}).get("total")
     if tight:
         commit = r["tight"].get("reach_commit")
@@ -191,13 +202,15 @@ def main(argv=None) -> int:
     parser.add_argument("--check", action="store_true")
     parser.add_argument("--results", default=str(ROOT / "bench" / "results.json"))
     parser.add_argument("--fuzz", default=str(ROOT / "bench" / "fuzz.json"))
+    parser.add_argument("--compare", default=str(ROOT / "bench" / "compare.json"))
     args = parser.parse_args(argv)
     results = json.loads(Path(args.results).read_text())
+    compare = json.loads(Path(args.compare).read_text()) if Path(args.compare).exists() else None
     fuzz = json.loads(Path(args.fuzz).read_text())
     readme = ROOT / "README.md"
     text = readme.read_text()
     new = text
-    for start, end, body in ((START, END, table(results)),
+    for start, end, body in ((START, END, table(results, compare)),
                              (FUZZ_START, FUZZ_END, fuzz_counts(fuzz))):
         new = _between(new, start, end, body)
         if new is None:
