@@ -22,6 +22,7 @@ import numpy as np
 from . import ik
 from .arm import ArmConfig, Pose, forward_kinematics, hand_direction_floats
 from .body_capsules import body_capsules_at, segment_hits_body
+from .diagnosis import fit_within_tolerance
 from .errors import NO_PATH
 from .limits import on_elbow_side, side_normal
 from .numeric import SCALAR, cross
@@ -188,18 +189,20 @@ class StateValidity:
         return not self.checker.collides(arm.to_world_points(np.array(joints)), include_hand=True)
 
 
-def goal_configurations(generator, target, start: Pose, validity: StateValidity) -> list:
+def goal_configurations(generator, target, start: Pose, validity: StateValidity,
+                        chests=()) -> list:
     """The goal region: configuration rows (7,) with the wrist on ``target`` (canonical)
     that ``validity`` accepts, strongest first, at most ``Settings.sampling_goals``.
 
     The IK's legal swivel solutions (:func:`reach_addon.core.ik.solve`) at the chest
-    rotation of ``generator.chest`` (Table 1 along this reach) and at the start's; for each,
+    rotation of ``generator.chest`` (Table 1 along this reach), at the start's and at each
+    of ``chests`` (degrees); for each,
     the most relaxed hand sample that is clear. Taken round-robin over the chest rotations
     and, within one, spread over the swivel circle (every other ranked solution first) so
     that the region is not one narrow cluster."""
     s, arm = generator.settings, generator.arm
     target = np.asarray(target, dtype=float)
-    bodies = [start.config.body_rotation]
+    bodies = [start.config.body_rotation, *map(float, chests)]
     if generator.chest is not None:
         bodies.insert(0, float(generator.chest(target)))
     if s.chest_rotation:
@@ -488,6 +491,22 @@ def densify_rows(arm, rows, spacing: float, max_arm_deg: float = math.inf,
     return np.concatenate(out)
 
 
+def _goals_elsewhere(generator, target, start: Pose, validity: StateValidity) -> list:
+    """Goal rows where neither this reach's chest nor the start's has one: at the chest
+    rotation that fits the target (``target_chest``), else at the first of the search's
+    last tries within the goal tolerance that fits
+    (:func:`~reach_addon.core.diagnosis.fit_within_tolerance`, with its swivel step), so
+    the sampling planner is not left without a goal where the diagnosis found a pose."""
+    chest = generator.target_chest(target)
+    if chest is not None:
+        return goal_configurations(generator, target, start, validity, (chest,))
+    near = fit_within_tolerance(generator, target)
+    if near is None:
+        return []
+    fine, point, chest = near
+    return goal_configurations(fine, point, start, validity, (chest,))
+
+
 def sampling_steps(generator, start: Pose, target, chunk: int = 0, seed=(),
                    seed_reaches: bool = False):
     """A path from ``start`` to ``target`` (canonical) by :class:`SamplingPlanner`, as a
@@ -513,6 +532,8 @@ def sampling_steps(generator, start: Pose, target, chunk: int = 0, seed=(),
     validity = StateValidity(arm, s, generator.checker, space)
     rng = np.random.default_rng(int(s.sampling_seed))
     goals = goal_configurations(generator, target, start, validity)
+    if not goals:
+        goals = _goals_elsewhere(generator, target, start, validity)
     path = None
     if goals:
         bodies = [start_row[0]] + [g[0] for g in goals]
