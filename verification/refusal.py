@@ -24,8 +24,10 @@ states with the wrist within the goal tolerance (:func:`goal_region`); ``budget_
 seconds (and at most ``max_states`` states) where that region is not empty. The start
 claim (``start_in_collision``) by :func:`check_start`: Blender's evaluated skin of the
 reaching arm and hand against the obstacles' triangles (:mod:`verification.geometry`), or,
-where the claim is that the chest lies inside a closed mesh, that point by ray parity; a
-later target's start (where the one before it ended, at its own frame) is unchecked.
+where the claim is that the chest lies inside a closed mesh, that point by ray parity;
+where it is that an animated obstacle moves into the start pose on a later frame, the skin
+as it starts against that obstacle on that frame; a later target's start (where the one
+before it ended, at its own frame) is unchecked.
 ``target_in_obstacle`` by :func:`check_target_inside`. Obstacles are this module's own
 reading of the README's rules (:func:`scene_obstacles`). The method in full, and why:
 ``docs/design.md``, *The refusal cross-check*.
@@ -34,6 +36,7 @@ reading of the README's rules (:func:`scene_obstacles`). The method in full, and
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import asdict, dataclass
 
@@ -558,18 +561,27 @@ def _arm_skin(context, armature, bones: set):
     return tris[geometry.triangle_areas(tris) > 0.0], meshes
 
 
+#: The claim that an animated obstacle moves into the arm's start pose (core.sweep): its
+#: name and the frame where it meets the pose.
+MOVES_IN = re.compile(r"'(.+?)' moves into the arm's start pose \(at the [^)]*\) on frame (\d+)")
+
+
 def check_start(context, armature, info, exclude, collection=None, *, target: str = "",
                 message: str = "") -> Verdict:
     """Cross-check ``start_in_collision`` at the current frame (the start frame): the arm's
-    skin and bones against the obstacles (see the module docstring). ``info``: the rig
-    adapter's :class:`~reach_addon.blender.rig.RigInfo` (which arm, its bones, its length);
+    skin and bones against the obstacles (see the module docstring); where the claim is
+    that an animated obstacle moves into the start pose on a later frame (:data:`MOVES_IN`),
+    the skin and bones as they are on the start frame against that obstacle on that frame
+    (both instants the planner samples). ``info``: the rig adapter's
+    :class:`~reach_addon.blender.rig.RigInfo` (which arm, its bones, its length);
     ``exclude``: object names that are not obstacles besides the character (the targets);
     ``collection``: the obstacle collection, or None. ``message``: the refusal's message,
     which says which claim it is (the character's own body, an obstacle moving into a
     chase: unchecked). Returns a :class:`Verdict`."""
     t0 = time.perf_counter()
     v = Verdict(target, START_IN_COLLISION, UNCHECKED, "", "none")
-    if "own body" in message or "moves into the arm" in message:
+    coming = MOVES_IN.search(message)
+    if not coming and ("own body" in message or "moves into the arm" in message):
         v.detail = ("a start inside the character's own body capsules, or an obstacle moving "
                     "into a chase, is a claim about the rig model or a later frame: not checked")
         v.seconds = round(time.perf_counter() - t0, 4)
@@ -577,14 +589,51 @@ def check_start(context, armature, info, exclude, collection=None, *, target: st
     length = info.arm.arm_length
     scene = context.scene
     bones = arm_bones(armature, info)
-    obstacles = scene_obstacles(context, character_objects_of(armature, scene) | set(exclude),
-                                collection)
+    exclude = character_objects_of(armature, scene) | set(exclude)
+    obstacles = scene_obstacles(context, exclude, collection)
     if ENCLOSED in message:
         return _check_enclosed(v, info, obstacles, message, t0)
     skin, meshes = _arm_skin(context, armature, bones)
     mw = np.array(armature.matrix_world)
     segs = [(n, mw[:3, :3] @ np.array(armature.pose.bones[n].head) + mw[:3, 3],
              mw[:3, :3] @ np.array(armature.pose.bones[n].tail) + mw[:3, 3]) for n in sorted(bones)]
+    where = ""
+    if coming:
+        name, frame = coming.group(1), int(coming.group(2))
+        start = scene.frame_current
+        obstacles = []
+        for sub in (0.0, 0.5):
+            scene.frame_set(frame, subframe=sub)
+            obstacles += [o for o in scene_obstacles(context, exclude, collection) if o[0] == name]
+        scene.frame_set(start)
+        where = f" on frame {frame}, the arm held as it starts"
+    hits, least = _start_hits(skin, meshes, segs, obstacles, length)
+    if hits:
+        v.status, v.method = CONFIRMED, "skin" if len(skin) else "bones"
+        v.detail = "; ".join(hits[:4]) + where
+        v.clearance = 0.0
+    elif not len(skin):
+        v.status, v.method = INCONCLUSIVE, "bones"
+        v.detail = (f"the arm has no skin to check (no mesh deformed by or parented to its "
+                    f"{len(bones)} bones) and its bones are clear of {len(obstacles)} obstacle(s)"
+                    + where)
+    else:
+        v.status, v.method = FALSE_REFUSAL, "skin"
+        v.clearance = round(least / length, 4)
+        v.detail = (f"the arm's skin ({len(skin)} triangles of {', '.join(meshes)}) and its "
+                    f"{len(bones)} bones are clear of {len(obstacles)} obstacle(s) "
+                    f"({sum(len(t) for _l, t, _c in obstacles)} triangles){where}, the nearest "
+                    + (f"{least / length:.4f} arm lengths away" if least < 0.5 * length
+                       else "farther than half an arm length"))
+    v.seconds = round(time.perf_counter() - t0, 4)
+    return v
+
+
+def _start_hits(skin, meshes, segs, obstacles, length) -> tuple:
+    """(what meets what, as phrases; the least distance from the skin to an obstacle, at
+    most half ``length``) of the arm's ``skin`` triangles (of ``meshes``) and bone
+    segments ``segs`` [(name, head, tail)] against ``obstacles`` [(label, triangles,
+    closed)]."""
     hits = []
     skin_lo = skin.reshape(-1, 3).min(0) if len(skin) else None
     skin_hi = skin.reshape(-1, 3).max(0) if len(skin) else None
@@ -612,24 +661,7 @@ def check_start(context, armature, info, exclude, collection=None, *, target: st
             hits.append(f"bone(s) {', '.join(repr(n) for n in crossing[:3])} pass through '{label}'")
         if shut and len(joints) and geometry.points_inside(joints, tris).any():
             hits.append(f"a joint of the arm is inside the closed '{label}'")
-    if hits:
-        v.status, v.method = CONFIRMED, "skin" if len(skin) else "bones"
-        v.detail = "; ".join(hits[:4])
-        v.clearance = 0.0
-    elif not len(skin):
-        v.status, v.method = INCONCLUSIVE, "bones"
-        v.detail = (f"the arm has no skin to check (no mesh deformed by or parented to its "
-                    f"{len(bones)} bones) and its bones are clear of {len(obstacles)} obstacle(s)")
-    else:
-        v.status, v.method = FALSE_REFUSAL, "skin"
-        v.clearance = round(least / length, 4)
-        v.detail = (f"the arm's skin ({len(skin)} triangles of {', '.join(meshes)}) and its "
-                    f"{len(bones)} bones are clear of {len(obstacles)} obstacle(s) "
-                    f"({sum(len(t) for _l, t, _c in obstacles)} triangles), the nearest "
-                    + (f"{least / length:.4f} arm lengths away" if least < 0.5 * length
-                       else "farther than half an arm length"))
-    v.seconds = round(time.perf_counter() - t0, 4)
-    return v
+    return hits, least
 
 
 #: The words of the claim that the chest lies inside a closed mesh (core.planner).

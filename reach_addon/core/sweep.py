@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import NO_PATH, Obstacles, Planner
+from . import NO_PATH, START_IN_COLLISION, Obstacles, Planner
 from .collision import CollisionChecker
 
 #: Most times a motion is planned again because it outlasted the frames swept so far.
@@ -56,6 +56,7 @@ def plan_among_moving(planner, task, first_frame: int, still, moving, sweep):
     plan = yield from planner.plan_steps(task)
     if not moving or not any(seg.success for seg in plan.segments):
         return plan, planner
+    clear_start = {seg.index for seg in plan.segments if seg.reason != START_IN_COLLISION}
     swept, covered = {}, first_frame - 1
     for _round in range(SWEEP_ROUNDS):
         last = first_frame + len(plan.poses) - 1
@@ -67,8 +68,33 @@ def plan_among_moving(planner, task, first_frame: int, still, moving, sweep):
         union = list(still) + [p for instants in swept.values() for ps in instants for p in ps]
         planner = Planner(planner.arm, obstacles_from_pieces(union), planner.settings)
         plan = yield from planner.plan_steps(task)
+    _name_what_comes(plan, first_frame, swept, clear_start, planner.settings)
     check_moving(plan, first_frame, swept, covered, moving, planner.settings)
     return plan, planner
+
+
+def _name_what_comes(plan, first_frame: int, swept, clear_start, settings) -> None:
+    """A start refused among every place the moving obstacles take, clear on its own frame
+    (segments ``clear_start``): the obstacle moves into the start pose later. Say so, and
+    on which frame (the first of ``swept`` whose pieces meet the start pose), in place of
+    "the start pose touches", which the start frame belies."""
+    start = plan.world_joints()[0]
+    touching = settings.replace(clearance=0.0)
+    for seg in plan.segments:
+        if seg.reason != START_IN_COLLISION or seg.index not in clear_start:
+            continue
+        for frame in sorted(swept):
+            pieces = [p for ps in swept[frame] for p in ps]
+            hit = CollisionChecker(plan.arm, obstacles_from_pieces(pieces), touching) \
+                .first_hit(start) if pieces else None
+            if hit is not None:
+                seg.message = (
+                    f"'{hit[1]}' moves into the arm's start pose (at the {hit[0]}) on frame "
+                    f"{frame}, while the reach for '{seg.name}' lasts (it starts on frame "
+                    f"{first_frame}, clear): Reach moves the arm, not the body, so the body "
+                    "cannot get out of its way; stop its animation during the reach, or move "
+                    "the character")
+                break
 
 
 def check_moving(plan, first_frame: int, swept, covered: int, moving, settings) -> None:

@@ -5,7 +5,7 @@ slides onto the straight path of a reach, and boxes put on a planned motion's pa
 import numpy as np
 import pytest
 
-from reach_addon.core import NO_PATH, Planner, Settings, Task
+from reach_addon.core import NO_PATH, START_IN_COLLISION, Planner, Settings, Task
 from reach_addon.core.collision import CollisionChecker
 from reach_addon.core.steps import drain
 from reach_addon.core.sweep import check_moving, obstacles_from_pieces, plan_among_moving
@@ -113,3 +113,26 @@ def test_a_motion_that_outlasts_the_swept_frames_fails(reach):
     assert not seg.success
     assert seg.message.startswith("'Box', 'Lid' move while the arm reaches")
     assert "outlasts every frame swept" in seg.message
+
+
+def test_a_box_that_comes_to_the_start_pose_is_named_with_its_frame(reach):
+    """The start is clear on its own frame; from frame FIRST + 6 on a box sits on the
+    shoulder, which only the body could move away from. The refusal is the start's, and it
+    says the box comes there, on which frame (fuzz seed 6356: the message said the start
+    pose touched the box, which the start frame belied)."""
+    arm, task, still = reach
+    planner = Planner(arm, obstacles_from_pieces(still), Settings())
+    shoulder = arm.to_world_points(arm.shoulder)
+
+    def place(f):
+        return shoulder if f >= FIRST + 6 else shoulder + np.array([0.0, -3.0, 0.0])
+
+    def sweep(f0, f1):
+        return {f: [cube("Swing", place(f), 0.05), cube("Swing", place(f + 0.5), 0.05)]
+                for f in range(f0, f1 + 1)}
+
+    plan, _used = drain(plan_among_moving(planner, task, FIRST, still, {"Swing"}, sweep))
+    seg = plan.segments[0]
+    assert not seg.success and seg.reason == START_IN_COLLISION
+    assert seg.message.startswith(f"'Swing' moves into the arm's start pose (at the "
+                                  f"clavicle) on frame {FIRST + 6}, "), seg.message
