@@ -144,8 +144,10 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     finger joints (heads and tails of the bones below the hand bones ``group``, helper
     bones left out); ``length``: the farthest joint along it, clipped to 0.4 ..
     :data:`HAND_REACH_MAX` × ``forearm_len``; ``spread``: the farthest joint from the
-    axis. A hand with no fingers points along its bones (the tails' mean), is 0.74
-    forearm long (Drillis & Contini) and has no spread. ``group``: the hand's bones
+    axis. A hand with no fingers points along its bones (the tails' mean) and has no
+    spread; it is as long as its skin goes along that axis (a mitten, a short stub),
+    clipped to 0.2 .. 0.74 × ``forearm_len``, or 0.74 forearm long (Drillis & Contini)
+    where it moves no skin. ``group``: the hand's bones
     (:func:`hand_group`; default the hand bone alone). The axis is the hand capsule's,
     the middle of its mass; the fingers' direction is :func:`finger_axis`."""
     mw = np.array(armature.matrix_world)
@@ -157,7 +159,12 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     if not kids:
         tails = np.mean([np.array(armature.pose.bones[n].tail) for n in group], axis=0)
         axis = mw[:3, :3] @ (tails - np.array(pb.head))
-        return axis / max(float(np.linalg.norm(axis)), 1e-12), 0.74 * forearm_len, 0.0
+        axis = axis / max(float(np.linalg.norm(axis)), 1e-12)
+        skin = skin_points(armature, set(group))
+        if not len(skin):
+            return axis, 0.74 * forearm_len, 0.0
+        reach = float(((skin - wrist) @ axis).max())       # as far as the hand's skin goes
+        return axis, float(np.clip(reach, 0.2 * forearm_len, 0.74 * forearm_len)), 0.0
     rel = np.array([p for b in kids for p in (b.head, b.tail)]) @ mw[:3, :3].T + mw[:3, 3] - wrist
     axis = rel.mean(0)
     if np.linalg.norm(axis) < 1e-9:
