@@ -1,7 +1,7 @@
 """Two revisions of Reach on one clock: the Table 2 tasks and the everyday reaches, timed
 side by side (a benchmark: it measures and asserts nothing).
 
-    python bench/compare.py --base 735c599 [--head HEAD] [--rounds 8] [--reps 3]
+    python bench/compare.py --base 735c599 [--head HEAD] [--rounds 8] [--reps 3] [--warm]
 
 Each revision is checked out in a temporary git worktree (``--head`` ``WORKTREE`` times
 the working tree as it is). Every round starts one fresh Python process per revision; the
@@ -9,7 +9,9 @@ order alternates (A B, B A, ...) so that a machine growing busier or quieter wei
 both alike. In its process each task is planned ``--reps`` times, each from a fresh
 planner, on the same problem (the standard figure in the demo workplace; the everyday
 scenes of :func:`reach_addon.samples.everyday_scenes`), and the process reports the
-median of its repetitions. Per task: the median over rounds of those medians, for the
+median of its repetitions; with ``--warm`` the process first plans every task once,
+untimed, as a long-lived Blender session has (without it the first tasks also pay what a
+fresh process fills once: a one-shot CLI bake). Per task: the median over rounds of those medians, for the
 search alone and for the whole plan (search, smoothing, timing, the hand pass); the best
 (least) of all the runs, which a busy machine disturbs least; and the ratio head / base of
 each round's pair (run next to each other), its median per task and the geometric mean of
@@ -47,12 +49,15 @@ from reach_addon.core.sampling import pose_row
 from reach_addon.demo import WORKPLACE, demo_tasks
 from reach_addon.samples import HANGING, everyday_scenes, obstacles, standard_arm
 
-reps = int(sys.argv[2])
+reps, warm = int(sys.argv[2]), sys.argv[3] == "warm"
 arm, settings = standard_arm(), Settings()
 problems = [(name, obstacles(WORKPLACE), task) for name, task in demo_tasks()]
 for name, (verts, tris, owners, names, target) in everyday_scenes(arm).items():
     problems.append((name, Obstacles.from_triangles(verts, tris, owners, names),
                      Task("reach", np.asarray(target)[None], HANGING)))
+if warm:                                # every task once, untimed
+    for name, obs, task in problems:
+        Planner(arm, obs, settings).plan(task)
 out = {}
 for name, obs, task in problems:
     search, whole = [], []
@@ -84,8 +89,9 @@ def _git(*args, cwd=ROOT) -> str:
                           text=True).stdout.strip()
 
 
-def _run(tree: Path, reps: int) -> dict:
-    done = subprocess.run([sys.executable, "-c", CHILD, str(tree), str(reps)],
+def _run(tree: Path, reps: int, warm: bool) -> dict:
+    done = subprocess.run([sys.executable, "-c", CHILD, str(tree), str(reps),
+                           "warm" if warm else "cold"],
                           capture_output=True, text=True, cwd=tree)
     for line in done.stdout.splitlines():
         if line.startswith("RESULT "):
@@ -93,7 +99,7 @@ def _run(tree: Path, reps: int) -> dict:
     raise RuntimeError(f"the timing run in {tree} failed:\n{done.stderr[-2000:]}")
 
 
-def compare(base: str, head: str, rounds: int, reps: int) -> dict:
+def compare(base: str, head: str, rounds: int, reps: int, warm: bool = False) -> dict:
     with tempfile.TemporaryDirectory(prefix="reach-compare-") as tmp:
         trees, revs = {}, {}
         for side, rev in (("base", base), ("head", head)):
@@ -108,7 +114,7 @@ def compare(base: str, head: str, rounds: int, reps: int) -> dict:
             for r in range(rounds):
                 order = ("base", "head") if r % 2 == 0 else ("head", "base")
                 for side in order:
-                    samples[side].append(_run(trees[side], reps))
+                    samples[side].append(_run(trees[side], reps, warm))
                 print(f"round {r + 1}/{rounds} done", flush=True)
         finally:
             for tree in trees.values():
@@ -144,6 +150,7 @@ def compare(base: str, head: str, rounds: int, reps: int) -> dict:
         rows.append(row)
     logs = [math.log(r["paired_ratio"]) for r in rows]
     return {"base": revs["base"], "head": revs["head"], "rounds": rounds, "reps": reps,
+            "warm": warm,
             "geometric_mean_paired_ratio": math.exp(sum(logs) / len(logs)),
             "geometric_mean_calls_ratio": math.exp(sum(math.log(r["calls_ratio"])
                                                        for r in rows) / len(rows)),
@@ -158,9 +165,12 @@ def main(argv=None) -> int:
     parser.add_argument("--head", default="HEAD", help="a revision, or WORKTREE")
     parser.add_argument("--rounds", type=int, default=8)
     parser.add_argument("--reps", type=int, default=3)
+    parser.add_argument("--warm", action="store_true",
+                        help="plan every task once, untimed, before timing (a long-lived "
+                             "Blender session) instead of from a fresh process (one CLI bake)")
     parser.add_argument("--output", default=str(ROOT / "bench" / "compare.json"))
     args = parser.parse_args(argv)
-    result = compare(args.base, args.head, args.rounds, args.reps)
+    result = compare(args.base, args.head, args.rounds, args.reps, args.warm)
     print(f"{'task':16s} {'search ms':>19s} {'whole plan ms (median)':>24s} "
           f"{'whole plan ms (best)':>24s} paired  calls  same plan")
     for r in result["rows"]:

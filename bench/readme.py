@@ -165,9 +165,10 @@ def table(r: dict, compare: dict | None = None) -> str:
     if compare:
         per = " / ".join(f"{row['paired_ratio']:.2f}" for row in compare["rows"])
         same = sum(row["same_plan"] for row in compare["rows"])
+        warm = ", warm" if compare.get("warm") else ""
         lines.append(
             f"| whole plan, Reach at {compare['head']} over Reach at {compare['base']} on one "
-            f"clock (`bench/compare.py`: {compare['rounds']} paired rounds; Table 2 (a–d), then "
+            f"clock (`bench/compare.py`: {compare['rounds']} paired rounds{warm}; Table 2 (a–d), then "
             f"the everyday reaches {', '.join(r['task'] for r in compare['rows'][4:])}) | "
             f"{per}; geometric mean {compare['geometric_mean_paired_ratio']:.2f}×; Python "
             f"calls {compare['geometric_mean_calls_ratio']:.3f}× | "
