@@ -3,7 +3,9 @@
 Two figures of a posture, each read from pose bone matrices alone (no code of the planner):
 
 *wrist bend* (:func:`wrist_bend_deg`)
-    how far the hand's axis (its bone's y axis) has turned in the forearm's frame from where
+    how far the hand's axis (its bone's y axis, or a direction fixed in the hand bone's
+    frame that the caller gives: a fingerless hand's skin) has turned in the forearm's
+    frame from where
     it lies in the rig's rest pose, in degrees. The rest pose is the rig's neutral wrist, so
     a rig modelled with a slightly bent hand is not charged for it. The hand's twist about
     its own axis is not a bend (the forearm carries it), so it does not count.
@@ -39,18 +41,19 @@ def _unit_columns(m: np.ndarray) -> np.ndarray:
     return m / np.linalg.norm(m, axis=0)
 
 
-def hand_axis_in_forearm(forearm: np.ndarray, hand: np.ndarray) -> np.ndarray:
-    """The hand bone's y axis in the forearm bone's frame: ``Rfᵀ Rh ŷ`` for the two bones'
-    3×3 matrices (armature or world space, scale divided out)."""
+def hand_axis_in_forearm(forearm: np.ndarray, hand: np.ndarray, axis=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """The hand's ``axis`` (a unit direction in the hand bone's frame, default its y axis)
+    in the forearm bone's frame: ``Rfᵀ Rh a`` for the two bones' 3×3 matrices (armature or
+    world space, scale divided out)."""
     rf, rh = _unit_columns(forearm[:3, :3]), _unit_columns(hand[:3, :3])
-    return rf.T @ rh[:, 1]
+    return rf.T @ (rh @ np.asarray(axis, float))
 
 
-def wrist_bend_deg(forearm, hand, forearm_rest, hand_rest) -> float:
+def wrist_bend_deg(forearm, hand, forearm_rest, hand_rest, axis=(0.0, 1.0, 0.0)) -> float:
     """The angle (degrees) between the hand's axis in the forearm's frame now and at rest:
-    ``acos(a_now · a_rest)``, ``a = Rfᵀ Rh ŷ`` (:func:`hand_axis_in_forearm`)."""
-    a = hand_axis_in_forearm(np.asarray(forearm), np.asarray(hand))
-    b = hand_axis_in_forearm(np.asarray(forearm_rest), np.asarray(hand_rest))
+    ``acos(a_now · a_rest)``, ``a = Rfᵀ Rh â`` (:func:`hand_axis_in_forearm`; ``axis`` â)."""
+    a = hand_axis_in_forearm(np.asarray(forearm), np.asarray(hand), axis)
+    b = hand_axis_in_forearm(np.asarray(forearm_rest), np.asarray(hand_rest), axis)
     c = float(np.dot(a, b) / (np.linalg.norm(a) * np.linalg.norm(b)))
     return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
 
@@ -95,10 +98,11 @@ class Figures:
 
 
 def measure(armature, upper: str, forearm: str, hand: str, frames, up=(0.0, 0.0, 1.0),
-            scene=None) -> Figures:
+            scene=None, axis=(0.0, 1.0, 0.0)) -> Figures:
     """:class:`Figures` of ``frames`` of ``armature`` (a Blender armature object), its arm
     the pose bones ``upper``, ``forearm`` and ``hand``, as Blender evaluates them after
-    ``scene.frame_set`` (the rest pose read from the armature's bones)."""
+    ``scene.frame_set`` (the rest pose read from the armature's bones); ``axis``: the hand's
+    axis in the hand bone's frame (:func:`hand_axis_in_forearm`)."""
     import bpy
 
     scene = scene or bpy.context.scene
@@ -111,7 +115,7 @@ def measure(armature, upper: str, forearm: str, hand: str, frames, up=(0.0, 0.0,
         scene.frame_set(int(f), subframe=float(f) - int(f))
         m_f, m_h = np.array(pb[forearm].matrix), np.array(pb[hand].matrix)
         out.frames.append(f)
-        out.bends.append(wrist_bend_deg(m_f, m_h, fa_rest, h_rest))
+        out.bends.append(wrist_bend_deg(m_f, m_h, fa_rest, h_rest, axis))
         joints = [world @ np.append(np.array(v), 1.0) for v in
                   (pb[upper].head, pb[forearm].head, pb[hand].head)]
         shoulder, elbow, wrist = (j[:3] for j in joints)

@@ -136,6 +136,11 @@ def digits(armature, group) -> Digits:
 HAND_REACH_MAX = 2.0
 
 
+#: A fingerless hand's skin sets its axis only when the skin's middle lies at least this
+#: share of the forearm from the wrist (:func:`hand_shape`); nearer, the direction is noise.
+SKIN_AXIS_MIN = 0.05
+
+
 def hand_shape(armature, hand_name, forearm_len, group=None):
     """The hand as the planner models it, read from the pose on screen: (axis, length,
     spread), world space.
@@ -144,10 +149,13 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
     finger joints (heads and tails of the bones below the hand bones ``group``, helper
     bones left out); ``length``: the farthest joint along it, clipped to 0.4 ..
     :data:`HAND_REACH_MAX` × ``forearm_len``; ``spread``: the farthest joint from the
-    axis. A hand with no fingers points along its bones (the tails' mean) and has no
-    spread; it is as long as its skin goes along that axis (a mitten, a short stub),
-    clipped to 0.2 .. 0.74 × ``forearm_len``, or 0.74 forearm long (Drillis & Contini)
-    where it moves no skin. ``group``: the hand's bones
+    axis. A hand with no fingers has no spread; where it moves skin it points from the
+    wrist to the middle of that skin (a bone's tail can point anywhere: glTF's importer
+    turns CesiumMan's hand bone 140° from its forearm) and is as long as the skin goes
+    along that axis (a mitten, a short stub), clipped to 0.2 .. 0.74 × ``forearm_len``;
+    where it moves none, it points along its bones (the tails' mean) and is 0.74 forearm
+    long (Drillis & Contini). The skin's middle sets the axis only when it lies
+    :data:`SKIN_AXIS_MIN` forearms or more from the wrist. ``group``: the hand's bones
     (:func:`hand_group`; default the hand bone alone). The axis is the hand capsule's,
     the middle of its mass; the fingers' direction is :func:`finger_axis`."""
     mw = np.array(armature.matrix_world)
@@ -163,6 +171,9 @@ def hand_shape(armature, hand_name, forearm_len, group=None):
         skin = skin_points(armature, set(group))
         if not len(skin):
             return axis, 0.74 * forearm_len, 0.0
+        middle = skin.mean(0) - wrist                        # the skin's middle of mass
+        if float(np.linalg.norm(middle)) > SKIN_AXIS_MIN * forearm_len:
+            axis = middle / float(np.linalg.norm(middle))
         reach = float(((skin - wrist) @ axis).max())       # as far as the hand's skin goes
         return axis, float(np.clip(reach, 0.2 * forearm_len, 0.74 * forearm_len)), 0.0
     rel = np.array([p for b in kids for p in (b.head, b.tail)]) @ mw[:3, :3].T + mw[:3, 3] - wrist

@@ -6,7 +6,8 @@ stays from the obstacles, against what the planner promises.
 by a radius of the rig model (``ArmModel``, read from the skin by the rig adapter) — the
 upper arm (shoulder → elbow, ``upper_arm_radius``), the forearm (elbow → wrist,
 ``forearm_radius``) and the hand (wrist → the hand's far end, ``hand_radius``; the far end is
-``hand_length`` from the wrist toward the middle of the fingers' joints). A keyed pose keeps
+``hand_length`` from the wrist toward the middle of the fingers' joints, or of the skin of a
+hand without fingers). A keyed pose keeps
 every capsule a margin of ``Settings.clearance`` arm lengths (0.02 by default) clear of every
 obstacle surface; the instants between two keys, as the keys interpolate (the planner checks
 ``Settings.instants_per_frame`` = 4 of them a frame), and the frames the hand pass samples
@@ -75,16 +76,62 @@ def segments(armature, names):
     return pts
 
 
-def hand_end(armature, hands, wrist, length):
-    """The hand's far end: ``length`` from the wrist toward the mean of the hand's finger
-    joints (heads and tails of the bones below the hand bones ``hands``, helpers left out),
-    or along the hand bone for a hand without fingers."""
+def _world(armature, bone):
+    """The pose bone's world matrix as Blender evaluates it now (4×4 numpy)."""
+    return np.array(armature.matrix_world) @ np.array(armature.pose.bones[bone].matrix)
+
+
+def skin_anchor(armature, hands, weight=0.5):
+    """The middle of a fingerless hand's skin, fixed to its first bone: (bone, point in that
+    bone's space), or None where the hand has fingers or moves no skin. The skin is read
+    from Blender now: the evaluated vertices of the meshes whose Armature modifier uses
+    ``armature``, weighted at least ``weight`` to a bone of ``hands``, and every vertex of
+    the meshes parented to one of those bones. Read once (at the start pose), then carried
+    by the bone, so a wrist bend that stretches the skin near the wrist does not move it."""
+    if any(hand_bones(armature, h)[1:] for h in hands):
+        return None
+    names, pts = set(hands), []
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for ob in bpy.context.scene.objects:
+        if ob.type != "MESH":
+            continue
+        rigid = ob.parent == armature and ob.parent_type == "BONE" and ob.parent_bone in names
+        skinned = any(m.type == "ARMATURE" and m.object == armature for m in ob.modifiers)
+        if not (rigid or skinned):
+            continue
+        groups = {vg.index for vg in ob.vertex_groups if vg.name in names}
+        if not rigid and not groups:
+            continue
+        ev = ob.evaluated_get(depsgraph).data
+        mw = np.array(ob.matrix_world)
+        for v, e in zip(ob.data.vertices, ev.vertices):
+            if rigid or any(g.group in groups and g.weight >= weight for g in v.groups):
+                pts.append(mw[:3, :3] @ np.array(e.co) + mw[:3, 3])
+    if not pts:
+        return None
+    bone = hands[0]
+    local = np.linalg.inv(_world(armature, bone)) @ np.append(np.mean(pts, axis=0), 1.0)
+    return bone, local[:3]
+
+
+def hand_axis_point(armature, hands, anchor=None):
+    """A point the hand's axis runs to from the wrist, now: the mean of the hand's finger
+    joints (heads and tails of the bones below the hand bones ``hands``, helpers left out);
+    for a hand without fingers its skin's middle (``anchor``, :func:`skin_anchor`), or where
+    it has no skin the mean of its bones' tails."""
     joints = [x for h in hands for seg in segments(armature, hand_bones(armature, h)[1:])
               for x in seg]
     if joints:
-        axis = np.mean(joints, axis=0) - wrist
-    else:
-        axis = np.mean([t for _h, t in segments(armature, hands)], axis=0) - wrist
+        return np.mean(joints, axis=0)
+    if anchor is not None:
+        bone, local = anchor
+        return (_world(armature, bone) @ np.append(local, 1.0))[:3]
+    return np.mean([t for _h, t in segments(armature, hands)], axis=0)
+
+
+def hand_end(armature, hands, wrist, length, anchor=None):
+    """The hand's far end: ``length`` from the wrist toward :func:`hand_axis_point`."""
+    axis = hand_axis_point(armature, hands, anchor) - wrist
     return wrist + length * axis / np.linalg.norm(axis)
 
 
@@ -115,6 +162,7 @@ class Arm:
         self.hands = tuple(hands or getattr(info, "hand_bones", ()) or (bones.hand,))
         a = info.arm
         self.radii = (a.upper_arm_radius, a.forearm_radius, a.hand_radius)
+        self.anchor = skin_anchor(armature, self.hands)
         self.worst = {}          # part -> (margin in arm lengths, where)
 
     def capsules(self):
@@ -122,7 +170,7 @@ class Arm:
         mw = np.array(self.armature.matrix_world)
         shoulder, elbow, wrist = (mw[:3, :3] @ np.array(self.armature.pose.bones[n].head)
                                   + mw[:3, 3] for n in self.chain)
-        tip = hand_end(self.armature, self.hands, wrist, self.model.hand_length)
+        tip = hand_end(self.armature, self.hands, wrist, self.model.hand_length, self.anchor)
         ends = ((shoulder, elbow), (elbow, wrist), (wrist, tip))
         return [(part, p, q, r) for part, (p, q), r in zip(self.PARTS, ends, self.radii)]
 

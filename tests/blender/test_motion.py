@@ -116,12 +116,14 @@ def test_baked_reach_is_clear_and_smooth_at_every_instant(fresh, addon, kind, sc
                 worst, worst_at = float(d.min()), (f, sub, (chain + hand)[int(d.argmin())])
             if sub == 0.0:
                 # the keyed hand is the planned hand: the wrist where the plan has it, and
-                # the hand's axis (wrist → mean of its finger joints) along the plan's hand
+                # the hand's axis (wrist → mean of its finger joints, or of its skin
+                # where it has no fingers) along the plan's hand
                 j = planned[f - first]
                 segs = segments(armature, hand)
                 wrist = segs[0][0]
                 pts = np.array([x for seg in segs[1:] for x in seg]) if len(segs) > 1 \
-                    else np.array([segs[0][1]])
+                    else np.array([clearance.hand_axis_point(armature, (bones.hand,),
+                                                             capsules.anchor)])
                 assert np.linalg.norm(wrist - j[3]) <= wrist_tolerance, \
                     f"frame {f}: the keyed wrist is off the plan's"
                 off = angle_deg(pts.mean(0) - wrist, j[4] - j[3])
