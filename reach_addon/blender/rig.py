@@ -9,6 +9,7 @@ Why each choice: ``docs/design/blender.md``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -124,6 +125,10 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     joints, bend = forward_kinematics(arm, start.as_array())
     start_hand = hand_angles(joints[2] - joints[1], bend, joints[3] - joints[2],
                              inv[:3, :3] @ hand_axis)
+    # the rig's neutral wrist: the hand as its rest pose holds it on the forearm
+    arm = dataclasses.replace(arm, hand_rest=hand_angles(
+        joints[2] - joints[1], bend, joints[3] - joints[2],
+        inv[:3, :3] @ rest_hand_axis(armature, arm_bones, hand_axis)))
     palm, palm_source = palm_normal(armature, hands, hand_axis, frame.up, inv[:3, :3])
     fingers = inv[:3, :3] @ finger_axis(armature, hands, hand_axis)
     return RigInfo(armature.name, bmap, frame, arm, side, start,

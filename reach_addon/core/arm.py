@@ -77,6 +77,13 @@ class ArmModel:
     name: str = "arm"
     #: metres per figure unit (Blender's unit scale), for messages in centimetres
     metres_per_unit: float = 1.0
+    #: The wrist's two angles (degrees, :func:`hand_direction`) at which the rig's rest pose
+    #: holds the hand on the forearm: its neutral wrist, which the hand pass relaxes toward
+    #: and the plan's bend figures are measured from (:func:`bend_from_rest`). (0, 0): the
+    #: forearm's line. (The search still tries the hand nearest the forearm's line first:
+    #: that order decides which clear hand the path carries; the hand pass then chooses
+    #: the hand keyed.)
+    hand_rest: tuple = (0.0, 0.0)
 
     def __post_init__(self):
         label = f"arm '{self.name}'"
@@ -106,6 +113,11 @@ class ArmModel:
                 "apply scale is not needed, but the frame passed to the core must be orthonormal")
         object.__setattr__(self, "to_world", m)
         object.__setattr__(self, "_from_world", np.linalg.inv(m))
+        rest = tuple(float(v) for v in require_finite(f"{label} hand rest", self.hand_rest))
+        if len(rest) != 2:
+            raise ReachError(f"{label} hand rest must be two angles, got {len(rest)}")
+        object.__setattr__(self, "hand_rest", rest)
+        object.__setattr__(self, "rest_coefficients", hand_coefficients(*rest))
         if self.side not in ("right", "left"):
             raise ReachError(f"{label}: side must be 'right' or 'left', got {self.side!r}")
         if np.linalg.norm(self.shoulder - self.sternum) < 1e-9:
@@ -313,6 +325,18 @@ def hand_direction(upper, bend, forearm, wrist_bend_deg, wrist_side_deg):
     """
     u, b, f = (np.asarray(v, float).tolist() for v in (upper, bend, forearm))
     return np.array(hand_direction_floats(u, b, f, wrist_bend_deg, wrist_side_deg))
+
+
+def bend_from_rest(coefficients, rest=(1.0, 0.0, 0.0)):
+    r"""The angle (degrees) between hand directions and the rest one, both given by their
+    coefficients (:func:`hand_coefficients`; ``rest``: ``ArmModel.rest_coefficients``):
+
+    .. math:: θ = \arccos(c · c_0)
+
+    The wrist's bend from its neutral, the rig's rest alignment; with c₀ = (1, 0, 0), the
+    forearm's line, θ = arccos(cos β_w cos σ_w). ``coefficients`` (..., 3) → (...,)."""
+    c = np.asarray(coefficients, dtype=float)
+    return np.degrees(np.arccos(np.clip(c @ np.asarray(rest, dtype=float), -1.0, 1.0)))
 
 
 def hand_coefficients(wrist_bend_deg: float, wrist_side_deg: float) -> tuple:

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .arm import Pose, frame_turn, hand_coefficients
+from .arm import Pose, bend_from_rest, frame_turn, hand_coefficients
 from .hand_dp import HandDP
 from .hand_grid import HandGrid, hand_grid, wrist_turn
 from .orient import wanted_hand_angles
@@ -36,7 +36,7 @@ class HandReport:
     inserted_frames: int = 0
     max_wrist_turn_deg: float = 0.0      # largest turn relative to the forearm in one frame
     max_hand_turn_deg: float = 0.0       # largest turn of the hand in space, roll included
-    mean_wrist_bend_deg: float = 0.0     # mean angle between hand and forearm
+    mean_wrist_bend_deg: float = 0.0     # mean bend from the neutral wrist (arm.hand_rest)
     max_wrist_bend_deg: float = 0.0
     unbounded_turns: int = 0             # transitions where the bound had to be lifted
     unclear_transitions: list = field(default_factory=list)  # k: k → k + 1 still touching
@@ -131,7 +131,8 @@ class HandPass(HandDP):
         extra = () if self.goal is None else \
             (wanted_hand_angles(self._gen(0).hand_axes(poses[-1].joints, poses[-1].bend),
                                 self.goal, s),)
-        self.grid = hand_grid(s, poses[0].hand, self.bound, extra)
+        self.grid = hand_grid(s, poses[0].hand, self.bound, extra,
+                              self._gen(0).arm.rest_coefficients)
         self.budget = int(s.slowdown_budget * len(poses)) if self.may_insert else 0
         self.inserted = 0
         self.feasible = [None] + [self._feasible(k, p, self.grid)
@@ -441,7 +442,7 @@ class HandPass(HandDP):
             joints[4] = joints[3] + arm.hand_length * d
             out.append(Pose(pose.config, joints, pose.bend, pose.f_r, hand))
         coef = np.array([hand_coefficients(*h) for h in hands])
-        bends = np.degrees(np.arccos(np.clip(coef[:, 0], -1.0, 1.0)))
+        bends = bend_from_rest(coef, arm.rest_coefficients)
         rel = wrist_turn(coef[1:], coef[:-1]) if len(coef) > 1 else np.zeros(1)
         # in space: the hand's whole turn, its roll included (what any bone of it shows)
         world = np.array([frame_turn(a, b) for a, b in zip(out[:-1], out[1:])] or [0.0])

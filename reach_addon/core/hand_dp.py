@@ -6,6 +6,7 @@ hand (the validated path's). A transition may turn the hand, relative to the for
 most ``Settings.hand_turn_speed`` / fps degrees, and its whole orientation in space
 (:func:`~reach_addon.core.arm.frame_turn`) by at most ``hand_space_turn_speed`` / fps. Cost
 of a path: Σ (turn / bound)² / ease² + ``wrist_relax_weight`` · (bend from neutral / 45°)²
+(neutral: the rig's rest alignment, ``ArmModel.hand_rest``)
 (+ ``orientation_weight`` · (palm frame's error / 45°)² on the last frames with a goal,
 :mod:`~reach_addon.core.orient`). Angles in degrees.
 """
@@ -163,7 +164,9 @@ class HandDP:
                 m[:] = np.inf
                 m[own, own] = keep
             arg = np.argmin(m, axis=0)
-            bend_own = math.degrees(math.acos(max(-1.0, min(1.0, float(c[own, 0])))))
+            r0, r1, r2 = self.arm.rest_coefficients     # arm.bend_from_rest, on floats
+            bend_own = math.degrees(math.acos(max(-1.0, min(1.0, float(
+                c[own, 0] * r0 + c[own, 1] * r1 + c[own, 2] * r2)))))
             node[own] = s.wrist_relax_weight * (bend_own / 45.0) ** 2 + \
                 (self.LOOSE_COST if id(poses[k]) in self._loose else 0.0)
             best = m[arg, cols] + node

@@ -14,14 +14,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arm import hand_coefficients
+from .arm import bend_from_rest, hand_coefficients
 
 
 @dataclass(frozen=True)
 class HandGrid:
     """The wrist-angle states: ``angles`` (S, 2) degrees, ``coefficients`` (S, 3) (see
     :func:`~reach_addon.core.arm.hand_coefficients`), ``turn`` (S, S) degrees between
-    their directions, ``bend`` (S,) degrees from neutral; ``start`` the start state."""
+    their directions, ``bend`` (S,) degrees from the neutral wrist (the ``rest`` of
+    :func:`hand_grid`); ``start`` the start state."""
 
     angles: np.ndarray
     coefficients: np.ndarray
@@ -36,10 +37,12 @@ def wrist_turn(coefficients_a, coefficients_b):
     return np.degrees(np.arccos(np.clip(dot, -1.0, 1.0)))
 
 
-def hand_grid(settings, start_hand, bound: float, extra=()) -> HandGrid:
+def hand_grid(settings, start_hand, bound: float, extra=(), rest=(1.0, 0.0, 0.0)) -> HandGrid:
     """The grid of wrist angles, plus the start hand and a chain of states (at most half
     the bound apart) from it to the nearest grid state, then the ``extra`` states (the
-    wanted hand of :mod:`.orient`, when the hand is matched to a target's orientation)."""
+    wanted hand of :mod:`.orient`, when the hand is matched to a target's orientation).
+    ``rest``: the neutral wrist's coefficients (``ArmModel.rest_coefficients``) the states'
+    ``bend`` is measured from (:func:`~reach_addon.core.arm.bend_from_rest`)."""
     step = settings.hand_grid_step
     b_max, s_max = settings.wrist_bend_max, settings.wrist_side_max
     bends = np.linspace(-b_max, b_max, 2 * math.ceil(b_max / step) + 1) if b_max > 0 else [0.0]
@@ -63,5 +66,5 @@ def hand_grid(settings, start_hand, bound: float, extra=()) -> HandGrid:
     angles = np.array(grid + chain)
     coefficients = np.vstack([coef, [hand_coefficients(b, s) for b, s in chain]])
     turn = wrist_turn(coefficients[:, None], coefficients[None])
-    bend = np.degrees(np.arccos(np.clip(coefficients[:, 0], -1.0, 1.0)))
+    bend = bend_from_rest(coefficients, rest)
     return HandGrid(angles, coefficients, turn, bend, len(grid))

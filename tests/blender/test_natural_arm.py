@@ -45,16 +45,9 @@ WING_FRAMES_AGREE = 1
 
 _WING = "elbow lifted over a low hand: no elbow-comfort term in the swivel's choice yet"
 _LONG = "the bend lasts longer than the obstacle forces it"
-_REST = ("the hand pass relaxes the hand toward the forearm's line, not the rig's rest "
-         "alignment (the fix, on branch wip-ball-rest, waits on a chase check)")
 #: (rig, scene) → what keeps it from the goal, as measured at this commit ("forced": the
 #: report names the obstacle and the relaxed hand would touch it on those frames).
 XFAIL = {
-    ("quaternius", "wall"): f"mean bend 13.7°, nothing forcing it: {_REST}",
-    ("quaternius", "sequence"): f"mean bend 17.4°, nothing forcing it: {_REST}",
-    ("quaternius", "chase"): f"mean bend 18.5°, nothing forcing it: {_REST}",
-    ("malebase", "sequence"): f"mean bend 14.2°, nothing forcing it: {_REST}",
-    ("gomakehuman", "sequence"): f"forced by 'Table' on 2 frames, the others' mean 13.5°: {_REST}",
     ("gomakehuman", "shelf"): f"max bend 66° at the slot; 7 wing frames: {_WING}",
     ("gomakehuman", "chase"): f"6 wing frames: {_WING}",
     ("malebase", "chase"): f"2 wing frames: {_WING}",
