@@ -42,8 +42,8 @@ def _frame(a, b, roll: float = 0.0):
     if roll:
         r = math.radians(roll)
         cos, sin = math.cos(r), math.sin(r)
-        b, c = (tuple(cos * y + sin * z for y, z in zip(b, c)),
-                tuple(cos * z - sin * y for y, z in zip(b, c)))
+        b, c = (tuple([cos * y + sin * z for y, z in zip(b, c)]),
+                tuple([cos * z - sin * y for y, z in zip(b, c)]))
     return a, b, c
 
 
@@ -93,8 +93,7 @@ def quaternion(cols) -> tuple:
         q = ((m02 - m20) * k, (m01 + m10) * k, r, (m12 + m21) * k)
     else:
         q = ((m10 - m01) * k, (m02 + m20) * k, (m12 + m21) * k, r)
-    n = math.sqrt(sum(v * v for v in q))
-    return tuple(v / n for v in q)
+    return _normalized(q)
 
 
 def _mul(a, b):
@@ -120,11 +119,16 @@ def nlerp(qa, qb, t: float) -> tuple:
     """Blender's blend of two quaternion keys on a linear span: ``qb`` taken in the
     hemisphere of ``qa`` (the bake writes them so), then (1 − t) q_a + t q_b per channel,
     normalised."""
-    if sum(x * y for x, y in zip(qa, qb)) < 0.0:
-        qb = tuple(-v for v in qb)
-    q = [(1.0 - t) * x + t * y for x, y in zip(qa, qb)]
-    n = math.sqrt(sum(v * v for v in q))
-    return tuple(v / n for v in q)
+    if qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3] < 0.0:
+        qb = (-qb[0], -qb[1], -qb[2], -qb[3])
+    return _normalized([(1.0 - t) * x + t * y for x, y in zip(qa, qb)])
+
+
+def _normalized(q) -> tuple:
+    """The quaternion ``q`` (4 floats) over its length (plain arithmetic: the bake and the
+    between-keys checks ask for it at every key and instant)."""
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
 def between(arm: ArmModel, a: Pose, b: Pose, t, hand_a=None, hand_b=None) -> tuple:
