@@ -296,7 +296,8 @@ class PipelineRun:
             self.plans.append(KeyedPlan(plan, frame, checkers,
                                         plan.success or self.request.bake_closest))
             frame += len(plan.poses)
-        start_as_it_shows(self.armature, self.info, [k.plan for k in self.plans], self.obstacles)
+        start_as_it_shows(self.armature, self.info, [k.plan for k in self.plans], self.obstacles,
+                          self._sweep if self.moving else None)
 
     def _frame_planners(self) -> list:
         """A planner per frame of a chase, one per distinct set of obstacles."""

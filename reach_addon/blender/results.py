@@ -6,6 +6,7 @@ correct a plan's own account by what Blender shows: a start the skin shows clear
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import bpy
@@ -14,6 +15,7 @@ import numpy as np
 from ..core import START_HELD, START_IN_COLLISION
 from ..core.arm import frame_angle
 from ..core.orient import palm_frame, wanted_axes
+from ..core.sweep import coming_into, obstacles_from_pieces
 from . import hand_reading
 from .rig import rest_hand_axis
 from .skin import skin_clearance
@@ -77,19 +79,28 @@ def task_results(info, plans, keyed, request, baked_result=None) -> list:
     return out
 
 
-def start_as_it_shows(armature, info, plans, obstacles) -> None:
+def start_as_it_shows(armature, info, plans, obstacles, sweep=None) -> None:
     """Turn, in place, each segment of ``plans`` (core Plans) refused as touching an
     obstacle at its start (``start_in_collision``, "already touches") into ``start_held``,
     saying so, where the arm's skin as Blender shows it now touches nothing
     (:func:`.skin.skin_clearance` against ``obstacles``, looking half an arm length
     out): the refusal is then a claim about Reach's model of the arm, not about what the
-    user sees. The character's own body, an enclosed chest and an obstacle moving into a
-    chase are left as they are."""
+    user sees. Likewise, with ``sweep`` (the pipeline's ``_sweep(f0, f1)``), a start an
+    animated obstacle moves into on a later frame (:func:`~reach_addon.core.sweep.
+    coming_into`) where the skin, clavicle included, stays clear of it on that frame. The
+    character's own body, an enclosed chest and an obstacle moving into a chase are left
+    as they are."""
     length = info.arm.arm_length
     skin = None
     for plan in plans:
         for seg in plan.segments:
-            if seg.reason != START_IN_COLLISION or "already touches" not in seg.message:
+            if seg.reason != START_IN_COLLISION:
+                continue
+            coming = coming_into(seg.message) if sweep is not None else None
+            if coming is not None:
+                _moving_in_as_it_shows(armature, info, seg, coming, sweep)
+                continue
+            if "already touches" not in seg.message:
                 continue
             if skin is None:
                 skin = skin_clearance(info, armature, obstacles, 0.5 * length)
@@ -102,6 +113,32 @@ def start_as_it_shows(armature, info, plans, obstacles) -> None:
                            f"({skin / length:.3f} arm lengths) clear, and no move of the model "
                            "leaves it: the arm cannot move from its start pose; move the arm or "
                            "the obstacle a little apart, or lower the clearance")
+
+
+def _moving_in_as_it_shows(armature, info, seg, coming, sweep) -> None:
+    """``start_held`` for a segment refused because ``coming`` = (obstacle, frame) moves
+    into its start pose, where the skin as it starts (clavicle included) stays clear of
+    that obstacle at every instant the planner sampled on that frame."""
+    name, frame = coming
+    pieces = [p for ps in sweep(frame, frame).get(frame, []) for p in ps if p[0] == name]
+    if not pieces:
+        return
+    length = info.arm.arm_length
+    skin = skin_clearance(info, armature, obstacles_from_pieces(pieces), 0.5 * length,
+                          clavicle=True)
+    if skin <= 0.0:
+        return
+    at = re.search(r"start pose (\(at the [^)]*\))", seg.message)
+    lasts = re.search(r"while the reach .*?clear\)", seg.message)
+    seg.reason = START_HELD
+    seg.message = (
+        f"'{name}' comes to the arm's start pose{' ' + at.group(1) if at else ''} on frame "
+        f"{frame} as Reach models the arm (one capsule per segment, fuller than the skin "
+        f"there), although its skin stays {100.0 * skin * info.arm.metres_per_unit:.1f} cm "
+        f"({skin / length:.3f} arm lengths) clear"
+        f"{', ' + lasts.group(0) if lasts else ''}: Reach moves the arm, not the body, so "
+        "the body cannot get out of its way; stop its animation during the reach, move the "
+        "character a little, or lower the clearance")
 
 
 def measure_orientation(context, armature, info, results, settings) -> None:

@@ -102,7 +102,7 @@ def skin_radius(armature, group_names, a, b, fallback):
     return float(np.percentile(np.linalg.norm(pts - (a + t[:, None] * ab), axis=1), 75))
 
 
-def skin_clearance(info, armature, obstacles, horizon: float) -> float:
+def skin_clearance(info, armature, obstacles, horizon: float, clavicle: bool = False) -> float:
     """The least distance (figure units) between the reaching arm's skin as Blender shows it
     now and ``obstacles`` (:class:`~reach_addon.core.Obstacles`), looking no farther than
     ``horizon`` (figure units).
@@ -110,12 +110,15 @@ def skin_clearance(info, armature, obstacles, horizon: float) -> float:
     ``info``: the :class:`.rig.RigInfo` whose arm is measured: the skin of its upper arm,
     forearm and hand bones and of every bone below the hand, weighted 0.5 or more
     (:func:`skin_points`). Returns ``horizon`` where nothing is that near or the arm has
-    no skin, and 0 where a point of the skin is inside a closed obstacle."""
+    no skin, and 0 where a point of the skin is inside a closed obstacle. ``clavicle``:
+    the clavicle bone's skin too (where the claim is about the whole start pose)."""
     tree = getattr(obstacles, "tree", None)
     bones = info.bones.arms[info.side]
     names = {bones.upper_arm, bones.forearm} | set(info.hand_bones or (bones.hand,))
     names |= {b.name for h in tuple(names - {bones.upper_arm, bones.forearm})
               for b in armature.pose.bones[h].children_recursive}
+    if clavicle and bones.clavicle:
+        names.add(bones.clavicle)
     if tree is None:
         return horizon
     points = skin_points(armature, names)

@@ -8,6 +8,8 @@ from the caller (a callback), so nothing here reads a scene.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from . import NO_PATH, START_IN_COLLISION, Obstacles, Planner
@@ -71,6 +73,16 @@ def plan_among_moving(planner, task, first_frame: int, still, moving, sweep):
     _name_what_comes(plan, first_frame, swept, clear_start, planner.settings)
     check_moving(plan, first_frame, swept, covered, moving, planner.settings)
     return plan, planner
+
+
+def coming_into(message: str):
+    """(obstacle name, frame) of a refusal :func:`_name_what_comes` worded (an obstacle
+    that moves into the start pose on a later frame), else None."""
+    found = _COMING.search(message or "")
+    return (found.group(1), int(found.group(2))) if found else None
+
+
+_COMING = re.compile(r"'(.+?)' moves into the arm's start pose \(at the [^)]*\) on frame (\d+)")
 
 
 def _name_what_comes(plan, first_frame: int, swept, clear_start, settings) -> None:

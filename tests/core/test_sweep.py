@@ -8,7 +8,8 @@ import pytest
 from reach_addon.core import NO_PATH, START_IN_COLLISION, Planner, Settings, Task
 from reach_addon.core.collision import CollisionChecker
 from reach_addon.core.steps import drain
-from reach_addon.core.sweep import check_moving, obstacles_from_pieces, plan_among_moving
+from reach_addon.core.sweep import (check_moving, coming_into, obstacles_from_pieces,
+                                    plan_among_moving)
 from reach_addon.demo import WORKPLACE
 from reach_addon.samples import HANGING, box, standard_arm, triangle_soup
 
@@ -136,3 +137,6 @@ def test_a_box_that_comes_to_the_start_pose_is_named_with_its_frame(reach):
     assert not seg.success and seg.reason == START_IN_COLLISION
     assert seg.message.startswith(f"'Swing' moves into the arm's start pose (at the "
                                   f"clavicle) on frame {FIRST + 6}, "), seg.message
+    # the Blender layer reads the obstacle and the frame back to check the skin there
+    assert coming_into(seg.message) == ("Swing", FIRST + 6)
+    assert coming_into("the start pose already touches 'Swing' (at the hand)") is None
