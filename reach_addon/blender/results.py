@@ -174,7 +174,8 @@ def measure_orientation(context, armature, info, results, settings) -> None:
 WING_MARGIN = 0.1
 
 
-def measure_naturalness(context, armature, info, results, obstacles=None) -> None:
+def measure_naturalness(context, armature, info, results, obstacles=None,
+                        clearance: float = 0.0) -> None:
     """Put, in place, into each baked result of ``results`` (:class:`TaskResult`) what
     Blender's evaluated bones show over its frames: ``mean_wrist_bend_deg`` and
     ``max_wrist_bend_deg``, the angle between the hand's axis
@@ -184,9 +185,10 @@ def measure_naturalness(context, armature, info, results, obstacles=None) -> Non
     lengths above the shoulder and the wrist more than that below it (along the body's up
     axis); and with ``obstacles`` (the run's :class:`~reach_addon.core.collision.Obstacles`)
     ``forced_bend_frames``, the frames bent more than :data:`FORCED_FROM` where the hand
-    held at its rest alignment would touch an obstacle (:func:`relaxed_hand_hits`), and
-    ``bend_forced_by``, the obstacle it touches most often (None without any). Changes
-    the scene's frame."""
+    held at its rest alignment would come within ``clearance`` (arm lengths: the
+    planner's ``Settings.clearance``, which a keyed pose keeps) of an obstacle
+    (:func:`relaxed_hand_hits`), and ``bend_forced_by``, the obstacle it meets most often
+    (None without any). Changes the scene's frame."""
     scene = context.scene
     bones = info.bones.arms[info.side]
     hands = info.hand_bones or (bones.hand,)
@@ -208,7 +210,7 @@ def measure_naturalness(context, armature, info, results, obstacles=None) -> Non
             if (e - s) @ up > WING_MARGIN * length and (w - s) @ up < -WING_MARGIN * length:
                 wings.append(f)
             if obstacles is not None and bends[-1] > FORCED_FROM:
-                hit = relaxed_hand_hits(obstacles, info.arm, w, rest)
+                hit = relaxed_hand_hits(obstacles, info.arm, w, rest, clearance * length)
                 if hit is not None:
                     forced.append(hit)
         r.stats["mean_wrist_bend_deg"] = float(np.mean(bends))
@@ -224,15 +226,16 @@ def measure_naturalness(context, armature, info, results, obstacles=None) -> Non
 FORCED_FROM = 15.0
 
 
-def relaxed_hand_hits(obstacles, arm, wrist, rest_axis):
-    """The obstacle (name) the hand would touch held at its rest alignment at ``wrist``
-    (world): its capsule from the wrist along ``rest_axis`` for the hand's length, with
-    the hand's radius (:class:`~reach_addon.core.arm.ArmModel`), sampled every half
-    radius; None if it is clear."""
+def relaxed_hand_hits(obstacles, arm, wrist, rest_axis, margin: float = 0.0):
+    """The obstacle (name) the hand held at its rest alignment at ``wrist`` (world) would
+    come within ``margin`` (figure units; the planner's clearance) of: its capsule from
+    the wrist along ``rest_axis`` for the hand's length, with the hand's radius
+    (:class:`~reach_addon.core.arm.ArmModel`), sampled every half radius; None if it keeps
+    that margin."""
     radius, length = arm.hand_radius, arm.hand_length
     n = max(2, int(np.ceil(length / (0.5 * max(radius, 1e-9)))) + 1)
     for t in np.linspace(0.0, 1.0, n):
-        hit = obstacles.nearest(wrist + t * length * rest_axis, radius)
+        hit = obstacles.nearest(wrist + t * length * rest_axis, radius + margin)
         if hit is not None:
             return obstacles.owner(hit[2])
     return None

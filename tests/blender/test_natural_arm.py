@@ -12,9 +12,12 @@ axis from its fingers against where the rest pose would hold it; the body's up a
 agree with the measured ones.
 
 A bend beyond those figures passes only where the report names the obstacle that forced
-it (``bend_forced_by``) and the hand turned back to its rest alignment would indeed touch
-an obstacle (:func:`relaxed_hand_touches`, exact distances to the evaluated triangles) on
-every frame bent beyond 45°, the other frames keeping the mean within 12°.
+it (``bend_forced_by``) and the hand turned back to its rest alignment would indeed come
+within the clearance a keyed pose keeps of an obstacle (:func:`relaxed_hand_touches`,
+exact distances to the evaluated triangles) on
+every frame bent beyond 45°, or the frame lies so near a forced one that the hand, turning
+at most its bound a frame (``Settings.hand_turn_speed`` / fps, 15° at 24 fps), could not
+be bent less than 45° there; the other frames keep the mean within 12°.
 
 The pairs the planner does not do yet are ``xfail(strict=True)`` in :data:`XFAIL`, with
 what was measured: bends that last longer than the obstacle forces them, and elbows lifted
@@ -31,7 +34,7 @@ import clearance
 import everyday
 import numpy as np
 import pytest
-from test_every_rig import cases, obstacle_triangles, rig_file  # noqa: F401  (the fixture)
+from test_every_rig import cases, frame_rate, obstacle_triangles, rig_file  # noqa: F401  (the fixture)
 
 from verification import naturalness
 from verification.geometry import segment_triangle_distances
@@ -52,15 +55,15 @@ XFAIL = {
     ("gomakehuman", "chase"): f"6 wing frames: {_WING}",
     ("malebase", "chase"): f"2 wing frames: {_WING}",
     ("cesium", "shelf"): f"forced by 'Shelf top' on 16 frames, but bent beyond 45° with a "
-                         f"relaxed hand clear on frames 42-46: {_LONG}",
+                         f"relaxed hand clear on frames 43-46: {_LONG}",
     ("goblin", "shelf"): f"forced by 'Shelf top' on 12 frames, but bent 45-75° with a "
-                         f"relaxed hand clear on frames 35-41: {_LONG}",
-    ("knight", "shelf"): f"forced by 'Shelf outer side' on 6 frames, but bent beyond 45° "
-                         f"with a relaxed hand clear on frames 28, 30-33: {_LONG}",
+                         f"relaxed hand clear on frames 36-41: {_LONG}",
+    ("knight", "shelf"): f"forced by 'Shelf outer side' on 8 frames, but bent beyond 45° "
+                         f"with a relaxed hand clear on frames 31-33: {_LONG}",
     ("robot", "wall"): f"forced by 'Wall' on 7 frames, but bent beyond 45° with a relaxed "
                        f"hand clear on frame 16: {_LONG}",
     ("robot", "shelf"): f"forced by 'Shelf bottom' on 7 frames, but bent beyond 45° with a "
-                        f"relaxed hand clear on frames 21-26: {_LONG}",
+                        f"relaxed hand clear on frames 22-26: {_LONG}",
 }
 
 
@@ -81,9 +84,10 @@ def _rotation(m):
     return m / np.linalg.norm(m, axis=0)
 
 
-def relaxed_hand_touches(arm, info, check, tris) -> bool:
+def relaxed_hand_touches(arm, info, check, tris, margin: float) -> bool:
     """Would the hand, turned back at the wrist to its rest alignment on the forearm as it
-    is now, come within its radius of ``tris``? The hand's capsule as the clearance check
+    is now, come within its radius and ``margin`` (figure units: the clearance a keyed
+    pose keeps) of ``tris``? The hand's capsule as the clearance check
     reads it (wrist to the fingers' far end), rotated by ``Rf (Rf⁰ᵀ Rh⁰) (Rfᵀ Rh)ᵀ Rfᵀ``
     (armature space, ⁰: rest), against the triangles by exact segment distances."""
     b = info.bones.arms["right"]
@@ -94,7 +98,7 @@ def relaxed_hand_touches(arm, info, check, tris) -> bool:
     mw = np.array(arm.matrix_world)[:3, :3]
     _part, wrist, tip, radius = check.capsules()[2]
     relaxed = wrist + mw @ (back @ np.linalg.solve(mw, tip - wrist))
-    return float(segment_triangle_distances(wrist, relaxed, tris)[0]) < radius
+    return float(segment_triangle_distances(wrist, relaxed, tris)[0]) < radius + margin
 
 
 @pytest.mark.parametrize("kind, scene", list(cases(XFAIL)))
@@ -135,16 +139,25 @@ def test_the_arm_looks_natural(addon, rig_file, kind, scene):  # noqa: F811
     named = {t.stats.get("bend_forced_by") for t in tasks} - {None}
     assert named, f"bent without a reason: {figures.summary()}"
     check, tris = clearance.Arm(arm, info), obstacle_triangles(addon, arm)
+    margin = addon.core.Settings().clearance * info.arm.arm_length
     forced = set()
     for f, bend in zip(figures.frames, figures.bends):
         if bend > naturalness.FORCED_FROM:
             bpy.context.scene.frame_set(f)
-            if relaxed_hand_touches(arm, info, check, tris):
+            if relaxed_hand_touches(arm, info, check, tris, margin):
                 forced.add(f)
-    over = [f for f, bend in zip(figures.frames, figures.bends)
-            if bend > naturalness.MAX_BEND_MAX and f not in forced]
-    free = [bend for f, bend in zip(figures.frames, figures.bends) if f not in forced]
-    print(f"FORCED by {sorted(named)} on {len(forced)} frames; unforced mean "
+    # a hand bent at a forced frame cannot be straight the next: it turns at most the
+    # bound a frame, so its bend changes by at most that (the least bend it can have is
+    # the forced bends less the bound for each frame away)
+    bound = addon.core.Settings().hand_turn_speed / frame_rate()
+    bends = dict(zip(figures.frames, figures.bends))
+    least = {f: max((bends[g] - bound * abs(f - g) for g in forced), default=0.0)
+             for f in figures.frames}
+    over = [f for f, bend in bends.items() if bend > naturalness.MAX_BEND_MAX and
+            f not in forced and least[f] <= naturalness.MAX_BEND_MAX]
+    free = [bend for f, bend in bends.items()
+            if f not in forced and least[f] <= naturalness.FORCED_FROM]
+    print(f"FORCED by {sorted(named)} on {sorted(forced)}; over {over}; unforced mean "
           f"{np.mean(free) if free else 0.0:.1f}")
     assert not over, f"bent beyond 45° where a relaxed hand is clear: frames {over}"
     assert not free or np.mean(free) <= naturalness.MEAN_BEND_MAX
