@@ -276,9 +276,8 @@ class PipelineRun:
         :class:`.bake.KeyedPlan` per task. A chase among obstacles that move is planned
         frame by frame among each frame's obstacles (:func:`~reach_addon.core.chase.
         chase_steps`); any other task among the places moving obstacles take
-        (:func:`~reach_addon.core.sweep.plan_among_moving`). ``planner`` is the last
-        planner used; a start refused that the skin shows clear becomes ``start_held``
-        (:func:`.results.start_as_it_shows`)."""
+        (:func:`~reach_addon.core.sweep.plan_among_moving`). ``planner``: the last one used.
+        A start the skin shows clear is ``start_held`` (:func:`.results.start_as_it_shows`)."""
         self.planner = Planner(self.info.arm, self.obstacles, self.settings)
         self.plans = []
         frame = self.frame_start
@@ -296,8 +295,8 @@ class PipelineRun:
             self.plans.append(KeyedPlan(plan, frame, checkers,
                                         plan.success or self.request.bake_closest))
             frame += len(plan.poses)
-        start_as_it_shows(self.armature, self.info, [k.plan for k in self.plans], self.obstacles,
-                          self._sweep if self.moving else None)
+        start_as_it_shows(self.armature, self.info, [k.plan for k in self.plans],
+                          self.obstacles, self._sweep if self.moving else None)
 
     def _frame_planners(self) -> list:
         """A planner per frame of a chase, one per distinct set of obstacles."""

@@ -173,7 +173,9 @@ def _arm_radii(armature, arm_bones, hands, joints, hand_axis, lengths, spread) -
     """The radii (world units) of the upper arm's, forearm's and hand's capsules: the 75th
     percentile of their skin's distance from each segment (:func:`.skin.skin_radius`;
     0.15, 0.14 and 0.18 of the segment's length without skin), the hand's at least half
-    the fingers' ``spread``, each clipped to 0.08–0.3 (hand: 0.1–0.35) of its length.
+    the fingers' ``spread``, each clipped to 0.08–0.3 (hand: 0.1–0.35) of its length; a
+    hand without fingers (no ``spread``), whose length is its skin's, no thinner than its
+    skin up to 0.35 of a 0.74-forearm hand (a short stub or a mitten is not a thin one).
     ``joints``: the shoulder, elbow and wrist (world); ``lengths``: upper arm, forearm and
     hand lengths; ``hand_axis``: the hand's direction (world, unit)."""
     shoulder, elbow, wrist = joints
@@ -184,7 +186,8 @@ def _arm_radii(armature, arm_bones, hands, joints, hand_axis, lengths, spread) -
         skin_radius(armature, set(hands), wrist, wrist + hand_axis * lh, 0.18 * lh),
     )
     return (float(np.clip(radii[0], 0.08 * l1, 0.3 * l1)), float(np.clip(radii[1], 0.08 * l2, 0.3 * l2)),
-            float(np.clip(max(radii[2], 0.5 * spread), 0.1 * lh, 0.35 * lh)))
+            float(np.clip(max(radii[2], 0.5 * spread), 0.1 * lh,
+                          0.35 * (lh if spread > 0.0 else max(lh, 0.74 * l2)))))
 
 
 def _body_capsules(h: float) -> tuple:
