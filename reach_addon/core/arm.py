@@ -79,7 +79,8 @@ class ArmModel:
     metres_per_unit: float = 1.0
     #: The wrist's two angles (degrees, :func:`hand_direction`) at which the rig's rest pose
     #: holds the hand on the forearm: its neutral wrist, which the hand pass relaxes toward
-    #: and the plan's bend figures are measured from (:func:`bend_from_rest`). (0, 0): the
+    #: and the plan's bend figures are measured from (arccos of the coefficients' dot,
+    #: :func:`~reach_addon.core.hand_grid.wrist_turn`). (0, 0): the
     #: forearm's line. (The search still tries the hand nearest the forearm's line first:
     #: that order decides which clear hand the path carries; the hand pass then chooses
     #: the hand keyed.)
@@ -325,18 +326,6 @@ def hand_direction(upper, bend, forearm, wrist_bend_deg, wrist_side_deg):
     """
     u, b, f = (np.asarray(v, float).tolist() for v in (upper, bend, forearm))
     return np.array(hand_direction_floats(u, b, f, wrist_bend_deg, wrist_side_deg))
-
-
-def bend_from_rest(coefficients, rest=(1.0, 0.0, 0.0)):
-    r"""The angle (degrees) between hand directions and the rest one, both given by their
-    coefficients (:func:`hand_coefficients`; ``rest``: ``ArmModel.rest_coefficients``):
-
-    .. math:: θ = \arccos(c · c_0)
-
-    The wrist's bend from its neutral, the rig's rest alignment; with c₀ = (1, 0, 0), the
-    forearm's line, θ = arccos(cos β_w cos σ_w). ``coefficients`` (..., 3) → (...,)."""
-    c = np.asarray(coefficients, dtype=float)
-    return np.degrees(np.arccos(np.clip(c @ np.asarray(rest, dtype=float), -1.0, 1.0)))
 
 
 def hand_coefficients(wrist_bend_deg: float, wrist_side_deg: float) -> tuple:

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .arm import Pose, bend_from_rest, frame_turn, hand_coefficients
+from .arm import Pose, frame_turn, hand_coefficients
 from .hand_dp import HandDP
 from .hand_grid import HandGrid, hand_grid, wrist_turn
 from .orient import wanted_hand_angles
@@ -442,7 +442,7 @@ class HandPass(HandDP):
             joints[4] = joints[3] + arm.hand_length * d
             out.append(Pose(pose.config, joints, pose.bend, pose.f_r, hand))
         coef = np.array([hand_coefficients(*h) for h in hands])
-        bends = bend_from_rest(coef, arm.rest_coefficients)
+        bends = wrist_turn(coef, arm.rest_coefficients)     # the bend from the neutral wrist
         rel = wrist_turn(coef[1:], coef[:-1]) if len(coef) > 1 else np.zeros(1)
         # in space: the hand's whole turn, its roll included (what any bone of it shows)
         world = np.array([frame_turn(a, b) for a, b in zip(out[:-1], out[1:])] or [0.0])

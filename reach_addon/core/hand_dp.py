@@ -164,7 +164,7 @@ class HandDP:
                 m[:] = np.inf
                 m[own, own] = keep
             arg = np.argmin(m, axis=0)
-            r0, r1, r2 = self.arm.rest_coefficients     # arm.bend_from_rest, on floats
+            r0, r1, r2 = self.arm.rest_coefficients     # hand_grid.wrist_turn, on floats
             bend_own = math.degrees(math.acos(max(-1.0, min(1.0, float(
                 c[own, 0] * r0 + c[own, 1] * r1 + c[own, 2] * r2)))))
             node[own] = s.wrist_relax_weight * (bend_own / 45.0) ** 2 + \

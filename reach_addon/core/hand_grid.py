@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .arm import bend_from_rest, hand_coefficients
+from .arm import hand_coefficients
 
 
 @dataclass(frozen=True)
@@ -42,7 +42,7 @@ def hand_grid(settings, start_hand, bound: float, extra=(), rest=(1.0, 0.0, 0.0)
     the bound apart) from it to the nearest grid state, then the ``extra`` states (the
     wanted hand of :mod:`.orient`, when the hand is matched to a target's orientation).
     ``rest``: the neutral wrist's coefficients (``ArmModel.rest_coefficients``) the states'
-    ``bend`` is measured from (:func:`~reach_addon.core.arm.bend_from_rest`)."""
+    ``bend`` is measured from (:func:`wrist_turn`)."""
     step = settings.hand_grid_step
     b_max, s_max = settings.wrist_bend_max, settings.wrist_side_max
     bends = np.linspace(-b_max, b_max, 2 * math.ceil(b_max / step) + 1) if b_max > 0 else [0.0]
@@ -66,5 +66,5 @@ def hand_grid(settings, start_hand, bound: float, extra=(), rest=(1.0, 0.0, 0.0)
     angles = np.array(grid + chain)
     coefficients = np.vstack([coef, [hand_coefficients(b, s) for b, s in chain]])
     turn = wrist_turn(coefficients[:, None], coefficients[None])
-    bend = bend_from_rest(coefficients, rest)
+    bend = wrist_turn(coefficients, rest)
     return HandGrid(angles, coefficients, turn, bend, len(grid))

@@ -97,29 +97,29 @@ def test_the_hand_relaxes_to_the_rigs_own_neutral_wrist(rest):
     and the plan's bend figures are measured from it (0 at the start)."""
     import dataclasses
 
-    from reach_addon.core.arm import bend_from_rest
+    from reach_addon.core.hand_grid import wrist_turn
 
     arm = dataclasses.replace(standard_arm(), hand_rest=rest)
-    assert bend_from_rest(hand_coefficients(*rest), arm.rest_coefficients) == \
+    assert wrist_turn(hand_coefficients(*rest), arm.rest_coefficients) == \
         pytest.approx(0.0, abs=1e-6)
     task = Task("reach", np.array([[-0.30, -0.30, 1.10]]), HANGING, FPS, start_hand=rest)
     plan = Planner(arm, None, Settings()).plan(task)
     assert plan.success, plan.message
     end = plan.poses[-1].hand
-    off = bend_from_rest(hand_coefficients(*end), arm.rest_coefficients)
+    off = wrist_turn(hand_coefficients(*end), arm.rest_coefficients)
     assert off <= Settings().hand_grid_step, (end, rest)
     # the forearm's line is as far from the rest as the rest is from it
-    assert bend_from_rest(hand_coefficients(0.0, 0.0), arm.rest_coefficients) > 10.0
-    assert plan.stats.max_wrist_bend_deg <= bend_from_rest(
+    assert wrist_turn(hand_coefficients(0.0, 0.0), arm.rest_coefficients) > 10.0
+    assert plan.stats.max_wrist_bend_deg <= wrist_turn(
         hand_coefficients(0.0, 0.0), arm.rest_coefficients)
 
 
 def test_the_forearms_line_is_the_neutral_of_a_rig_without_a_rest_bend():
     """``hand_rest`` (0, 0) keeps the bend from the forearm's line, bit for bit."""
-    from reach_addon.core.arm import bend_from_rest
+    from reach_addon.core.hand_grid import wrist_turn
 
     c = np.array([hand_coefficients(b, s) for b in (-70.0, 0.0, 33.0) for s in (-25.0, 0.0, 9.0)])
-    np.testing.assert_array_equal(bend_from_rest(c, standard_arm().rest_coefficients),
+    np.testing.assert_array_equal(wrist_turn(c, standard_arm().rest_coefficients),
                                   np.degrees(np.arccos(np.clip(c[:, 0], -1.0, 1.0))))
 
 
