@@ -89,8 +89,16 @@ def table(r: dict, compare: dict | None = None) -> str:
             lines.append(f"| … its whole turn in space, the forearm's turn and roll included "
                          f"(a–d) | {_per_task(t2, 'max_hand_turn_deg_per_frame', '{:.1f}')}° | "
                          "bound 15° at 24 fps |")
-            lines.append(f"| mean wrist bend (a–d) | "
-                         f"{_per_task(t2, 'mean_wrist_bend_deg', '{:.1f}')}° | |")
+            if all("chicken_wing_frames" in row for row in t2):
+                lines.append(
+                    "| naturalness (a–d): mean / max wrist bend from the rest alignment, "
+                    "chicken-wing frames, mean f_R | " + " / ".join(
+                        f"{row['mean_wrist_bend_deg']:.1f}°, {row['max_wrist_bend_deg']:.1f}°, "
+                        f"{row['chicken_wing_frames']}, {row['mean_f_r']:.2f}" for row in t2)
+                    + " | RULA: a wrist beyond 15° from neutral is a risk; no wing |")
+            else:
+                lines.append(f"| mean wrist bend (a–d) | "
+                             f"{_per_task(t2, 'mean_wrist_bend_deg', '{:.1f}')}° | |")
             lines.append(f"| transitions touching between keys, turns over the bound (a–d) | "
                          f"{_pairs(t2, 'touching_transitions', 'unbounded_hand_turns', ', ')} "
                          "| 0, 0 |")

@@ -107,6 +107,8 @@ def table2(runs: int):
             "max_hand_turn_deg_per_frame": samples[0][7].max_hand_turn_deg_per_frame,
             "mean_wrist_bend_deg": samples[0][7].mean_wrist_bend_deg,
             "max_wrist_bend_deg": samples[0][7].max_wrist_bend_deg,
+            "chicken_wing_frames": samples[0][7].chicken_wing_frames,
+            "mean_f_r": samples[0][7].mean_f_r,
             "inserted_frames": samples[0][7].inserted_frames,
             "unbounded_hand_turns": samples[0][7].unbounded_hand_turns,
             "touching_transitions": samples[0][7].touching_transitions,

@@ -284,7 +284,7 @@ class _Chase:
         stats.path_length_arm_lengths = float(
             np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) / length
         motion_stats(stats, self.arm, poses, [p.generator.checker for p in self.planners],
-                     stats.path_length_arm_lengths, hand=hand)
+                     stats.path_length_arm_lengths, self.settings.wing_margin, hand=hand)
         return stats
 
     def _outcome(self, poses, stats: Stats):

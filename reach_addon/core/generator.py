@@ -222,7 +222,8 @@ class ConfigurationGenerator:
 
     def solve(self, wrist, previous: Pose | None = None, body_rotation=None,
               hand_scale: float | None = None, toward=None,
-              tries: int | None = None) -> Pose | None:
+              tries: int | None = None, swivel: int | None = None,
+              hand_sample=None) -> Pose | None:
         """The strongest legal, collision-free pose with the wrist at ``wrist`` (canonical)
         that is within the smoothness bound of ``previous`` (if given); None if there is
         none. After a None, :attr:`hand_blocked` says whether some arm pose there was clear
@@ -241,7 +242,8 @@ class ConfigurationGenerator:
         once per joint and shared (:class:`~reach_addon.core.collision.CollisionChecker`):
         the wrist first, before any IK; the shoulder and sternum once per position; the
         elbow and the hand's end only where the bounds at the other joints leave a segment
-        unsettled."""
+        unsettled. ``swivel``, ``hand_sample``: only that swivel sample, that hand is tried
+        (:mod:`.elbow` chooses them along a whole path)."""
         wrist = np.asarray(wrist, dtype=float)
         checker, st = self.checker, self.settings
         self.hand_blocked = False
@@ -255,7 +257,10 @@ class ConfigurationGenerator:
         max_change = None if previous is None else self.max_change(previous, wrist)
         sol = ik.solve(self.arm, wrist[None], st, None if previous is None else previous.config,
                        body_rotation, max_change)
-        order = sol.ranked(0, st.elbow_side)[: st.max_pose_tries if tries is None else tries]
+        order = sol.ranked(0, st.elbow_side)
+        if swivel is not None:
+            order = [swivel] if swivel in order else []
+        order = order[: st.max_pose_tries if tries is None else tries]
         if not order:
             return None
         at = self._position(sol, w_c, w_w, d_w)
@@ -276,6 +281,8 @@ class ConfigurationGenerator:
                     hands = self.hand_order((0.0, 0.0), 180.0) \
                         if previous is None or hand_scale is None else \
                         self.hand_order(previous.hand, hand_scale, toward)
+                    if hand_sample is not None:
+                        hands = [hand_sample] if hand_sample in hands else []
                 tip, hand = self._place_hand(at[3], e_c, w_c, w_w, d_w, bend, at[-1], hands,
                                              None if hand_scale is None else previous)
                 if tip is None:
@@ -287,6 +294,23 @@ class ConfigurationGenerator:
             joints = np.array(at[4] + at[3] + e_c + w_c + tip).reshape(5, 3)
             return Pose(config, joints, np.array(bend), sol.category(0, k), hand)
         return None
+
+    def clear_swivels(self, wrist, body_rotation: float, around: Pose):
+        """Every swivel sample at ``wrist`` (canonical) with the chest at ``body_rotation``
+        whose arm (clavicle, upper arm, forearm; not the hand) is legal and clear of the
+        obstacles and the body: (the :func:`~reach_addon.core.ik.solve` solutions, the
+        sample indices, their joints (n, 5, 3)). The joint limits are widened to take in
+        ``around`` as a move from it would widen them; no smoothness bound applies."""
+        wrist = np.asarray(wrist, dtype=float)
+        w_c = wrist.tolist()
+        w_w = self._world(w_c)
+        d_w = self.checker.distance(w_w, self.checker.bound_wrist)
+        sol = ik.solve(self.arm, wrist[None], self.settings, around.config, body_rotation,
+                       float("inf"))
+        at = None if d_w < self._r_fore else self._position(sol, w_c, w_w, d_w)
+        ks = [] if at is None else \
+            [k for k in np.flatnonzero(sol.valid[0]).tolist() if self._clear_elbow(at, k)]
+        return sol, ks, sol.joints(0, ks) if ks else np.zeros((0, 5, 3))
 
     def _position(self, sol, w_c, w_w, d_w):
         """What every candidate of :meth:`solve` at one wrist position shares, or None where

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .arm import ArmModel, Pose
+from .elbow import wing_count
 from .hand import HandReport
 from .keys import between
 from .results import Stats
@@ -63,10 +64,12 @@ def pose_clearances(arm: ArmModel, poses, checkers) -> list:
 
 
 def motion_stats(stats: Stats, arm: ArmModel, poses, checkers, motion_length: float,
-                 hand: HandReport | None = None, clearances=None) -> None:
-    """Fill the motion part of ``stats``: frames, strength categories and the least
-    clearance (``clearances`` if already measured, else :func:`pose_clearances` with
-    ``checkers``), and what the hand pass reported."""
+                 wing_margin: float, hand: HandReport | None = None,
+                 clearances=None) -> None:
+    """Fill the motion part of ``stats``: frames, strength categories, chicken-wing
+    frames (``wing_margin``: ``Settings.wing_margin``, :func:`~reach_addon.core.elbow.wing_count`)
+    and the least clearance (``clearances`` if already measured, else
+    :func:`pose_clearances` with ``checkers``), and what the hand pass reported."""
     length = arm.arm_length
     if hand is not None:
         stats.max_wrist_turn_deg_per_frame = hand.max_wrist_turn_deg
@@ -78,6 +81,7 @@ def motion_stats(stats: Stats, arm: ArmModel, poses, checkers, motion_length: fl
         stats.touching_transitions = len(hand.unclear_transitions)
     stats.motion_path_length_arm_lengths = motion_length
     stats.frames = len(poses)
+    stats.chicken_wing_frames = wing_count(poses, length, wing_margin) if poses else 0
     for p in poses:
         stats.strength_categories[max(0, min(2, int(p.f_r)))] += 1
     if clearances is None:

@@ -25,6 +25,7 @@ from .chase import chase_steps
 from .collision import Obstacles
 from .contact import depth_message, escape, start_clearance
 from .diagnosis import diagnose_target
+from .elbow import relax_elbow
 from .errors import NO_PATH, START_HELD, START_IN_COLLISION, require_finite
 from .failure import explain_failure
 from .generator import ConfigurationGenerator
@@ -308,11 +309,17 @@ class Planner:
         if self.has_workspace and not had_workspace:
             stats.preprocess_time_s = self._workspace.build_time_s
 
-        seg_poses, hand, wrist_length = self._motion(task, result, first, start, target, way_out,
-                                                     goal)
+        seg_poses, hand, wrist_length, relaxed = self._motion(task, result, first, start,
+                                                              target, way_out, goal)
         clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
         contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None) \
             if result.success else None
+        if contact is not None and relaxed:
+            # the elbow kept low cannot follow clear at every instant: the search's swivels
+            seg_poses, hand, wrist_length, _r = self._motion(task, result, first, start,
+                                                             target, way_out, goal, False)
+            clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
+            contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None)
         if contact is not None and s.sampling_fallback and not sampled:
             # The search's path is clear, but the hand cannot follow it clear at every
             # instant (a hand the search left free flips between samples in a tight
@@ -320,8 +327,8 @@ class Planner:
             retry = yield from self._sampling(start, target, chunk, result)
             if retry.method == "sampling":
                 result = retry
-                seg_poses, hand, wrist_length = self._motion(task, result, first, start,
-                                                             target, way_out, goal)
+                seg_poses, hand, wrist_length, _r = self._motion(task, result, first, start,
+                                                                 target, way_out, goal)
                 clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
                 contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None)
 
@@ -380,18 +387,21 @@ class Planner:
         return result
 
     def _motion(self, task: Task, result: SearchResult, first: Pose, start: Pose, target,
-                way_out, goal=None):
-        """The frames of one reach along a search's path: shortcut smoothing, minimum-jerk
-        timing and the hand pass (with ``goal``, the hand sought toward that orientation and
-        the palm rolled to it, :mod:`~reach_addon.core.orient`; a roll the reach starts
-        with is carried). Returns (poses, the hand pass's report, the wrist's path length
-        in arm lengths)."""
+                way_out, goal=None, relax: bool = True):
+        """The frames of one reach along a search's path: shortcut smoothing, the elbow
+        kept low along it (``relax``, :func:`~reach_addon.core.elbow.relax_elbow`),
+        minimum-jerk timing and the hand pass (with ``goal``, the hand sought toward that
+        orientation and the palm rolled to it, :mod:`~reach_addon.core.orient`; a roll the
+        reach starts with is carried). Returns (poses, the hand pass's report, the wrist's
+        path length in arm lengths, whether the elbow pass changed the path)."""
         s, length = self.settings, self.arm.arm_length
         gen = self.generator.for_reach(start, target)
         # a sampled path is already shortcut in joint space (its poses are not the IK's, so
         # the wrist-space shortcuts could only join them one by one)
         dense = shortcut(gen, result.path) if s.smoothing and result.method != "sampling" \
             else list(result.path)
+        relaxed = relax_elbow(gen, dense) if relax and result.method != "sampling" else dense
+        dense, relaxed = relaxed, relaxed is not dense
         lead = [] if way_out is None else way_out.poses[:-1]
         dense = lead + dense
         wrist_length = wrist_path_length(dense) / length
@@ -414,7 +424,7 @@ class Planner:
                          goal=goal)
         if goal is not None or first.roll:
             apply_roll(hand, first.roll, goal, s.hand_space_turn_speed / task.fps)
-        return hand.poses, hand, wrist_length
+        return hand.poses, hand, wrist_length, relaxed
 
     def explain_failure(self, name: str, result: SearchResult, diagnosis, start: Pose):
         """(reason, message) of a failed reach: :func:`~reach_addon.core.failure.explain_failure`
@@ -424,7 +434,7 @@ class Planner:
     def _motion_stats(self, stats: Stats, poses, motion_length: float,
                       hand: HandReport | None = None, clearances=None):
         motion_stats(stats, self.arm, poses, [self.generator.checker] * len(poses),
-                     motion_length, hand, clearances)
+                     motion_length, self.settings.wing_margin, hand, clearances)
 
 
 class _Searches:

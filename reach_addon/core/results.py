@@ -55,6 +55,8 @@ class Stats:
     inserted_frames: int = 0
     unbounded_hand_turns: int = 0
     touching_transitions: int = 0
+    # frames with the elbow lifted over a low hand (core.elbow.chicken_wing)
+    chicken_wing_frames: int = 0
     # states the sampling fallback (core.sampling) tested, beyond the nodes searched
     sampling_states: int = 0
     # match orientation (core.orient): the angle left between the palm's frame and the
@@ -76,7 +78,7 @@ class Stats:
                      "max_wrist_bend_deg"):
             setattr(self, name, max(getattr(self, name), getattr(other, name)))
         for name in ("inserted_frames", "unbounded_hand_turns", "touching_transitions",
-                     "sampling_states",
+                     "chicken_wing_frames", "sampling_states",
                      "search_time_s", "preprocess_time_s", "nodes_searched",
                      "nodes_in_solution", "path_length_arm_lengths",
                      "motion_path_length_arm_lengths", "frames",

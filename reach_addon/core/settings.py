@@ -129,6 +129,16 @@ class Settings:
         15.0, "Smoothness", "Greatest change of any joint angle between consecutive "
         "wrist positions one search step apart (scaled up for longer moves)", "ik",
         1.0, 90.0, "deg")
+    elbow_comfort: float = _f(
+        10.0, "Elbow comfort", "Where a path lifts the elbow over a low hand (a chicken "
+        "wing), its swivels are chosen again along the whole path, each arm length the "
+        "elbow rises above the shoulder while the hand is below it costing this many levels "
+        "of the strength category f_R (10: a lift of 0.1 arm lengths costs one level). "
+        "0 keeps the search's strongest-first choice everywhere", "ik", 0.0, 100.0)
+    wing_margin: float = _f(
+        0.1, "Chicken wing margin", "A pose is a chicken wing when its elbow is more than "
+        "this many arm lengths above the shoulder while the wrist is more than this below "
+        "it", "ik", 0.0, 0.5, "arm lengths")
 
     # --- the hand over the finished motion (core.hand) --------------------------------------
     hand_turn_speed: float = _f(

@@ -1,0 +1,248 @@
+"""The swivel and the hand chosen together along a whole path, the elbow kept low.
+
+The search (:mod:`~reach_addon.core.search`) and the shortcut (:mod:`~reach_addon.core.motion`)
+pick each position's swivel greedily: the strongest candidate (the paper's f_R, then the
+second-level score) within the smoothness bound of the one before. Where a path goes down
+past an edge, that choice can lift the elbow over a hand that is below the shoulder, a
+"chicken wing", and, bounded at every step, cannot bring it back down before the hand has
+gone on. People reaching below the shoulder keep the elbow below it (the paper is silent
+here; this is Reach's own choice).
+
+:func:`relax_elbow` chooses the swivel and the hand of every position of such a path again,
+all together, by dynamic programming over (swivel sample, hand sample) states (the wrist
+positions and chest rotations kept, the path's two ends kept as they are):
+
+    cost = Σ_i [ WING_COST · wing_i + elbow_comfort · lift_i + f_R,i
+                 + wrist_relax_weight · (bend_i / 45°)² ]
+         + Σ_i SWING_COST · (swivel samples turned between i - 1 and i)²
+
+- ``wing_i`` (:func:`chicken_wing`): 1 where the elbow is more than ``wing_margin`` arm
+  lengths above the shoulder while the wrist is more than that below it;
+- ``lift_i`` (:func:`elbow_lift`): how far the elbow is above the shoulder, in arm lengths,
+  while the wrist is below it (``Settings.elbow_comfort`` of 10 makes a lift of 0.1 arm
+  lengths cost as much as one level of f_R);
+- f_R: the paper's strength category of the swivel candidate (0 best);
+- bend: the hand's turn from the rig's rest alignment (``ArmModel.rest_coefficients``), as
+  the hand pass costs it (:mod:`~reach_addon.core.hand_dp`);
+- the last term prefers the swivel that turns least between neighbours.
+
+Hard constraints are the search's own: every swivel legal and its arm clear of the
+obstacles and the body (:meth:`~reach_addon.core.generator.ConfigurationGenerator.clear_swivels`),
+every hand clear (:meth:`~reach_addon.core.generator.ConfigurationGenerator.hands_clear`),
+every transition within the smoothness bound (:func:`~reach_addon.core.limits.smooth`) and
+every hand within ``hand_step_turn`` of the last
+(:meth:`~reach_addon.core.generator.ConfigurationGenerator.hand_order`). The path is then
+rebuilt through :meth:`~reach_addon.core.generator.ConfigurationGenerator.solve` with each
+chosen swivel and hand, which also checks the hand's sweep and the arm's swing; a state it
+refuses is banned and the DP runs again (at most :data:`MAX_ROUNDS` times). The new path is
+kept only if it has fewer wing positions than the old, and the motion's every-instant checks
+judge it as they judge any path (the planner keeps the old one where they do not pass).
+
+The pass runs only on a path with a wing: elsewhere the search's strongest-first choice
+stands, as the paper has it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .arm import ArmConfig, Pose, hand_coefficients
+from .hand_grid import wrist_turn
+from .limits import smooth
+
+#: Cost of one position with a chicken wing: more than any sum of the other terms along a
+#: path of ordinary length, so the DP first removes every wing it can.
+WING_COST = 100.0
+#: Cost of turning the swivel by one sample between neighbouring positions (squared).
+SWING_COST = 0.05
+#: Rounds of the DP after the rebuild refused a choice.
+MAX_ROUNDS = 12
+
+
+def chicken_wing(shoulder_z, elbow_z, wrist_z, length: float, margin: float):
+    """Wing: e_z - s_z > m·L and s_z - w_z > m·L (canonical z up, m = ``margin``)."""
+    return ((np.asarray(elbow_z) - shoulder_z > margin * length)
+            & (shoulder_z - np.asarray(wrist_z) > margin * length))
+
+
+def elbow_lift(shoulder_z, elbow_z, wrist_z, length: float):
+    """Lift: max(0, e_z - s_z) / L where w_z < s_z, else 0 (arm lengths)."""
+    lift = np.maximum(0.0, np.asarray(elbow_z) - shoulder_z) / length
+    return np.where(np.asarray(wrist_z) < shoulder_z, lift, 0.0)
+
+
+def wing_count(poses, length: float, margin: float) -> int:
+    """How many of ``poses`` are chicken wings (:func:`chicken_wing`)."""
+    j = np.array([p.joints for p in poses])
+    return int(chicken_wing(j[:, 1, 2], j[:, 2, 2], j[:, 3, 2], length, margin).sum())
+
+
+def _swing_steps(a: np.ndarray, b: np.ndarray, count: int) -> np.ndarray:
+    """Swivel samples between the samples ``a`` (m,) and ``b`` (n,), round the circle."""
+    d = np.abs(a[:, None] - b[None, :])
+    return np.minimum(d, count - d)
+
+
+class _Layer:
+    """One position's states: swivel samples (their configurations, joints, bend directions,
+    node costs) × hand samples (which are clear)."""
+
+    def __init__(self, ks, angles, body: float, flex: float, cost, clear, joints, bends):
+        self.ks = np.asarray(ks, dtype=int)
+        self.angles = np.asarray(angles, dtype=float).reshape(-1, 3)   # α, β, γ
+        self.body, self.flex = float(body), float(flex)
+        self.cost = np.asarray(cost, dtype=float)                      # (swivels, hands)
+        self.clear = np.asarray(clear, dtype=bool)                     # (swivels, hands)
+        self.joints, self.bends = joints, bends
+
+
+def relax_elbow(generator, poses: list) -> list:
+    """``poses`` (a smoothed, validated path, start first) with the swivels and hands chosen
+    again as the module docstring says, or ``poses`` itself where it has no chicken wing,
+    where ``Settings.elbow_comfort`` is 0 or where no path with fewer wings is found."""
+    st, arm = generator.settings, generator.arm
+    length, margin = arm.arm_length, st.wing_margin
+    if st.elbow_comfort <= 0.0 or len(poses) < 3 or wing_count(poses, length, margin) == 0:
+        return poses
+    hands = list(generator.hand_samples)
+    coef = np.array([hand_coefficients(*h) for h in hands])
+    bend = wrist_turn(coef, np.asarray(arm.rest_coefficients, dtype=float))
+    hand_cost = st.wrist_relax_weight * (bend / 45.0) ** 2
+    layers = [None] + [_layer(generator, p, coef, hand_cost, length, margin)
+                       for p in poses[1:-1]]
+    banned: set = set()
+    for _round in range(MAX_ROUNDS):
+        path = _dp(generator, poses, layers, hands, coef, banned)
+        if path is None:
+            return poses
+        out, refused = _rebuild(generator, poses, layers, hands, path)
+        if refused is None:
+            return out if wing_count(out, length, margin) < wing_count(poses, length, margin) \
+                else poses
+        banned.add(refused)
+    return poses
+
+
+def _layer(generator, pose: Pose, coef, hand_cost, length: float, margin: float) -> _Layer:
+    """The states at ``pose``'s wrist position and chest rotation."""
+    st = generator.settings
+    body = pose.config.body_rotation
+    sol, ks, joints = generator.clear_swivels(pose.wrist, body, pose)
+    if not ks:
+        empty = np.zeros((0, len(coef)))
+        return _Layer([], np.zeros((0, 3)), body, pose.config.elbow, empty, empty, joints, [])
+    s, e, w = joints[:, 1, 2], joints[:, 2, 2], joints[:, 3, 2]
+    swivel_cost = (WING_COST * chicken_wing(s, e, w, length, margin)
+                   + st.elbow_comfort * elbow_lift(s, e, w, length) + sol.f_r[0, ks])
+    bends = [sol.bend_at(0, k) for k in ks]
+    # every hand of every swivel in one query: the wrist, hence the obstacles near it, is
+    # the same for all (:meth:`hands_clear` per swivel, at once)
+    axes = np.array([generator.hand_axes(joints[m], bends[m]) for m in range(len(ks))])
+    tips = joints[0, 3] + generator.arm.hand_length * np.einsum("hc,mcx->mhx", coef, axes)
+    clear = generator.tips_clear(joints[0], body, tips.reshape(-1, 3)).reshape(len(ks), -1)
+    return _Layer(ks, sol.angles[0][:3, ks].T, sol.body[0], sol.flex[0],
+                  swivel_cost[:, None] + hand_cost[None, :], clear, joints, bends)
+
+
+def _smooth_from(config: ArmConfig, layer: _Layer, bound: float) -> np.ndarray:
+    """Which of ``layer``'s swivels are within the smoothness bound of ``config``."""
+    a = layer.angles
+    return smooth(config, layer.body, a[:, 0], a[:, 1], a[:, 2], layer.flex, bound)
+
+
+def _hands_after(generator, hand, scale: float, hands: list) -> np.ndarray:
+    """Which of ``hands`` may follow ``hand`` (:meth:`hand_order`)."""
+    within = set(generator.hand_order(tuple(hand), scale))
+    return np.array([h in within for h in hands])
+
+
+def _dp(generator, poses, layers, hands, coef, banned):
+    """The least-cost (swivel index, hand index) per middle position, or None where no
+    choice passes the bounds. A step moves the arm with the hand as it was (so that hand
+    must be clear at the new pose too), then turns the hand within its bound, as
+    :meth:`~reach_addon.core.generator.ConfigurationGenerator.solve` places it."""
+    n = len(poses)
+    count = int(round(360.0 / generator.settings.swivel_step))
+    first = layers[1]
+    if not len(first.ks):
+        return None
+    start = poses[0]
+    ok = _smooth_from(start.config, first, generator.max_change(start, poses[1].wrist))
+    own = np.array([bool(generator.hands_clear(first.joints[m], first.bends[m], first.body,
+                                               [hand_coefficients(*start.hand)])[0])
+                    for m in range(len(first.ks))])
+    into = _hands_after(generator, start.hand, generator.move_scale(start, poses[1].wrist),
+                        hands)
+    total = np.where((ok & own)[:, None] & into[None, :] & first.clear, first.cost, np.inf)
+    total = _ban(total, 1, first, hands, banned)
+    back = [None, None]
+    for i in range(2, n - 1):
+        prev, cur = layers[i - 1], layers[i]
+        if not len(cur.ks):
+            return None
+        bound = generator.max_change(poses[i - 1], poses[i].wrist)
+        ok = np.array([_smooth_from(ArmConfig(prev.body, *prev.angles[j].tolist(), prev.flex),
+                                    cur, bound) for j in range(len(prev.ks))])   # (j, m)
+        swing = SWING_COST * _swing_steps(prev.ks, cur.ks, count) ** 2           # (j, m)
+        # the arm moves with the hand h: (j, h) → (m, h), h clear at m
+        u = np.where(ok[:, :, None], total[:, None, :] + swing[:, :, None], np.inf)  # (j, m, h)
+        bj = np.argmin(u, axis=0)                                                 # (m, h)
+        u = np.where(cur.clear, np.take_along_axis(u, bj[None], 0)[0], np.inf)    # (m, h)
+        # then the hand turns h → h' there
+        scale = generator.move_scale(poses[i - 1], poses[i].wrist)
+        adj = np.array([_hands_after(generator, h, scale, hands) for h in hands])  # (h, h')
+        t = np.where(adj[None], u[:, :, None], np.inf)                           # (m, h, h')
+        bh = np.argmin(t, axis=1)                                                 # (m, h')
+        t = np.take_along_axis(t, bh[:, None, :], 1)[:, 0]
+        total = _ban(np.where(cur.clear, t + cur.cost, np.inf), i, cur, hands, banned)
+        back.append((bj, bh))
+    last, goal = layers[n - 2], poses[n - 1]
+    gc = goal.config
+    at_goal = _Layer([0], [[gc.alpha, gc.beta, gc.gamma]], gc.body_rotation, gc.elbow,
+                     [[0.0]], [[True]], None, None)
+    bound = generator.max_change(poses[n - 2], goal.wrist)
+    ok = np.array([_smooth_from(ArmConfig(last.body, *a.tolist(), last.flex), at_goal,
+                                bound)[0] for a in last.angles])
+    scale = generator.move_scale(poses[n - 2], goal.wrist)
+    turn = np.array([tuple(goal.hand) in set(generator.hand_order(h, scale)) for h in hands])
+    held = generator.hands_clear(goal.joints, goal.bend, gc.body_rotation, coef)
+    total = np.where(ok[:, None] & (turn & held)[None, :], total, np.inf)
+    if not np.isfinite(total).any():
+        return None
+    m, h = (int(v) for v in np.unravel_index(int(np.argmin(total)), total.shape))
+    path = [(m, h)]
+    for i in range(n - 2, 1, -1):
+        bj, bh = back[i]
+        h = int(bh[m, h])
+        m = int(bj[m, h])
+        path.append((m, h))
+    return [None] + path[::-1]
+
+
+def _ban(total, i: int, layer: _Layer, hands, banned) -> np.ndarray:
+    for m, k in enumerate(layer.ks.tolist()):
+        for h, hand in enumerate(hands):
+            if (i, k, hand) in banned:
+                total[m, h] = np.inf
+    return total
+
+
+def _rebuild(generator, poses, layers, hands, path):
+    """The poses of the DP's ``path`` through the generator (the hand's sweep and the arm's
+    swing checked): (poses, None), or (None, (position, swivel sample, hand)) of the first
+    state refused."""
+    out = [poses[0]]
+    for i in range(1, len(poses) - 1):
+        m, h = path[i]
+        k, p = int(layers[i].ks[m]), poses[i]
+        pose = generator.solve(p.wrist, out[-1], body_rotation=p.config.body_rotation,
+                               hand_scale=generator.move_scale(out[-1], p.wrist), swivel=k,
+                               hand_sample=hands[h])
+        if pose is None:
+            return None, (i, k, hands[h])
+        out.append(pose)
+    if not generator.smooth_between(out[-1], poses[-1]):
+        m, h = path[-1]
+        return None, (len(poses) - 2, int(layers[-2].ks[m]), hands[h])
+    out.append(poses[-1])
+    return out, None
