@@ -19,6 +19,7 @@ import numpy as np
 
 from .arm import ArmConfig, Pose, frame_turn
 from .diagnosis import diagnose_target
+from .elbow import relax_elbow
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
@@ -243,10 +244,33 @@ class _Chase:
             self.frames.append((res, contact))
 
     def _hand(self) -> HandReport:
-        """The hand pass over the frames (no frames inserted: they are the target's)."""
-        return plan_hand([p.generator for p in self.planners], self.poses, self.task.fps,
-                         may_insert=False, arcs=range(len(self.poses)),
-                         escape=escape_of(self.way_out, self.poses))
+        """The hand pass over the frames (no frames inserted: they are the target's). Where
+        the chased frames lift the elbow over a low hand, their swivels and hands are first
+        chosen again along the whole chase (:func:`~reach_addon.core.elbow.relax_elbow`,
+        the last frame before the chase and the last frame kept), and kept if the hand pass
+        over them touches and lifts its bound no more often and turns too fast no
+        earlier."""
+        gens = [p.generator for p in self.planners]
+        hand = self._hand_pass(self.poses)
+        first = self.lead - 1
+        chased = self.poses[first:]
+        relaxed = relax_elbow(gens[first:], chased)
+        if relaxed is chased:
+            return hand
+        poses = self.poses[:first] + relaxed
+        other = self._hand_pass(poses)
+        never = len(poses)
+        if len(other.unclear_transitions) <= len(hand.unclear_transitions) and \
+                other.unbounded_turns <= hand.unbounded_turns and \
+                (self._first_too_fast(other) or never) >= (self._first_too_fast(hand) or never):
+            self.poses[:] = poses
+            return other
+        return hand
+
+    def _hand_pass(self, poses: list) -> HandReport:
+        return plan_hand([p.generator for p in self.planners], poses, self.task.fps,
+                         may_insert=False, arcs=range(len(poses)),
+                         escape=escape_of(self.way_out, poses))
 
     def _first_too_fast(self, hand: HandReport):
         """The first chased frame into which the hand turns faster than its bound in space

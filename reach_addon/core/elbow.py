@@ -34,12 +34,15 @@ every hand within ``hand_step_turn`` of the last
 (:meth:`~reach_addon.core.generator.ConfigurationGenerator.hand_order`). The path is then
 rebuilt through :meth:`~reach_addon.core.generator.ConfigurationGenerator.solve` with each
 chosen swivel and hand, which also checks the hand's sweep and the arm's swing; a state it
-refuses is banned and the DP runs again (at most :data:`MAX_ROUNDS` times). The new path is
+refuses is banned and the DP runs again (at most :data:`MAX_ROUNDS` times). The hand turns
+at most ``hand_step_turn`` between neighbours even where they are more than a step apart
+(a chase's frames): the hand pass bounds its turn per frame tighter still. The new path is
 kept only if it has fewer wing positions than the old, and the motion's every-instant checks
 judge it as they judge any path (the planner keeps the old one where they do not pass).
 
 The pass runs only on a path with a wing: elsewhere the search's strongest-first choice
-stands, as the paper has it.
+stands, as the paper has it. A chase's frames go through it too (:mod:`.chase`, each frame
+with its own obstacles), kept where the hand pass over them fares no worse.
 """
 
 from __future__ import annotations
@@ -96,26 +99,31 @@ class _Layer:
         self.joints, self.bends = joints, bends
 
 
-def relax_elbow(generator, poses: list) -> list:
-    """``poses`` (a smoothed, validated path, start first) with the swivels and hands chosen
-    again as the module docstring says, or ``poses`` itself where it has no chicken wing,
-    where ``Settings.elbow_comfort`` is 0 or where no path with fewer wings is found."""
-    st, arm = generator.settings, generator.arm
+def relax_elbow(generators, poses: list) -> list:
+    """``poses`` (a smoothed, validated path, start first, or a chase's frames) with the
+    swivels and hands chosen again as the module docstring says, or ``poses`` itself where
+    it has no chicken wing, where ``Settings.elbow_comfort`` is 0 or where no path with
+    fewer wings is found. ``generators``: one
+    :class:`~reach_addon.core.generator.ConfigurationGenerator` for every pose (a chase
+    against moving obstacles has one per frame), or one for all."""
+    gens = list(generators) if isinstance(generators, (list, tuple)) else \
+        [generators] * len(poses)
+    st, arm = gens[0].settings, gens[0].arm
     length, margin = arm.arm_length, st.wing_margin
     if st.elbow_comfort <= 0.0 or len(poses) < 3 or wing_count(poses, length, margin) == 0:
         return poses
-    hands = list(generator.hand_samples)
+    hands = list(gens[0].hand_samples)
     coef = np.array([hand_coefficients(*h) for h in hands])
     bend = wrist_turn(coef, np.asarray(arm.rest_coefficients, dtype=float))
     hand_cost = st.wrist_relax_weight * (bend / 45.0) ** 2
-    layers = [None] + [_layer(generator, p, coef, hand_cost, length, margin)
-                       for p in poses[1:-1]]
+    layers = [None] + [_layer(g, p, coef, hand_cost, length, margin)
+                       for g, p in zip(gens[1:-1], poses[1:-1])]
     banned: set = set()
     for _round in range(MAX_ROUNDS):
-        path = _dp(generator, poses, layers, hands, coef, banned)
+        path = _dp(gens, poses, layers, hands, coef, banned)
         if path is None:
             return poses
-        out, refused = _rebuild(generator, poses, layers, hands, path)
+        out, refused = _rebuild(gens, poses, layers, hands, path)
         if refused is None:
             return out if wing_count(out, length, margin) < wing_count(poses, length, margin) \
                 else poses
@@ -156,23 +164,22 @@ def _hands_after(generator, hand, scale: float, hands: list) -> np.ndarray:
     return np.array([h in within for h in hands])
 
 
-def _dp(generator, poses, layers, hands, coef, banned):
+def _dp(gens, poses, layers, hands, coef, banned):
     """The least-cost (swivel index, hand index) per middle position, or None where no
     choice passes the bounds. A step moves the arm with the hand as it was (so that hand
     must be clear at the new pose too), then turns the hand within its bound, as
     :meth:`~reach_addon.core.generator.ConfigurationGenerator.solve` places it."""
-    n = len(poses)
+    n, generator = len(poses), gens[0]      # (bounds and hand orders: the settings')
     count = int(round(360.0 / generator.settings.swivel_step))
     first = layers[1]
     if not len(first.ks):
         return None
     start = poses[0]
     ok = _smooth_from(start.config, first, generator.max_change(start, poses[1].wrist))
-    own = np.array([bool(generator.hands_clear(first.joints[m], first.bends[m], first.body,
+    own = np.array([bool(gens[1].hands_clear(first.joints[m], first.bends[m], first.body,
                                                [hand_coefficients(*start.hand)])[0])
                     for m in range(len(first.ks))])
-    into = _hands_after(generator, start.hand, generator.move_scale(start, poses[1].wrist),
-                        hands)
+    into = _hands_after(generator, start.hand, 1.0, hands)
     total = np.where((ok & own)[:, None] & into[None, :] & first.clear, first.cost, np.inf)
     total = _ban(total, 1, first, hands, banned)
     back = [None, None]
@@ -189,8 +196,7 @@ def _dp(generator, poses, layers, hands, coef, banned):
         bj = np.argmin(u, axis=0)                                                 # (m, h)
         u = np.where(cur.clear, np.take_along_axis(u, bj[None], 0)[0], np.inf)    # (m, h)
         # then the hand turns h → h' there
-        scale = generator.move_scale(poses[i - 1], poses[i].wrist)
-        adj = np.array([_hands_after(generator, h, scale, hands) for h in hands])  # (h, h')
+        adj = np.array([_hands_after(generator, h, 1.0, hands) for h in hands])    # (h, h')
         t = np.where(adj[None], u[:, :, None], np.inf)                           # (m, h, h')
         bh = np.argmin(t, axis=1)                                                 # (m, h')
         t = np.take_along_axis(t, bh[:, None, :], 1)[:, 0]
@@ -205,7 +211,7 @@ def _dp(generator, poses, layers, hands, coef, banned):
                                 bound)[0] for a in last.angles])
     scale = generator.move_scale(poses[n - 2], goal.wrist)
     turn = np.array([tuple(goal.hand) in set(generator.hand_order(h, scale)) for h in hands])
-    held = generator.hands_clear(goal.joints, goal.bend, gc.body_rotation, coef)
+    held = gens[-1].hands_clear(goal.joints, goal.bend, gc.body_rotation, coef)
     total = np.where(ok[:, None] & (turn & held)[None, :], total, np.inf)
     if not np.isfinite(total).any():
         return None
@@ -227,21 +233,24 @@ def _ban(total, i: int, layer: _Layer, hands, banned) -> np.ndarray:
     return total
 
 
-def _rebuild(generator, poses, layers, hands, path):
+def _rebuild(gens, poses, layers, hands, path):
     """The poses of the DP's ``path`` through the generator (the hand's sweep and the arm's
     swing checked): (poses, None), or (None, (position, swivel sample, hand)) of the first
-    state refused."""
+    state refused. Where the hand's sweep to the chosen hand touches, the clear one nearest
+    to it within the bound is taken (the next positions' hands are checked from it)."""
     out = [poses[0]]
     for i in range(1, len(poses) - 1):
         m, h = path[i]
         k, p = int(layers[i].ks[m]), poses[i]
-        pose = generator.solve(p.wrist, out[-1], body_rotation=p.config.body_rotation,
-                               hand_scale=generator.move_scale(out[-1], p.wrist), swivel=k,
-                               hand_sample=hands[h])
+        pose = gens[i].solve(p.wrist, out[-1], body_rotation=p.config.body_rotation,
+                             hand_scale=1.0, swivel=k, hand_sample=hands[h])
+        if pose is None and gens[i].hand_blocked:
+            pose = gens[i].solve(p.wrist, out[-1], body_rotation=p.config.body_rotation,
+                                 hand_scale=1.0, swivel=k, toward=hands[h])
         if pose is None:
             return None, (i, k, hands[h])
         out.append(pose)
-    if not generator.smooth_between(out[-1], poses[-1]):
+    if not gens[-1].smooth_between(out[-1], poses[-1]):
         m, h = path[-1]
         return None, (len(poses) - 2, int(layers[-2].ks[m]), hands[h])
     out.append(poses[-1])

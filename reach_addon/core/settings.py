@@ -136,7 +136,7 @@ class Settings:
         "of the strength category f_R (10: a lift of 0.1 arm lengths costs one level). "
         "0 keeps the search's strongest-first choice everywhere", "ik", 0.0, 100.0)
     wing_margin: float = _f(
-        0.1, "Chicken wing margin", "A pose is a chicken wing when its elbow is more than "
+        0.1, "Wing margin", "A pose is a chicken wing when its elbow is more than "
         "this many arm lengths above the shoulder while the wrist is more than this below "
         "it", "ik", 0.0, 0.5, "arm lengths")
 
