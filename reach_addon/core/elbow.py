@@ -236,17 +236,13 @@ def _ban(total, i: int, layer: _Layer, hands, banned) -> np.ndarray:
 def _rebuild(gens, poses, layers, hands, path):
     """The poses of the DP's ``path`` through the generator (the hand's sweep and the arm's
     swing checked): (poses, None), or (None, (position, swivel sample, hand)) of the first
-    state refused. Where the hand's sweep to the chosen hand touches, the clear one nearest
-    to it within the bound is taken (the next positions' hands are checked from it)."""
+    state refused."""
     out = [poses[0]]
     for i in range(1, len(poses) - 1):
         m, h = path[i]
         k, p = int(layers[i].ks[m]), poses[i]
         pose = gens[i].solve(p.wrist, out[-1], body_rotation=p.config.body_rotation,
                              hand_scale=1.0, swivel=k, hand_sample=hands[h])
-        if pose is None and gens[i].hand_blocked:
-            pose = gens[i].solve(p.wrist, out[-1], body_rotation=p.config.body_rotation,
-                                 hand_scale=1.0, swivel=k, toward=hands[h])
         if pose is None:
             return None, (i, k, hands[h])
         out.append(pose)
