@@ -53,8 +53,10 @@ from .arm import ArmConfig, Pose, hand_coefficients
 from .hand_grid import wrist_turn
 from .limits import smooth
 
-#: Cost of one position with a chicken wing: more than any sum of the other terms along a
-#: path of ordinary length, so the DP first removes every wing it can.
+#: Cost of one position with a chicken wing: many times what a position's other terms add
+#: up to (f_R ≤ 2, the lift ≤ ``elbow_comfort`` × ~0.5, the hand's bend ≤
+#: ``wrist_relax_weight`` × ~4 at the default weights), so the DP keeps a wing only where
+#: avoiding it would cost comfort over many positions, or where no clear path avoids it.
 WING_COST = 100.0
 #: Cost of turning the swivel by one sample between neighbouring positions (squared).
 SWING_COST = 0.05
