@@ -369,7 +369,7 @@ class PipelineRun:
             measure_orientation(self.context, self.armature, self.info, outcome.results,
                                 self.settings)
             measure_naturalness(self.context, self.armature, self.info, outcome.results,
-                                self.obstacles, self.settings.clearance)
+                                self.settings, self.obstacles)
         for r in outcome.results if self.still else ():
             r.message += f"; {self.still}"
         self.outcome = outcome

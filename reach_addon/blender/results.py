@@ -14,6 +14,7 @@ import numpy as np
 
 from ..core import START_HELD, START_IN_COLLISION
 from ..core.arm import frame_angle
+from ..core.elbow import chicken_wing
 from ..core.orient import palm_frame, wanted_axes
 from ..core.sweep import coming_into, obstacles_from_pieces
 from . import hand_reading
@@ -169,25 +170,19 @@ def measure_orientation(context, armature, info, results, settings) -> None:
         r.stats["orientation_met"] = error <= settings.orientation_tolerance
 
 
-#: Arm lengths the elbow must be above the shoulder, and the wrist below it, for a frame to
-#: count as a chicken wing (:func:`measure_naturalness`).
-WING_MARGIN = 0.1
-
-
-def measure_naturalness(context, armature, info, results, obstacles=None,
-                        clearance: float = 0.0) -> None:
+def measure_naturalness(context, armature, info, results, settings, obstacles=None) -> None:
     """Put, in place, into each baked result of ``results`` (:class:`TaskResult`) what
     Blender's evaluated bones show over its frames: ``mean_wrist_bend_deg`` and
     ``max_wrist_bend_deg``, the angle between the hand's axis
     (:func:`.hand_reading.hand_shape`) and where the rig's rest pose would hold it on the
     forearm as it is (:func:`.rig.rest_hand_axis`), replacing the plan's own figures;
-    ``chicken_wing_frames``, the frames with the elbow more than :data:`WING_MARGIN` arm
-    lengths above the shoulder and the wrist more than that below it (along the body's up
-    axis); and with ``obstacles`` (the run's :class:`~reach_addon.core.collision.Obstacles`)
-    ``forced_bend_frames``, the frames bent more than :data:`FORCED_FROM` where the hand
-    held at its rest alignment would come within ``clearance`` (arm lengths: the
-    planner's ``Settings.clearance``, which a keyed pose keeps) of an obstacle
-    (:func:`relaxed_hand_hits`), and ``bend_forced_by``, the obstacle it meets most often
+    ``chicken_wing_frames``, the frames with the elbow more than ``settings.wing_margin``
+    arm lengths above the shoulder and the wrist more than that below it (along the body's
+    up axis, :func:`~reach_addon.core.elbow.chicken_wing`); and with ``obstacles`` (the
+    run's :class:`~reach_addon.core.collision.Obstacles`) ``forced_bend_frames``, the
+    frames bent more than :data:`FORCED_FROM` where the hand held at its rest alignment
+    would come within ``settings.clearance`` (arm lengths, which a keyed pose keeps) of
+    an obstacle (:func:`relaxed_hand_hits`), and ``bend_forced_by``, the obstacle it meets most often
     (None without any). Changes the scene's frame."""
     scene = context.scene
     bones = info.bones.arms[info.side]
@@ -207,10 +202,11 @@ def measure_naturalness(context, armature, info, results, obstacles=None,
             bends.append(float(np.degrees(np.arccos(np.clip(axis @ rest, -1.0, 1.0)))))
             s, e, w = (mw[:3, :3] @ np.array(pb[n].head) + mw[:3, 3]
                        for n in (bones.upper_arm, bones.forearm, bones.hand))
-            if (e - s) @ up > WING_MARGIN * length and (w - s) @ up < -WING_MARGIN * length:
+            if chicken_wing(float(s @ up), float(e @ up), float(w @ up), length,
+                            settings.wing_margin):
                 wings.append(f)
             if obstacles is not None and bends[-1] > FORCED_FROM:
-                hit = relaxed_hand_hits(obstacles, info.arm, w, rest, clearance * length)
+                hit = relaxed_hand_hits(obstacles, info.arm, w, rest, settings.clearance * length)
                 if hit is not None:
                     forced.append(hit)
         r.stats["mean_wrist_bend_deg"] = float(np.mean(bends))

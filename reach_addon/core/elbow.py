@@ -185,6 +185,7 @@ def _dp(gens, poses, layers, hands, coef, banned):
     total = np.where((ok & own)[:, None] & into[None, :] & first.clear, first.cost, np.inf)
     total = _ban(total, 1, first, hands, banned)
     back = [None, None]
+    adj = np.array([_hands_after(generator, h, 1.0, hands) for h in hands])        # (h, h')
     for i in range(2, n - 1):
         prev, cur = layers[i - 1], layers[i]
         if not len(cur.ks):
@@ -198,7 +199,6 @@ def _dp(gens, poses, layers, hands, coef, banned):
         bj = np.argmin(u, axis=0)                                                 # (m, h)
         u = np.where(cur.clear, np.take_along_axis(u, bj[None], 0)[0], np.inf)    # (m, h)
         # then the hand turns h → h' there
-        adj = np.array([_hands_after(generator, h, 1.0, hands) for h in hands])    # (h, h')
         t = np.where(adj[None], u[:, :, None], np.inf)                           # (m, h, h')
         bh = np.argmin(t, axis=1)                                                 # (m, h')
         t = np.take_along_axis(t, bh[:, None, :], 1)[:, 0]

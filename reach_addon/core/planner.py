@@ -309,15 +309,15 @@ class Planner:
         if self.has_workspace and not had_workspace:
             stats.preprocess_time_s = self._workspace.build_time_s
 
-        seg_poses, hand, wrist_length, relaxed = self._motion(task, result, first, start,
-                                                              target, way_out, goal)
+        seg_poses, hand, wrist_length, smoothed = self._motion(task, result, first, start,
+                                                               target, way_out, goal)
         clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
         contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None) \
             if result.success else None
-        if contact is not None and relaxed:
+        if contact is not None and smoothed is not None:
             # the elbow kept low cannot follow clear at every instant: the search's swivels
-            seg_poses, hand, wrist_length, _r = self._motion(task, result, first, start,
-                                                             target, way_out, goal, False)
+            seg_poses, hand, wrist_length, _s = self._motion(task, result, first, start,
+                                                             target, way_out, goal, smoothed)
             clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
             contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None)
         if contact is not None and s.sampling_fallback and not sampled:
@@ -327,7 +327,7 @@ class Planner:
             retry = yield from self._sampling(start, target, chunk, result)
             if retry.method == "sampling":
                 result = retry
-                seg_poses, hand, wrist_length, _r = self._motion(task, result, first, start,
+                seg_poses, hand, wrist_length, _s = self._motion(task, result, first, start,
                                                                  target, way_out, goal)
                 clearances = pose_clearances(arm, seg_poses, [gen.checker] * len(seg_poses))
                 contact = first_contact(gen, seg_poses, hand, clearances, way_out is not None)
@@ -387,21 +387,27 @@ class Planner:
         return result
 
     def _motion(self, task: Task, result: SearchResult, first: Pose, start: Pose, target,
-                way_out, goal=None, relax: bool = True):
+                way_out, goal=None, smoothed=None):
         """The frames of one reach along a search's path: shortcut smoothing, the elbow
-        kept low along it (``relax``, :func:`~reach_addon.core.elbow.relax_elbow`),
-        minimum-jerk timing and the hand pass (with ``goal``, the hand sought toward that
-        orientation and the palm rolled to it, :mod:`~reach_addon.core.orient`; a roll the
-        reach starts with is carried). Returns (poses, the hand pass's report, the wrist's
-        path length in arm lengths, whether the elbow pass changed the path)."""
+        kept low along it (:func:`~reach_addon.core.elbow.relax_elbow`), minimum-jerk
+        timing and the hand pass (with ``goal``, the hand sought toward that orientation
+        and the palm rolled to it, :mod:`~reach_addon.core.orient`; a roll the reach starts
+        with is carried). ``smoothed``: the smoothed path to time as it is (the elbow not
+        relaxed). Returns (poses, the hand pass's report, the wrist's path length in arm
+        lengths, the smoothed path the elbow pass changed, else None)."""
         s, length = self.settings, self.arm.arm_length
         gen = self.generator.for_reach(start, target)
-        # a sampled path is already shortcut in joint space (its poses are not the IK's, so
-        # the wrist-space shortcuts could only join them one by one)
-        dense = shortcut(gen, result.path) if s.smoothing and result.method != "sampling" \
-            else list(result.path)
-        relaxed = relax_elbow(gen, dense) if relax and result.method != "sampling" else dense
-        dense, relaxed = relaxed, relaxed is not dense
+        changed = None
+        if smoothed is not None:
+            dense = smoothed
+        elif result.method == "sampling":
+            # a sampled path is already shortcut in joint space (its poses are not the IK's,
+            # so the wrist-space shortcuts could only join them one by one)
+            dense = list(result.path)
+        else:
+            smooth = shortcut(gen, result.path) if s.smoothing else list(result.path)
+            dense = relax_elbow(gen, smooth)
+            changed = smooth if dense is not smooth else None
         lead = [] if way_out is None else way_out.poses[:-1]
         dense = lead + dense
         wrist_length = wrist_path_length(dense) / length
@@ -424,7 +430,7 @@ class Planner:
                          goal=goal)
         if goal is not None or first.roll:
             apply_roll(hand, first.roll, goal, s.hand_space_turn_speed / task.fps)
-        return hand.poses, hand, wrist_length, relaxed
+        return hand.poses, hand, wrist_length, changed
 
     def explain_failure(self, name: str, result: SearchResult, diagnosis, start: Pose):
         """(reason, message) of a failed reach: :func:`~reach_addon.core.failure.explain_failure`
