@@ -27,21 +27,26 @@ import numpy as np
 from .arm import Pose
 from .errors import NO_PATH
 from .generator import ConfigurationGenerator
+from .torso import rotate_about_spine
 
 
 #: Before a search refuses, positions this share of ``goal_tolerance`` from the target are
 #: tried from the closest position (:func:`last_tries`).
 GOAL_BALL = 0.9
+#: ... and this share, toward the shoulder only: a target beyond the arm by more than
+#: :data:`GOAL_BALL` of the tolerance is still within it. Short of 1 by the slack a baked
+#: rig's own residual needs to stay within the tolerance.
+GOAL_BALL_FAR = 0.97
 #: The swivel step (degrees) of the last try before a refusal.
 FINE_SWIVEL_STEP = 1.0
 
 
-def goal_ball(target, settings, arm_length: float, toward=()) -> np.ndarray:
-    """The rim of the target's tolerance ball, (n, 3): ``target`` + :data:`GOAL_BALL` ×
-    ``goal_tolerance`` × ``arm_length`` toward each point of ``toward`` first, then along
-    each of ``Settings.directions`` directions (:func:`sphere_directions`)."""
+def goal_ball(target, settings, arm_length: float, toward=(), share: float = GOAL_BALL) -> np.ndarray:
+    """The rim of the target's tolerance ball, (n, 3): ``target`` + ``share`` (default
+    :data:`GOAL_BALL`) × ``goal_tolerance`` × ``arm_length`` toward each point of ``toward``
+    first, then along each of ``Settings.directions`` directions (:func:`sphere_directions`)."""
     target = np.asarray(target, dtype=float)
-    r = GOAL_BALL * settings.goal_tolerance * arm_length
+    r = share * settings.goal_tolerance * arm_length
     ways = [np.asarray(p, dtype=float) - target for p in toward]
     ways = [w / np.linalg.norm(w) for w in ways if np.linalg.norm(w) > 1e-12]
     return target + r * np.vstack(ways + [sphere_directions(int(settings.directions))])
@@ -49,10 +54,14 @@ def goal_ball(target, settings, arm_length: float, toward=()) -> np.ndarray:
 
 def last_tries(generator, target) -> list:
     """The positions tried before a target is refused, in order, as (generator, canonical
-    point) pairs: the rim of its tolerance ball (:func:`goal_ball`; toward the shoulder
-    first, where the one point of the ball within reach of a target just beyond it lies,
-    then straight away from it) with ``generator``; then the target and the rim's first two
-    with the swivel circle sampled every :data:`FINE_SWIVEL_STEP` degrees
+    point) pairs: the rim of its tolerance ball (:func:`goal_ball`) with ``generator``,
+    toward the shoulder first, where the one point of the ball within reach of a target just
+    beyond it lies: the shoulder as the chest turn of the range that brings it nearest the
+    target carries it (:func:`nearest_shoulder`; a target across the body is reached with
+    the trunk turned toward it), then the resting shoulder, then straight away from it;
+    toward the nearest shoulder also at :data:`GOAL_BALL_FAR` of the tolerance, for a target
+    beyond reach by nearly all of it. Then the target, the rim's first three and that
+    point with the swivel circle sampled every :data:`FINE_SWIVEL_STEP` degrees
     (:meth:`~reach_addon.core.generator.ConfigurationGenerator.finer`: a clear swivel
     window narrower than the search's step, as an elbow folded to its limit has). The
     search's last try (:meth:`BestFirstSearch._last_try`) and the diagnosis of a refusal
@@ -60,10 +69,23 @@ def last_tries(generator, target) -> list:
     so a target is refused only where neither finds a pose."""
     target = np.asarray(target, dtype=float)
     shoulder = np.asarray(generator.arm.shoulder, dtype=float)
+    turned = nearest_shoulder(generator, target)
     rim = goal_ball(target, generator.settings, generator.arm.arm_length,
-                    (shoulder, 2.0 * target - shoulder))
+                    (turned, shoulder, 2.0 * target - shoulder))
+    far = goal_ball(target, generator.settings, generator.arm.arm_length, (turned,),
+                    share=GOAL_BALL_FAR)[0]
     fine = generator.finer(FINE_SWIVEL_STEP)
-    return [(generator, p) for p in rim] + [(fine, p) for p in (target, rim[0], rim[1])]
+    return [(generator, p) for p in rim] + [(generator, far)] + \
+        [(fine, p) for p in (target, rim[0], rim[1], rim[2], far)]
+
+
+def nearest_shoulder(generator, target) -> np.ndarray:
+    """The shoulder (canonical) as the chest rotation of
+    :meth:`~reach_addon.core.generator.ConfigurationGenerator.chest_candidates` that brings
+    it nearest ``target`` carries it (:func:`~.torso.rotate_about_spine`)."""
+    turns = np.asarray(generator.chest_candidates(target), dtype=float)
+    shoulders = rotate_about_spine(np.asarray(generator.arm.shoulder, dtype=float), turns)
+    return shoulders[int(np.argmin(np.linalg.norm(shoulders - target, axis=-1)))]
 
 
 @lru_cache(maxsize=8)

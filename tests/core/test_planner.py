@@ -613,3 +613,29 @@ def test_the_ball_leads_toward_the_shoulder():
     assert len(ball) == 1 + s.directions
     assert np.allclose(ball[0], [1.0 - r, 0.0, 0.0])
     assert np.allclose(np.linalg.norm(ball - target, axis=1), r)
+
+
+@pytest.mark.parametrize("turn", [-60.0, 60.0])
+def test_a_target_a_hair_beyond_the_turned_shoulder_is_reached(arm, turn):
+    """Fuzz seed 7408: a target beyond the arm from the resting shoulder by over 0.1 arm
+    lengths, and from the shoulder as the trunk's turn to the end of its range carries it
+    by 0.88 of the goal tolerance: the tolerance ball's rim (at 0.9 of it) is tried toward
+    that turned shoulder (search.nearest_shoulder), so the target is reached with the
+    trunk turned, not refused as needs_lean (the cross-check's OMPL found the pose: a
+    false refusal). Toward the resting shoulder, 19° off, the rim falls short (the 60°
+    case fails without the turned shoulder's direction)."""
+    from reach_addon.core.diagnosis import diagnose_target
+    from reach_addon.core.torso import rotate_about_spine
+
+    s = Settings()
+    turned = rotate_about_spine(np.asarray(arm.shoulder, dtype=float), turn)
+    out = np.array([turned[0], turned[1], 0.0])
+    out /= np.linalg.norm(out)
+    target_c = turned + out * (arm.arm_length + 0.88 * s.goal_tolerance * arm.arm_length)
+    assert np.linalg.norm(target_c - arm.shoulder) > 1.1 * arm.arm_length
+    planner = Planner(arm, None, s)
+    assert diagnose_target(planner.generator, target_c) is None
+    target = arm.to_world_points(target_c)
+    p = planner.plan(Task("reach", target[None], HANGING))
+    assert p.success, p.message
+    assert np.linalg.norm(p.wrist_trajectory()[-1] - target) <= s.goal_tolerance * arm.arm_length
