@@ -259,6 +259,10 @@ class Obstacles:
         return self.owner(None if hit is None else hit[2])
 
 
+#: How far (arm lengths) :meth:`CollisionChecker.least_clearance` may err; it errs low.
+CLEARANCE_TOLERANCE = 1e-4
+
+
 class CollisionChecker:
     """Tests arm poses (world-space joints) against the obstacles with a clearance margin.
 
@@ -488,6 +492,19 @@ class CollisionChecker:
             r = seg.radius - self.margin
             best = min(best, self.axis_distance(j[seg.a], j[seg.b], best + r, tolerance) - r)
         return best
+
+    def least_clearance(self, world_joints, horizon: float) -> float:
+        """A lower bound on the least distance between the pose's capsule surfaces (no
+        margin) and the obstacles, ``inf`` where nothing is within ``horizon``: :meth:`pose_clearance` to within
+        :data:`CLEARANCE_TOLERANCE` arm lengths, less that tolerance, so a pose it calls
+        clear (``≥ 0``) is clear by any exact measure, and one in contact is never called
+        clear. Where a contact's sign matters (leaving a start in contact, a key's
+        contact), this is the measure: :meth:`clearance`'s row of points can over-report
+        by half its spacing, enough to miss an edge between two of them."""
+        tolerance = CLEARANCE_TOLERANCE * self.arm.arm_length
+        cap = horizon + tolerance
+        c = self.pose_clearance(world_joints, cap, tolerance)
+        return math.inf if c >= cap else c - tolerance
 
     def clearance(self, world_joints, search_radius) -> float:
         """Least distance between the arm's capsule surfaces (without the clearance margin)

@@ -36,9 +36,12 @@ class Escape:
 
 def start_clearance(generator: ConfigurationGenerator, pose: Pose) -> float:
     """The least distance (figure units) between the pose's capsules (arm and hand, without
-    the margin) and the obstacles; negative where a capsule is inside one."""
-    return generator.checker.clearance(generator.arm.to_world_points(pose.joints),
-                                       generator.arm.arm_length)
+    the margin) and the obstacles; negative where a capsule is inside one. A lower bound
+    (:meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`): an escape
+    that never lets it fall never lets the true clearance fall by more than its
+    tolerance."""
+    return generator.checker.least_clearance(generator.arm.to_world_points(pose.joints),
+                                             generator.arm.arm_length)
 
 
 def thinner(generator: ConfigurationGenerator, by: float) -> ConfigurationGenerator:

@@ -19,14 +19,18 @@ def first_contact(generator, poses, hand: HandReport, clearances, escaping: bool
     whose arm or hand comes into contact (no margin) or the first pair of keys that touch
     as they interpolate (at half the clearance, :meth:`ConfigurationGenerator.transition_problem`,
     as the hand pass reports them); None if it never does. ``clearances``: each key's, from
-    :func:`pose_clearances`. ``escaping``: the motion starts
-    in contact and moves out of it (:mod:`~reach_addon.core.contact`); its first keys in
-    contact, up to the first clear one, are that escape and do not count."""
+    :func:`pose_clearances`. ``escaping``: the motion starts in contact and moves out of it
+    (:mod:`~reach_addon.core.contact`); its first keys in contact, up to the first clear
+    one, are that escape and do not count, but once any instant of it is clear no later
+    one may touch (:func:`escape_contact`)."""
     arm = generator.arm
     checker = generator.checker
     touching = [c < 0.0 for c in clearances]
     first = 0
     if escaping:
+        back = escape_contact(generator, poses, clearances)
+        if back is not None:
+            return back
         while first < len(poses) and touching[first]:
             first += 1
     unclear = sorted(k for k in hand.unclear_transitions if k >= first)
@@ -38,6 +42,36 @@ def first_contact(generator, poses, hand: HandReport, clearances, escaping: bool
     if unclear:
         k = unclear[0]
         return k + 1, _between_hit(generator, poses[k], poses[k + 1])
+    return None
+
+
+def escape_contact(generator, poses, clearances):
+    """Where a motion that starts in contact touches again after leaving it: (frame,
+    (part, obstacle)) of the first key, or the key ending the first span, with an instant
+    in contact (no margin, :meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`)
+    after an instant clear; None if it never does. Every key and ``instants_per_frame``
+    instants of each span (as Blender interpolates them, :func:`~reach_addon.core.keys.between`)
+    are read, up to the first key clear with the whole margin; the hand pass checks the
+    spans after it. The rule an independent check of the baked motion applies: a start in
+    contact may stay in contact only while leaving it."""
+    arm, checker = generator.arm, generator.checker
+    horizon = 0.5 * arm.arm_length
+    n = max(2, generator.settings.instants_per_frame)
+    leaving = True
+    for k, pose in enumerate(poses):
+        world = arm.to_world_points(pose.joints)
+        if clearances[k] >= 0.0:
+            leaving = False
+        elif not leaving:
+            return k, checker.first_hit(world) or ("arm", "an obstacle")
+        if k + 1 == len(poses) or not checker.collides(world):
+            return None
+        instants, _bends, _body = between(arm, pose, poses[k + 1], np.arange(1, n) / n)
+        for joints in arm.to_world_points(instants):
+            if checker.least_clearance(joints, horizon) >= 0.0:
+                leaving = False
+            elif not leaving:
+                return k + 1, checker.first_hit(joints) or ("arm", "an obstacle")
     return None
 
 
@@ -55,11 +89,12 @@ def _between_hit(generator, a: Pose, b: Pose):
 
 
 def pose_clearances(arm: ArmModel, poses, checkers) -> list:
-    """Each pose's least clearance (figure units, no margin; ``inf`` beyond half an arm
-    length), measured by its own checker (one per pose: a chase against moving obstacles
+    """Each pose's least clearance (figure units, no margin; ``inf`` where nothing is
+    within half an arm length; a lower bound, :meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`),
+    measured by its own checker (one per pose: a chase against moving obstacles
     has one obstacle set per frame)."""
     horizon = 0.5 * arm.arm_length
-    return [checker.clearance(arm.to_world_points(p.joints), horizon)
+    return [checker.least_clearance(arm.to_world_points(p.joints), horizon)
             for p, checker in zip(poses, checkers)]
 
 

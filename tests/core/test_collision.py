@@ -93,3 +93,42 @@ def test_axis_distance_is_the_segments_least_distance_to_the_mesh_within_its_tol
     expected = min(segment_triangle_distances(world[a], world[b], tris)[0] - seg.radius
                    + checker.margin for seg in checker.segments for a, b in [(seg.a, seg.b)])
     assert abs(checker.pose_clearance(world, 1.0, tolerance) - min(1.0, expected)) <= tolerance
+
+
+def test_the_least_clearance_sees_an_edge_the_row_of_points_misses():
+    """A bead beside the forearm, midway between two of the checker's sample points
+    and nearer its axis than the radius by less than the row's over-read: the row of
+    points (:meth:`CollisionChecker.clearance`) calls the forearm clear, the lower bound
+    (:meth:`CollisionChecker.least_clearance`) calls it touching, within its tolerance of
+    the exact distance (fuzz seed 1846: a way out of a start in contact that touched a
+    tube's edge again after leaving it)."""
+    from geometry import HANGING, arm_penetration, obstacles, standard_arm, triangles_of
+
+    from reach_addon.core import Planner
+    from reach_addon.core.collision import CLEARANCE_TOLERANCE, CollisionChecker
+    from reach_addon.core.settings import Settings
+
+    arm = standard_arm()
+    s = Settings()
+    world = arm.to_world_points(Planner(arm, None).generator.config_pose(HANGING).joints)
+    forearm = CollisionChecker(arm, obstacles({}), s).by_name["forearm"]
+    elbow, wrist = world[2], world[3]
+    axis = (wrist - elbow) / np.linalg.norm(wrist - elbow)
+    fractions = forearm.fractions[:, 0]
+    spacing = forearm.length * float(fractions[1] - fractions[0])
+    r = arm.forearm_radius
+    depth = spacing ** 2 / (16.0 * r)                # less than the row's over-read
+    middle = elbow + axis * 0.5 * float(fractions[1] + fractions[2]) * forearm.length
+    side = np.cross(axis, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    half = 1e-4 * arm.arm_length                     # a bead: a corner of a tiny box
+    centre = middle + side * (r - depth + 2.0 * half)
+    bead = {"Bead": [(tuple(centre - half), tuple(centre + half))]}
+    checker = CollisionChecker(arm, obstacles(bead), s)
+    # the oracle samples each axis 2 mm apart: at most 1 mm over the exact distance
+    exact = arm_penetration(arm, world, triangles_of(bead))
+    assert -depth <= exact < -0.5 * depth
+    assert checker.clearance(world, arm.arm_length) > 0.0       # the row misses it
+    least = checker.least_clearance(world, arm.arm_length)
+    assert exact - CLEARANCE_TOLERANCE * arm.arm_length - 1e-3 <= least <= exact + 1e-6
+    assert checker.least_clearance(world + [0.0, 0.0, 10.0], arm.arm_length) == float("inf")

@@ -105,3 +105,30 @@ def test_a_chase_from_a_hand_resting_on_a_table(arm):
     assert plan.reason != START_IN_COLLISION, plan.message
     assert plan.success, plan.message
     check_way_out(arm, plan, scene, s)
+
+
+def test_a_way_out_that_touches_again_after_clearing_is_caught(arm):
+    """The rule an independent check of a baked way out applies: a start in contact may
+    stay in contact only while leaving it. Keys of a hand on a table (the elbow bent 20°,
+    in; 26°, clear but within the margin; 22°, in again; 30°, clear by the margin):
+    :func:`~reach_addon.core.motion_check.escape_contact` names the key that touches
+    again; the same keys in order (20°, 24°, 26°, 30°) leave cleanly."""
+    import dataclasses
+
+    from reach_addon.core.motion_check import escape_contact, pose_clearances
+
+    tip = start_joints(arm)[4]
+    gen = Planner(arm, obstacles(slab_under(tip, 0.5 * arm.hand_radius)), Settings()).generator
+
+    def keys(*elbows):
+        return [gen.config_pose(dataclasses.replace(HANGING, elbow=e)) for e in elbows]
+
+    back = keys(20.0, 26.0, 22.0, 30.0)
+    clearances = pose_clearances(arm, back, [gen.checker] * 4)
+    assert [c < 0 for c in clearances] == [True, False, True, False]
+    assert gen.checker.collides(arm.to_world_points(back[1].joints))
+    assert not gen.checker.collides(arm.to_world_points(back[3].joints))
+    at, (part, obstacle) = escape_contact(gen, back, clearances)
+    assert at == 2 and obstacle == "Table", (at, part, obstacle)
+    out = keys(20.0, 24.0, 26.0, 30.0)
+    assert escape_contact(gen, out, pose_clearances(arm, out, [gen.checker] * 4)) is None
