@@ -180,9 +180,9 @@ def measure_naturalness(context, armature, info, results, settings, obstacles=No
     arm lengths above the shoulder and the wrist more than that below it (along the body's
     up axis, :func:`~reach_addon.core.elbow.chicken_wing`); and with ``obstacles`` (the
     run's :class:`~reach_addon.core.collision.Obstacles`) ``forced_bend_frames``, the
-    frames bent more than :data:`FORCED_FROM` where the hand held at its rest alignment
-    would come within ``settings.clearance`` (arm lengths, which a keyed pose keeps) of
-    an obstacle (:func:`relaxed_hand_hits`), and ``bend_forced_by``, the obstacle it meets most often
+    frames bent more than :data:`FORCED_FROM` where the hand held at its rest alignment,
+    or turned straight back to it, would come within ``settings.clearance`` (arm
+    lengths, which a keyed pose keeps) of an obstacle (:func:`relaxed_hand_hits`), and ``bend_forced_by``, the obstacle it meets most often
     (None without any). Changes the scene's frame."""
     scene = context.scene
     bones = info.bones.arms[info.side]
@@ -206,7 +206,8 @@ def measure_naturalness(context, armature, info, results, settings, obstacles=No
                             settings.wing_margin):
                 wings.append(f)
             if obstacles is not None and bends[-1] > FORCED_FROM:
-                hit = relaxed_hand_hits(obstacles, info.arm, w, rest, settings.clearance * length)
+                hit = relaxed_hand_hits(obstacles, info.arm, w, rest, settings.clearance * length,
+                                        axis)
                 if hit is not None:
                     forced.append(hit)
         r.stats["mean_wrist_bend_deg"] = float(np.mean(bends))
@@ -222,16 +223,45 @@ def measure_naturalness(context, armature, info, results, settings, obstacles=No
 FORCED_FROM = 15.0
 
 
-def relaxed_hand_hits(obstacles, arm, wrist, rest_axis, margin: float = 0.0):
+def relaxed_hand_hits(obstacles, arm, wrist, rest_axis, margin: float = 0.0, axis=None):
     """The obstacle (name) the hand held at its rest alignment at ``wrist`` (world) would
     come within ``margin`` (figure units; the planner's clearance) of: its capsule from
     the wrist along ``rest_axis`` for the hand's length, with the hand's radius
-    (:class:`~reach_addon.core.arm.ArmModel`), sampled every half radius; None if it keeps
-    that margin."""
+    (:class:`~reach_addon.core.arm.ArmModel`), sampled every half radius; with ``axis``
+    (the hand's axis now) also on the way there, the hand turned straight from ``axis``
+    toward ``rest_axis`` in steps of at most :data:`SWEEP_STEP_DEG` (a hand bent past a
+    shelf's edge whose rest alignment is clear cannot turn back through the shelf); None
+    if it keeps that margin throughout."""
     radius, length = arm.hand_radius, arm.hand_length
     n = max(2, int(np.ceil(length / (0.5 * max(radius, 1e-9)))) + 1)
-    for t in np.linspace(0.0, 1.0, n):
-        hit = obstacles.nearest(wrist + t * length * rest_axis, radius + margin)
-        if hit is not None:
-            return obstacles.owner(hit[2])
+    for direction in _turn_toward(axis, rest_axis):
+        for t in np.linspace(0.0, 1.0, n):
+            hit = obstacles.nearest(wrist + t * length * direction, radius + margin)
+            if hit is not None:
+                return obstacles.owner(hit[2])
     return None
+
+
+#: The step (degrees) of :func:`relaxed_hand_hits`' turn back to the rest alignment.
+SWEEP_STEP_DEG = 5.0
+
+
+def _turn_toward(axis, rest_axis) -> list:
+    """Unit directions between ``axis`` and ``rest_axis`` along the great circle, at most
+    :data:`SWEEP_STEP_DEG` apart, ``rest_axis`` first, ``axis`` itself (the hand as it
+    is, which the planner keeps clear) left out; ``[rest_axis]`` without ``axis``."""
+    b = np.asarray(rest_axis, dtype=float)
+    b = b / np.linalg.norm(b)
+    if axis is None:
+        return [b]
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    angle = float(np.arccos(np.clip(a @ b, -1.0, 1.0)))
+    steps = int(np.ceil(np.degrees(angle) / SWEEP_STEP_DEG))
+    if steps == 0 or np.sin(angle) < 1e-9:
+        return [b]
+    out = [b]
+    for t in np.linspace(1.0, 0.0, steps + 1)[1:-1]:
+        d = (np.sin((1.0 - t) * angle) * a + np.sin(t * angle) * b) / np.sin(angle)
+        out.append(d / np.linalg.norm(d))
+    return out

@@ -12,8 +12,9 @@ axis from its fingers against where the rest pose would hold it; the body's up a
 agree with the measured ones.
 
 A bend beyond those figures passes only where the report names the obstacle that forced
-it (``bend_forced_by``) and the hand turned back to its rest alignment would indeed come
-within the clearance a keyed pose keeps of an obstacle (:func:`relaxed_hand_touches`,
+it (``bend_forced_by``) and the hand turned back to its rest alignment, there or on the
+way (a hand bent past a shelf's edge cannot turn back through the shelf), would indeed
+come within the clearance a keyed pose keeps of an obstacle (:func:`relaxed_hand_touches`,
 exact distances to the evaluated triangles) on
 every frame bent beyond 45°, or the frame lies so near a forced one that the hand could not
 be bent less than 45° there, turning at most its bounds a frame: relative to the forearm
@@ -48,25 +49,22 @@ MEAN_AGREES, MAX_AGREES = 2.0, 6.0
 #: How many chicken-wing frames the report and the measure may count apart.
 WING_FRAMES_AGREE = 1
 
-_LONG = ("the bend lasts longer than the obstacle forces it: the hand pass holds it while "
-         "the forearm turns, and relaxes at the bound only after")
+_LONG = ("the bend lasts longer than this test's bound allows: the hand pass relaxes it "
+         "more slowly than 15° a frame while the forearm turns (Goblin's: 10° a frame), "
+         "and the bound takes the two turn bounds apart and "
+         "obstacles only at the relaxed hand and on the straight way to it")
 #: (rig, scene) → what keeps it from the goal, as measured at this commit ("forced": the
-#: report names the obstacle and the relaxed hand would touch it on those frames).
+#: report names the obstacle and the relaxed hand, or the hand turned straight back to
+#: it, would touch it on those frames).
 XFAIL = {
     ("gomakehuman", "shelf"): "max bend 66° at the slot; 7 wing frames: the path with the "
                               "elbow kept low (core.elbow) has none, but its hand touches "
                               "'Shelf inner side' between keys, so the planner keeps the "
                               "search's swivels",
-    ("gomakehuman", "chase"): f"forced by 'Table' on frames 4-8, but bent beyond 45° with a "
-                              f"relaxed hand clear on frame 9: {_LONG}",
-    ("cesium", "shelf"): f"forced by 'Shelf top' on 16 frames, but bent beyond 45° with a "
-                         f"relaxed hand clear on frames 43-46: {_LONG}",
-    ("goblin", "shelf"): f"forced by 'Shelf top' on 12 frames, but bent beyond 45° with a "
-                         f"relaxed hand clear on frames 37-41: {_LONG}",
-    ("knight", "shelf"): f"forced by 'Shelf outer side' on 8 frames, but bent beyond 45° "
-                         f"with a relaxed hand clear on frames 32-33: {_LONG}",
-    ("robot", "shelf"): f"forced by 'Shelf bottom' on 7 frames, but bent beyond 45° with a "
-                        f"relaxed hand clear on frames 22-26: {_LONG}",
+    ("goblin", "shelf"): f"forced by 'Shelf top' on frames 23-37, but bent beyond 45° with "
+                         f"the way back to rest clear on frames 40-41: {_LONG}",
+    ("robot", "shelf"): f"forced by 'Shelf bottom' on frames 14-22, but bent beyond 45° "
+                        f"with the way back to rest clear on frames 25-26: {_LONG}",
 }
 
 
@@ -90,9 +88,14 @@ def _rotation(m):
 def relaxed_hand_touches(arm, info, check, tris, margin: float) -> bool:
     """Would the hand, turned back at the wrist to its rest alignment on the forearm as it
     is now, come within its radius and ``margin`` (figure units: the clearance a keyed
-    pose keeps) of ``tris``? The hand's capsule as the clearance check
-    reads it (wrist to the fingers' far end), rotated by ``Rf (Rf⁰ᵀ Rh⁰) (Rfᵀ Rh)ᵀ Rfᵀ``
-    (armature space, ⁰: rest), against the triangles by exact segment distances."""
+    pose keeps) of ``tris``, there or on the way? The hand's capsule as the clearance
+    check reads it (wrist to the fingers' far end), rotated by ``Rf (Rf⁰ᵀ Rh⁰) (Rfᵀ Rh)ᵀ
+    Rfᵀ`` (armature space, ⁰: rest), and turned there about the one axis that takes it
+    (the rotation's own axis, :data:`SWEEP_STEPS` steps: a hand bent past a shelf's edge
+    cannot turn back through the shelf), against the triangles by exact segment
+    distances. On the way, a touch counts only nearer than the hand is now by a quarter
+    of the margin (this capsule is the skin's, not the planner's, and may already sit
+    within the margin)."""
     b = info.bones.arms["right"]
     bones, pb = arm.data.bones, arm.pose.bones
     rf = _rotation(pb[b.forearm].matrix)
@@ -100,8 +103,36 @@ def relaxed_hand_touches(arm, info, check, tris, margin: float) -> bool:
         @ (rf.T @ _rotation(pb[b.hand].matrix)).T @ rf.T
     mw = np.array(arm.matrix_world)[:3, :3]
     _part, wrist, tip, radius = check.capsules()[2]
-    relaxed = wrist + mw @ (back @ np.linalg.solve(mw, tip - wrist))
-    return float(segment_triangle_distances(wrist, relaxed, tris)[0]) < radius + margin
+    local = np.linalg.solve(mw, tip - wrist)
+    now = float(segment_triangle_distances(wrist, tip, tris)[0])
+    for t in np.linspace(1.0, 0.0, SWEEP_STEPS + 1)[:-1]:
+        relaxed = wrist + mw @ (_fraction(back, t) @ local)
+        d = float(segment_triangle_distances(wrist, relaxed, tris)[0])
+        # (on the way, nearer than the hand is now: this capsule is not the planner's)
+        if d < radius + margin and (t == 1.0 or d < now - 0.25 * margin):
+            return True
+    return False
+
+
+#: Steps of :func:`relaxed_hand_touches`' turn back to the rest alignment.
+SWEEP_STEPS = 16
+
+
+def _fraction(rotation, t: float):
+    """The rotation by ``t`` of the angle of ``rotation`` (3 × 3) about its own axis
+    (Rodrigues' formula)."""
+    angle = float(np.arccos(np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)))
+    if angle < 1e-9:
+        return np.eye(3)
+    axis = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0],
+                     rotation[1, 0] - rotation[0, 1]])
+    if np.linalg.norm(axis) < 1e-9:               # a half turn: its axis from R + I
+        sym = rotation + np.eye(3)
+        axis = sym[:, int(np.argmax(np.linalg.norm(sym, axis=0)))]
+    axis = axis / np.linalg.norm(axis)
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    a = t * angle
+    return np.eye(3) + np.sin(a) * k + (1.0 - np.cos(a)) * (k @ k)
 
 
 @pytest.mark.parametrize("kind, scene", list(cases(XFAIL)))
