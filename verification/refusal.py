@@ -14,8 +14,7 @@ input file, with a :class:`Verdict` whose ``status`` is one of :data:`STATUSES`:
     skin whose bones are clear);
 ``unchecked``
     the reason is not one this module checks (a chase's pursuit, a later target of any
-    task but a chase, a start inside the character's own body capsules, ``target_in_obstacle``
-    outside every closed mesh, bad input).
+    task but a chase, a start inside the character's own body capsules, bad input).
 
 The path claim (:data:`PATH_REASONS`) is checked by :func:`check_path_claim`: OMPL's
 RRTConnect in the core's seven joints with the core's own state test, on the planner's
@@ -28,7 +27,9 @@ where the claim is that the chest lies inside a closed mesh, that point by ray p
 where it is that an animated obstacle moves into the start pose on a later frame, the skin
 as it starts against that obstacle on that frame; a later target's start (where the one
 before it ended, at its own frame) is unchecked.
-``target_in_obstacle`` by :func:`check_target_inside`. Obstacles are this module's own
+``target_in_obstacle`` by :func:`check_target_inside`, and where the target lies inside no
+closed obstacle by :func:`check_no_pose_at` (no valid state within the goal tolerance of
+it). Obstacles are this module's own
 reading of the README's rules (:func:`scene_obstacles`). The method in full, and why:
 ``docs/design.md``, *The refusal cross-check*.
 """
@@ -397,6 +398,32 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
                         + f" ({'; '.join(notes)})")
     v.states_checked = validity.calls
     v.seconds = round(time.perf_counter() - t0, 4)
+    return v
+
+
+def check_no_pose_at(planner, start_row, target_c, inside: Verdict, *,
+                     budget_s: float = OMPL_BUDGET_S, max_states: int | None = None,
+                     seed: int = 0, search: bool = True) -> Verdict:
+    """``target_in_obstacle`` where ray parity (``inside``, :func:`check_target_inside`)
+    finds the target inside no closed obstacle: the claim's substance, that no valid
+    state puts the wrist within the goal tolerance of it (the character's own body
+    capsules, an open mesh read as solid), tested as :func:`check_path_claim` tests a
+    path claim. No valid goal state: confirmed. Valid goal states and a clear path from
+    the start (``search``): a false refusal. Valid goal states and no path within the
+    budget: inconclusive (the target is not inside anything the core's own test refuses,
+    but no way to it was found); with no start to search from (``search`` False),
+    unchecked."""
+    v = check_path_claim(planner, start_row, target_c, target=inside.target,
+                         reason=TARGET_IN_OBSTACLE, budget_s=budget_s, max_states=max_states,
+                         seed=seed, search=search)
+    v.seconds = round((inside.seconds or 0.0) + (v.seconds or 0.0), 4)
+    if v.status == CONFIRMED and v.method == "ompl":
+        v.status = INCONCLUSIVE
+        v.detail = (f"the target is inside no closed obstacle by ray parity, and "
+                    f"{v.goal_states} valid states put the wrist on it, but " + v.detail
+                    + ": not decided")
+    elif v.status == CONFIRMED:
+        v.detail = "the target is inside no closed obstacle by ray parity, but " + v.detail
     return v
 
 
@@ -831,8 +858,14 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
             point = np.array(bpy.data.objects[name].matrix_world.translation)
             scene.frame_set(problem.frame)
         if reason == TARGET_IN_OBSTACLE:
-            out.append(check_target_inside(context, armature, point, problem.targets,
-                                           problem.collection, target=name, message=message))
+            v = check_target_inside(context, armature, point, problem.targets,
+                                    problem.collection, target=name, message=message)
+            if v.status == UNCHECKED:
+                v = check_no_pose_at(problem.planner, problem.start_row,
+                                     arm.to_canonical_points(point), v, budget_s=budget_s,
+                                     max_states=max_states, seed=seed,
+                                     search=task == "chase" or i == 0)
+            out.append(v)
         elif reason in PATH_REASONS:
             if task == "chase" and reason == NO_PATH:
                 out.append(Verdict(name, reason, UNCHECKED,

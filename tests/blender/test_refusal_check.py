@@ -204,3 +204,17 @@ def test_the_geometry_finds_touching_crossing_and_inside():
     d = geometry.point_triangle_distance(np.array([[0.2, 0.2, 2.0], [2.0, 0.0, 0.0]]),
                                          *np.repeat(t[None], 2, 0).transpose(1, 0, 2))
     assert np.allclose(d, [2.0, 1.0])
+
+
+def test_a_target_inside_the_body_is_confirmed_by_no_pose_at_it(tmp_path):
+    """A target in the chest, inside no obstacle mesh: Reach refuses it as inside the
+    character's own body, which ray parity cannot confirm (the body is not an obstacle
+    mesh); the cross-check confirms the claim's substance instead, that no valid state
+    puts the wrist within the goal tolerance of it (``refusal.check_no_pose_at``)."""
+    _arm, info = humanoid()
+    rigs.add_target("Chest", everyday.at(info, 0.05, -0.33, -0.25))
+    rc, report = bake(tmp_path, ["Chest"])
+    assert rc == 1 and reasons(report)["Chest"] == "target_in_obstacle", report
+    (v,) = refusal.check_report(bpy.context, report)
+    assert (v.status, v.method, v.goal_states) == ("confirmed", "ik", 0), v.detail
+    assert "inside no closed obstacle" in v.detail
