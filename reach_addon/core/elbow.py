@@ -33,8 +33,12 @@ every transition within the smoothness bound (:func:`~reach_addon.core.limits.sm
 every hand within ``hand_step_turn`` of the last
 (:meth:`~reach_addon.core.generator.ConfigurationGenerator.hand_order`). The path is then
 rebuilt through :meth:`~reach_addon.core.generator.ConfigurationGenerator.solve` with each
-chosen swivel and hand, which also checks the hand's sweep and the arm's swing; a state it
-refuses is banned and the DP runs again (at most :data:`MAX_ROUNDS` times). The hand turns
+chosen swivel and hand, which also checks the hand's sweep and the arm's swing, and each
+step is checked as two keys interpolate
+(:meth:`~reach_addon.core.generator.ConfigurationGenerator.transition_problem`, at half the
+clearance: on GoMakeHuman's shelf the elbow kept low put the hand against the shelf's
+inner side between keys, and the whole path fell back to the search's wings); a state
+refused is banned and the DP runs again (at most :data:`MAX_ROUNDS` times). The hand turns
 at most ``hand_step_turn`` between neighbours even where they are more than a step apart
 (a chase's frames): the hand pass bounds its turn per frame tighter still. The new path is
 kept only if it has fewer wing positions than the old, and the motion's every-instant checks
@@ -245,7 +249,7 @@ def _rebuild(gens, poses, layers, hands, path):
         k, p = int(layers[i].ks[m]), poses[i]
         pose = gens[i].solve(p.wrist, out[-1], body_rotation=p.config.body_rotation,
                              hand_scale=1.0, swivel=k, hand_sample=hands[h])
-        if pose is None:
+        if pose is None or gens[i].transition_problem(out[-1], pose) is not None:
             return None, (i, k, hands[h])
         out.append(pose)
     if not gens[-1].smooth_between(out[-1], poses[-1]):

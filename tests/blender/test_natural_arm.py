@@ -23,9 +23,8 @@ be bent less than 45° there, turning at most its bounds a frame: relative to th
 frames keep the mean within 12°.
 
 The pairs the planner does not do yet are ``xfail(strict=True)`` in :data:`XFAIL`, with
-what was measured: bends that last longer than the obstacle forces them, and an elbow
-lifted over a low hand where the path with the elbow kept low (``core.elbow``) does not
-pass the every-instant check (issue "A natural arm").
+what was measured: bends that last longer than the obstacle forces them (issue "A natural
+arm").
 """
 
 from __future__ import annotations
@@ -57,10 +56,6 @@ _LONG = ("the bend lasts longer than this test's bound allows: the hand pass rel
 #: report names the obstacle and the relaxed hand, or the hand turned straight back to
 #: it, would touch it on those frames).
 XFAIL = {
-    ("gomakehuman", "shelf"): "max bend 66° at the slot; 7 wing frames: the path with the "
-                              "elbow kept low (core.elbow) has none, but its hand touches "
-                              "'Shelf inner side' between keys, so the planner keeps the "
-                              "search's swivels",
     ("goblin", "shelf"): f"forced by 'Shelf top' on frames 23-37, but bent beyond 45° with "
                          f"the way back to rest clear on frames 40-41: {_LONG}",
     ("robot", "shelf"): f"forced by 'Shelf bottom' on frames 14-22, but bent beyond 45° "
