@@ -37,16 +37,33 @@ def wrist_turn(coefficients_a, coefficients_b):
     return np.degrees(np.arccos(np.clip(dot, -1.0, 1.0)))
 
 
+def bend_step(step: float, bound: float) -> float:
+    """The grid's bend step: ``step`` (``Settings.hand_grid_step``) shortened so that a
+    whole number of steps makes the turn bound a frame, ``bound`` / ⌈``bound`` / ``step``⌉
+    (5° at 24 fps, 4.8° at 25, 4° at 30): a hand relaxing as fast as the bound allows
+    moves by the bound each frame, not by the largest multiple of ``step`` below it
+    (10° a frame at 25 fps with 5° steps and a 14.4° bound)."""
+    if bound <= 0.0 or not math.isfinite(bound):
+        return step
+    return bound / math.ceil(bound / step - 1e-9)
+
+
 def hand_grid(settings, start_hand, bound: float, extra=(), rest=(1.0, 0.0, 0.0)) -> HandGrid:
-    """The grid of wrist angles, plus the start hand and a chain of states (at most half
+    """The grid of wrist angles (bends every :func:`bend_step` from 0 out to the wrist's
+    limit, which is a state too), plus the start hand and a chain of states (at most half
     the bound apart) from it to the nearest grid state, then the ``extra`` states (the
     wanted hand of :mod:`.orient`, when the hand is matched to a target's orientation).
     ``rest``: the neutral wrist's coefficients (``ArmModel.rest_coefficients``) the states'
     ``bend`` is measured from (:func:`wrist_turn`)."""
-    step = settings.hand_grid_step
+    step = bend_step(settings.hand_grid_step, bound)
     b_max, s_max = settings.wrist_bend_max, settings.wrist_side_max
-    bends = np.linspace(-b_max, b_max, 2 * math.ceil(b_max / step) + 1) if b_max > 0 else [0.0]
-    n_side = 2 * math.ceil(s_max / (2.5 * step)) + 1 if s_max > 0 else 1
+    if b_max > 0:
+        half = np.arange(1, math.floor(b_max / step + 1e-9) + 1) * step
+        half = np.append(half, b_max) if b_max - half[-1:].sum() > 1e-9 else half
+        bends = np.concatenate([-half[::-1], [0.0], half])
+    else:
+        bends = [0.0]
+    n_side = 2 * math.ceil(s_max / (2.5 * settings.hand_grid_step)) + 1 if s_max > 0 else 1
     sides = np.linspace(-s_max, s_max, n_side) if s_max > 0 else [0.0]
     grid = [(float(b), float(s)) for b in bends for s in sides]
     coef = np.array([hand_coefficients(b, s) for b, s in grid])

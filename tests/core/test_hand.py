@@ -177,3 +177,25 @@ def test_slowing_down_follows_the_paths_own_hand():
     for p in report.poses:
         assert gen.between_keys().hands_clear(
             p.joints, p.bend, 0.0, [hand_coefficients(*p.hand)])[0]
+
+
+def test_a_turn_at_the_bound_is_a_whole_number_of_grid_steps():
+    """At 25 fps the bound is 14.4° a frame: with bends every 5° the hand could relax only
+    10° a frame (Goblin's shelf held its bend two frames longer); the grid's bend step
+    divides the bound (hand_grid.bend_step), so a state lies exactly one bound away, and
+    at 24 fps the grid is as it was (every 5°)."""
+    from reach_addon.core.hand_grid import bend_step, hand_grid
+    from reach_addon.core.settings import Settings
+
+    s = Settings()
+    assert bend_step(5.0, 15.0) == 5.0 and bend_step(5.0, 14.4) == pytest.approx(4.8)
+    assert bend_step(5.0, 12.0) == pytest.approx(4.0) and bend_step(5.0, 0.0) == 5.0
+    for bound in (15.0, 14.4, 12.0, 6.0):
+        grid = hand_grid(s, (0.0, 0.0), bound)
+        at_rest = int(np.flatnonzero((np.abs(grid.angles) < 1e-9).all(axis=1))[0])
+        reach = grid.turn[at_rest][grid.turn[at_rest] <= bound + 1e-9]
+        assert reach.max() == pytest.approx(bound), bound
+        assert grid.angles[:, 0].min() == -s.wrist_bend_max
+        assert grid.angles[:, 0].max() == s.wrist_bend_max
+    assert sorted(set(hand_grid(s, (0.0, 0.0), 15.0).angles[:, 0].round(9))) == \
+        [float(b) for b in np.arange(-70.0, 70.1, 5.0)]
