@@ -80,10 +80,16 @@ def task_results(info, plans, keyed, request, baked_result=None) -> list:
     return out
 
 
+#: The words of a start refused as deeper in an obstacle than a start may touch
+#: (:func:`~reach_addon.core.contact.depth_message`).
+DEEP_START = "a start may touch (Start contact tolerance)"
+
+
 def start_as_it_shows(armature, info, plans, obstacles, sweep=None) -> None:
     """Turn, in place, each segment of ``plans`` (core Plans) refused as touching an
-    obstacle at its start (``start_in_collision``, "already touches") into ``start_held``,
-    saying so, where the arm's skin as Blender shows it now touches nothing
+    obstacle at its start (``start_in_collision``, "already touches", or deeper than the
+    start contact tolerance, :data:`DEEP_START`) into ``start_held``, saying so, where the
+    arm's skin (the clavicle's too where the model's clavicle is what touches) as Blender shows it now touches nothing
     (:func:`.skin.skin_clearance` against ``obstacles``, looking half an arm length
     out): the refusal is then a claim about Reach's model of the arm, not about what the
     user sees. Likewise, with ``sweep`` (the pipeline's ``_sweep(f0, f1)``), a start an
@@ -101,19 +107,26 @@ def start_as_it_shows(armature, info, plans, obstacles, sweep=None) -> None:
             if coming is not None:
                 _moving_in_as_it_shows(armature, info, seg, coming, sweep)
                 continue
-            if "already touches" not in seg.message:
+            deep = DEEP_START in seg.message
+            if "already touches" not in seg.message and not deep:
                 continue
-            if skin is None:
-                skin = skin_clearance(info, armature, obstacles, 0.5 * length)
+            clavicle = "(at the clavicle)" in seg.message
+            if skin is None or clavicle:
+                skin = skin_clearance(info, armature, obstacles, 0.5 * length,
+                                      clavicle=clavicle)
             if skin <= 0.0:
                 continue
+            clear = (f"{seg.message.split(';')[0]} as Reach models the arm (one capsule per "
+                     f"segment, fuller than the skin there), although its skin is "
+                     f"{100.0 * skin * info.arm.metres_per_unit:.1f} cm "
+                     f"({skin / length:.3f} arm lengths) clear")
             seg.reason = START_HELD
-            seg.message = (f"{seg.message.split(';')[0]} as Reach models the arm (one capsule "
-                           f"per segment, fuller than the skin there), although its skin is "
-                           f"{100.0 * skin * info.arm.metres_per_unit:.1f} cm "
-                           f"({skin / length:.3f} arm lengths) clear, and no move of the model "
-                           "leaves it: the arm cannot move from its start pose; move the arm or "
-                           "the obstacle a little apart, or lower the clearance")
+            seg.message = clear + (
+                ": Reach does not plan from a start its model holds that deep in an obstacle; "
+                "move the arm or the obstacle a little apart, or raise the start contact "
+                "tolerance" if deep else
+                ", and no move of the model leaves it: the arm cannot move from its start pose; "
+                "move the arm or the obstacle a little apart, or lower the clearance")
 
 
 def _moving_in_as_it_shows(armature, info, seg, coming, sweep) -> None:

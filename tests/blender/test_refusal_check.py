@@ -160,6 +160,37 @@ def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_not_refused(tmp_path):
     check calls a false refusal: it says the skin is clear. Now the claim is what holds:
     the arm cannot move from its start (``start_held``), the capsule being Reach's model
     of the arm (``results.start_as_it_shows``, the skin measured on the start frame)."""
+    arm, info = sleeve()
+    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
+    # the claim Reach used to make, checked by the skin: false
+    v = refusal.check_start(bpy.context, arm, info, {"Ahead"}, target="Ahead")
+    assert (v.status, v.method) == ("false_refusal", "skin"), v.detail
+    assert 0.0 < v.clearance < 0.03
+    rc, report = bake(tmp_path, ["Ahead"])
+    assert reasons(report)["Ahead"] == "start_held", report["tasks"][0]["message"]
+    assert "Sleeve" in report["tasks"][0]["message"]
+
+
+def test_a_skin_clear_of_a_sleeve_its_capsule_is_deep_in_is_held_not_in_collision(tmp_path):
+    """The sleeve of the test above with a start contact tolerance below the capsule's
+    depth in its walls (fuzz seed 5196: CesiumMan's clavicle capsule 0.10 arm lengths into
+    a box its skin stands 0.088 clear of): Reach refuses to plan from so deep a start, and
+    says it is its model that is in, not the skin (``start_held``), not that the start
+    touches (``start_in_collision``, which the skin check calls false)."""
+    arm, info = sleeve()
+    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
+    rc, report = bake(tmp_path, ["Ahead"], "--start-contact-depth", "0.005")
+    task = report["tasks"][0]
+    assert (rc, task["reason"]) == (1, "start_held"), task["message"]
+    assert "Sleeve" in task["message"] and "raise the start contact tolerance" in task["message"]
+    (v,) = refusal.check_report(bpy.context, report)
+    assert v.status != "false_refusal", v.detail
+
+
+def sleeve():
+    """The humanoid with a square sleeve of four closed bars round its right hand, 15 %
+    wider than the hand's skin box: the skin 6 mm from the walls, the hand's round capsule
+    (the box's corners) into all four."""
     arm, info = humanoid(skin_radius=0.04)
     hand = arm.pose.bones["mixamorig:RightHand"]
     mw = arm.matrix_world
@@ -175,14 +206,7 @@ def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_not_refused(tmp_path):
         for sign in (1, -1):
             rigs.add_box(f"Sleeve{2 * k + (sign > 0)}", centre + sign * (half + bar / 2) * a,
                          (bar, 2 * (half + bar), long), np.column_stack([a, b, axis]))
-    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
-    # the claim Reach used to make, checked by the skin: false
-    v = refusal.check_start(bpy.context, arm, info, {"Ahead"}, target="Ahead")
-    assert (v.status, v.method) == ("false_refusal", "skin"), v.detail
-    assert 0.0 < v.clearance < 0.03
-    rc, report = bake(tmp_path, ["Ahead"])
-    assert reasons(report)["Ahead"] == "start_held", report["tasks"][0]["message"]
-    assert "Sleeve" in report["tasks"][0]["message"]
+    return arm, info
 
 
 def test_the_geometry_finds_touching_crossing_and_inside():
