@@ -23,7 +23,7 @@ from .elbow import relax_elbow
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
-from .motion_check import motion_stats
+from .motion_check import escape_contact, motion_stats, pose_clearances
 from .results import Plan, Segment, Stats
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
@@ -196,10 +196,26 @@ class _Chase:
         s = self.settings
         self.steps = chase_steps_per_frame(s, task.fps)
         self.trajectory = self.arm.to_canonical_points(task.targets)
-        self.poses = [start] + escape_frames(way_out, self.steps, len(self.trajectory),
-                                             s.hand_space_turn_speed / task.fps)
+        self.poses = [start] + self._way_out(way_out, start)
         self.lead = len(self.poses)       # the chased frames start here
         self.frames: list = []
+
+    def _way_out(self, way_out, start: Pose) -> list:
+        """The escape's frames (:func:`escape_frames`), ``self.steps`` of its poses a frame
+        at most, fewer where the keys so far apart would touch again after leaving contact
+        as Blender interpolates them (:func:`~reach_addon.core.motion_check.escape_contact`,
+        against the first frame's obstacles), down to one a frame."""
+        turn = self.settings.hand_space_turn_speed / self.task.fps
+        frames = len(self.trajectory)
+        gen = self.planners[0].generator
+        picked = []
+        for steps in range(self.steps, 0, -1):
+            picked = escape_frames(way_out, steps, frames, turn)
+            poses = [start] + picked
+            if not picked or escape_contact(
+                    gen, poses, pose_clearances(self.arm, poses, [gen.checker] * len(poses))) is None:
+                break
+        return picked
 
     def run(self, chunk: int):
         """Chase every frame, then hand the frames to the hand pass; where it could not keep
