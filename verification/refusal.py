@@ -26,7 +26,9 @@ reaching arm and hand against the obstacles' triangles (:mod:`verification.geome
 where the claim is that the chest lies inside a closed mesh, that point by ray parity;
 where it is that an animated obstacle moves into the start pose on a later frame, the skin
 as it starts against that obstacle on that frame; a later target's start (where the one
-before it ended, at its own frame) is unchecked.
+before it ended, at its own frame) is unchecked, unless no target before it moved the arm
+(a plan refused at its start refuses every target with the start's claim): it is then
+the rig's start, checked as the first target's is.
 ``target_in_obstacle`` by :func:`check_target_inside`, and where the target lies inside no
 closed obstacle by :func:`check_no_pose_at` (no valid state within the goal tolerance of
 it). Obstacles are this module's own
@@ -828,7 +830,9 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
     before it ended, which only the planner knows, so only its goal region is checked
     there (its start claim is unchecked). A chase's ``no_path`` (the wrist did not catch up) is unchecked; its
     other reasons are about the target's last position, searched from the start. Leaves
-    the scene at the start frame."""
+    the scene at the start frame. A later target whose targets before it never moved the
+    arm (a plan refused at its start refuses every target alike) starts at the rig's
+    start pose and is checked as the first is."""
     import bpy
 
     failed = [(i, t) for i, t in enumerate(report.get("tasks", ())) if not t["success"]]
@@ -839,9 +843,14 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
     armature = bpy.data.objects[report["armature"]]
     scene = context.scene
     out, start_verdict = [], None
+    tasks = report["tasks"]
     for i, t in failed:
         reason, name, message = t["reason"], t["target"], t.get("message") or ""
-        if reason == START_IN_COLLISION and task != "chase" and i > 0:
+        # a later target starts where the one before it ended: the rig's own start pose
+        # where no target before it moved the arm (a plan refused at its start refuses
+        # every target with the same claim)
+        later = task != "chase" and any(p["frame_end"] > p["frame_start"] for p in tasks[:i])
+        if reason == START_IN_COLLISION and later:
             out.append(Verdict(name, reason, UNCHECKED,
                                "a later target's start is where the one before it ended, at "
                                "its own frame, which only the planner knows: not checked"))
@@ -864,7 +873,7 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
                 v = check_no_pose_at(problem.planner, problem.start_row,
                                      arm.to_canonical_points(point), v, budget_s=budget_s,
                                      max_states=max_states, seed=seed,
-                                     search=task == "chase" or i == 0)
+                                     search=not later)
             out.append(v)
         elif reason in PATH_REASONS:
             if task == "chase" and reason == NO_PATH:
@@ -872,7 +881,6 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
                                    "a chase's no_path says the wrist did not catch the moving "
                                    "target in time (a pursuit at a speed limit): not checked"))
                 continue
-            later = task != "chase" and i > 0
             out.append(check_path_claim(problem.planner, problem.start_row,
                                         arm.to_canonical_points(point), target=name,
                                         reason=reason, budget_s=budget_s,

@@ -133,6 +133,25 @@ def test_a_start_with_the_hand_inside_a_box_is_confirmed_by_the_skin(tmp_path):
     assert "Crate" in v.detail
 
 
+def test_every_target_of_a_sequence_refused_at_its_start_is_checked(tmp_path):
+    """A sequence whose start has the hand in a box: Reach refuses every target with the
+    start's claim, the arm never moving. The later targets start where the first did, so
+    each is checked as the first is (the skin), not left unchecked as a later target whose
+    start only the planner knows."""
+    arm, info = humanoid()
+    wrist = info.joints_world["wrist"]
+    tip = np.array(arm.matrix_world @ arm.pose.bones["mixamorig:RightHand"].tail)
+    rigs.add_box("Crate", 0.5 * (wrist + tip), (0.16, 0.16, 0.16))
+    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
+    rigs.add_target("Up", everyday.at(info, 0.5, 0.1, 0.3))
+    rc, report = bake(tmp_path, ["Ahead", "Up"], "--task", "sequence")
+    assert rc == 1 and reasons(report) == {"Ahead": "start_in_collision",
+                                           "Up": "start_in_collision"}, report
+    verdicts = refusal.check_report(bpy.context, report, "sequence")
+    assert [(v.target, v.status, v.method) for v in verdicts] == [
+        ("Ahead", "confirmed", "skin"), ("Up", "confirmed", "skin")], [v.detail for v in verdicts]
+
+
 def test_a_starved_planner_s_no_path_is_a_false_refusal(tmp_path):
     """The plate scene is solvable (Reach reaches it with its default settings); with ten
     search positions and no fallback Reach says no_path, and the cross-check finds a
