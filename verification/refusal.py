@@ -10,8 +10,8 @@ input file, with a :class:`Verdict` whose ``status`` is one of :data:`STATUSES`:
     the check contradicts it: a clear path exists (its length and goal state are given),
     or the start's arm and hand skin are clear of every obstacle;
 ``inconclusive``
-    the check ran but cannot decide (a start the core's own test refuses; an arm without
-    skin whose bones are clear);
+    the check ran but cannot decide (a start the core's own test refuses for anything but
+    its nearness to an obstacle; an arm without skin whose bones are clear);
 ``unchecked``
     the reason is not one this module checks (a chase's pursuit, a later target of any
     task but a chase, a start inside the character's own body capsules, bad input).
@@ -20,7 +20,11 @@ The path claim (:data:`PATH_REASONS`) is checked by :func:`check_path_claim`: OM
 RRTConnect in the core's seven joints with the core's own state test, on the planner's
 problem rebuilt by the pipeline's readers (:func:`rebuild`), toward a goal region of valid
 states with the wrist within the goal tolerance (:func:`goal_region`); ``budget_s``
-seconds (and at most ``max_states`` states) where that region is not empty. The start
+seconds (and at most ``max_states`` states) where that region is not empty. A start the
+core's test refuses for being nearer an obstacle than the clearance, or for its model
+standing into one (a start in contact), is searched from with that test loosened just
+enough to pass it (:func:`_held_validity`): a way that never comes nearer, nor goes
+deeper, than the start. The start
 claim (``start_in_collision``) by :func:`check_start`: Blender's evaluated skin of the
 reaching arm and hand against the obstacles' triangles (:mod:`verification.geometry`), or,
 where the claim is that the chest lies inside a closed mesh, that point by ray parity;
@@ -364,12 +368,42 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
         v.status, v.method = UNCHECKED, "ik"
         v.detail = (f"{len(region.rows)} valid goal states exist; the start (where the "
                     "previous leg ended) is known only to the planner, so no path is searched")
-    elif not validity.valid(start_row):
+    elif not validity.valid(start_row) and _held_validity(planner, space, start_row) is None:
         v.status, v.method = INCONCLUSIVE, "ik"
         v.detail = (f"{len(region.rows)} valid goal states exist, but the start pose is not "
                     f"valid by the core's test ({why_invalid(validity, start_row)}): the "
                     "planner first moves such a start out of contact, which a search from it "
                     "cannot")
+    elif not validity.valid(start_row):
+        # nearer an obstacle than the clearance, or the model touching it: searched keeping
+        # at least the start's own clearance everywhere (never nearer, never deeper)
+        held, share = _held_validity(planner, space, start_row)
+        v.method = "ompl"
+        path, length, tested = ompl_search(held, start_row, target_c, region.rows,
+                                           budget_s=budget_s, max_states=max_states, seed=seed)
+        keep = (f"keeping at least the start's own clearance ({share:.4f} arm lengths)"
+                if share >= 0.0 else
+                f"never deeper in than Reach's model of the arm starts ({-share:.4f} arm lengths)")
+        budget = f"{budget_s:g} s" + (f" / {max_states} states" if max_states else "")
+        if path is None:
+            v.detail = (f"OMPL RRTConnect found no path in {budget} ({tested} states tested) "
+                        f"{keep} to a goal region of {len(region.rows)} valid states ({chest})")
+        elif not _path_valid(held, path):
+            v.status = INCONCLUSIVE
+            v.detail = ("OMPL RRTConnect returned a path that the core's test refuses "
+                        "between its states (not counted)")
+        else:
+            v.status = FALSE_REFUSAL
+            v.path_length = round(wrist_travel(arm, path, s.step), 4)
+            v.goal_state = [round(float(x), 3) for x in path[-1]]
+            v.detail = (f"OMPL RRTConnect found a clear path {keep} in "
+                        f"{time.perf_counter() - t0:.1f} s ({tested} states tested, "
+                        f"{len(path)} waypoints): the wrist travels {v.path_length:.3f} arm "
+                        "lengths to the goal state " + ", ".join(
+                            f"{n} {x:.1f}" for n, x in zip(JOINT_NAMES, path[-1])))
+        v.states_checked = validity.calls + held.calls
+        v.seconds = round(time.perf_counter() - t0, 4)
+        return v
     else:
         v.method = "ompl"
         path, length, tested = ompl_search(validity, start_row, target_c, region.rows,
@@ -427,6 +461,49 @@ def check_no_pose_at(planner, start_row, target_c, inside: Verdict, *,
     elif v.status == CONFIRMED:
         v.detail = "the target is inside no closed obstacle by ray parity, but " + v.detail
     return v
+
+
+def _held_validity(planner, space, start_row):
+    """For a start the core's test refuses only for its nearness to an obstacle: (the
+    core's state test loosened just enough to pass it — the clearance lowered to the start's
+    own where the start keeps some, else, where Reach's model of the arm stands into an
+    obstacle, the arm's radii less the least depth d that passes it and no clearance, as a
+    start in contact may move while never going deeper — and what it keeps, in arm lengths:
+    the clearance, or -d). None for a start refused for anything else, or deeper than a
+    start may touch. The depth is sought from the arm's capsules' own
+    (:meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`) up, by half as
+    much again each time: the state test reads the hand as a fan of fingers, which may
+    stand deeper than the hand's one capsule."""
+    import dataclasses
+
+    from reach_addon.core.collision import CollisionChecker
+
+    arm, s = planner.arm, planner.settings
+    length = arm.arm_length
+    world = arm.to_world_points(np.asarray(joints_of_one(arm, [float(x) for x in start_row])))
+    c = planner.generator.checker.least_clearance(world, length)
+    deepest = s.start_contact_depth * length
+    if not -deepest <= c < s.clearance * length:
+        return None
+    if c >= 0.0:
+        lowered = s.replace(clearance=max(0.0, c / length - 1e-4))
+        held = StateValidity(arm, lowered, CollisionChecker(arm, planner.generator.obstacles,
+                                                            lowered), space)
+        return (held, c / length) if held.valid(start_row) else None
+    lowered = s.replace(clearance=0.0)
+    by = -c + 1e-4 * length
+    while by <= deepest:
+        # (each radius kept at least a tenth of itself: a capsule of no radius is a
+        # segment, which the checker's bisection never settles)
+        model = dataclasses.replace(arm, **{k: max(getattr(arm, k) - by, 0.1 * getattr(arm, k))
+                                            for k in ("upper_arm_radius", "forearm_radius",
+                                                      "hand_radius")})
+        held = StateValidity(model, lowered, CollisionChecker(model, planner.generator.obstacles,
+                                                              lowered), space)
+        if held.valid(start_row):
+            return held, -by / length
+        by *= 1.5
+    return None
 
 
 # --- Blender: the obstacles by the README's rules, the character, the start's skin ---------

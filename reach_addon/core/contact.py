@@ -3,7 +3,8 @@
 A start nearer an obstacle than the clearance is moved out of contact before planning.
 Deeper than ``Settings.start_contact_depth`` (:func:`start_clearance`, negative inside)
 it is refused (:func:`depth_message`). Otherwise :func:`escape` takes search steps with a
-generator for a thinner arm (every radius less by what the start lacks), each the step
+generator for a thinner arm (every radius less by what the start lacks) — the wrist's
+steps at the chest as it is, and with the chest turned a little either way — each the step
 that most increases the real arm's clearance and never one that decreases it (where none
 increases it, the one that keeps it and takes the wrist farthest), until the real arm is
 clear with the whole margin, at most ``max_steps`` steps. The escape's poses lead the
@@ -73,9 +74,12 @@ def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
         along = [prev.wrist - prev.elbow, prev.joints[4] - prev.wrist]
         along = [generator.step_length * s * v / max(float(np.linalg.norm(v)), 1e-12)
                  for v in along for s in (1.0, -1.0)]
-        for w in prev.wrist + np.vstack([offsets] + along):
-            pose = loose.solve(w, prev, body_rotation=prev.config.body_rotation,
-                               hand_scale=1.0)
+        body = prev.config.body_rotation
+        tries = [(w, body) for w in prev.wrist + np.vstack([offsets] + along)]
+        tries += [(w, b) for b in _chest_turns(generator.settings, body)
+                  for w in prev.wrist + np.vstack([np.zeros((1, 3)), offsets])]
+        for w, b in tries:
+            pose = loose.solve(w, prev, body_rotation=b, hand_scale=1.0)
             if pose is None:
                 continue
             c = start_clearance(generator, pose)
@@ -93,6 +97,22 @@ def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
         poses.append(best)
         clearance = max(clearance, best_key[1])
     return None
+
+
+#: The chest's turn (degrees) an escape step may take, either way (:func:`_chest_turns`).
+ESCAPE_CHEST_STEP = 5.0
+
+
+def _chest_turns(settings, body: float) -> list:
+    """The chest rotations an escape step may turn to from ``body``: a
+    :data:`ESCAPE_CHEST_STEP` either way within ``Settings.chest_rotation_max`` (a clavicle or
+    upper arm against a box the wrist's steps cannot move off; fuzz seed 7074, where the
+    cross-check's OMPL left with the chest turned); none with the chest kept still."""
+    if not settings.chest_rotation:
+        return []
+    limit = float(settings.chest_rotation_max)
+    return [b for b in (body - ESCAPE_CHEST_STEP, body + ESCAPE_CHEST_STEP)
+            if -limit - 1e-9 <= b <= limit + 1e-9]
 
 
 def depth_message(obstacle: str, part: str, depth: float, limit: float) -> str:

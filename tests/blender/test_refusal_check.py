@@ -188,6 +188,11 @@ def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_not_refused(tmp_path):
     rc, report = bake(tmp_path, ["Ahead"])
     assert reasons(report)["Ahead"] == "start_held", report["tasks"][0]["message"]
     assert "Sleeve" in report["tasks"][0]["message"]
+    # the claim Reach makes now, that the arm cannot move: OMPL searches from the start
+    # with the arm's model thinned by its depth there (never deeper in) and finds no way
+    (v,) = refusal.check_report(bpy.context, report)
+    assert (v.status, v.method) == ("confirmed", "ompl"), v.detail
+    assert "never deeper in" in v.detail
 
 
 def test_a_skin_clear_of_a_sleeve_its_capsule_is_deep_in_is_held_not_in_collision(tmp_path):
