@@ -4,9 +4,11 @@ A start nearer an obstacle than the clearance is moved out of contact before pla
 Deeper than ``Settings.start_contact_depth`` (:func:`start_clearance`, negative inside)
 it is refused (:func:`depth_message`). Otherwise :func:`escape` takes search steps with a
 generator for a thinner arm (every radius less by what the start lacks) — the wrist's
-steps at the chest as it is, and with the chest turned a little either way — each the step
-that most increases the real arm's clearance and never one that decreases it (where none
-increases it, the one that keeps it and takes the wrist farthest), until the real arm is
+steps at the chest as it is, and only where none of them gets on, with the chest turned a
+little either way — each the step
+that most increases the real arm's clearance and, while it touches, never one that
+decreases it (where none increases it, the one that takes the wrist farthest, keeping the
+clearance while it touches and never touching again once out), until the real arm is
 clear with the whole margin, at most ``max_steps`` steps. The escape's poses lead the
 motion; the hand pass checks their frames with the thinner arm.
 """
@@ -19,6 +21,7 @@ import math
 import numpy as np
 
 from .arm import Pose
+from .collision import CLEARANCE_TOLERANCE
 from .generator import ConfigurationGenerator
 from .search import sphere_directions
 
@@ -64,39 +67,60 @@ def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
     loose = thinner(generator, margin - min(c0, margin) + 1e-3 * arm.arm_length)
     offsets = generator.step_length * sphere_directions(int(generator.settings.directions))
     poses, clearance = [start], c0
+    # what the clearance's measure may err by (it errs low): a step that keeps the
+    # clearance (a hand sliding along a plane) reads as that much nearer or farther
+    noise = CLEARANCE_TOLERANCE * arm.arm_length
     for _ in range(max_steps):
         if not generator.checker.collides(arm.to_world_points(poses[-1].joints)):
             return Escape(poses, loose, c0, obstacle)
         prev = poses[-1]
-        best, best_key = None, None
         # the search's directions, and along the limbs: a hand in a sleeve or a slot slides
         # out only along it, which no direction of the sphere follows closely enough
         along = [prev.wrist - prev.elbow, prev.joints[4] - prev.wrist]
         along = [generator.step_length * s * v / max(float(np.linalg.norm(v)), 1e-12)
                  for v in along for s in (1.0, -1.0)]
         body = prev.config.body_rotation
-        tries = [(w, body) for w in prev.wrist + np.vstack([offsets] + along)]
-        tries += [(w, b) for b in _chest_turns(generator.settings, body)
-                  for w in prev.wrist + np.vstack([np.zeros((1, 3)), offsets])]
-        for w, b in tries:
-            pose = loose.solve(w, prev, body_rotation=b, hand_scale=1.0)
-            if pose is None:
-                continue
-            c = start_clearance(generator, pose)
-            if c < clearance - 1e-9:
-                continue                         # never nearer what it touches
-            # the farthest from what it touches; where every step keeps the clearance as it
-            # is (a hand in a sleeve, its faces parallel to the walls), the farthest from
-            # the start, so that it slides on out
-            key = (c > clearance + 1e-9, c, math.dist(w.tolist(), start.wrist.tolist()))
-            if best_key is None or key > best_key:
-                best, best_key = pose, key
-        if best is None or (not best_key[0] and best_key[2] <= math.dist(
-                prev.wrist.tolist(), start.wrist.tolist()) + 1e-9):
+        # the wrist's steps with the chest as it is; only where none gets on, with the
+        # chest turned a little either way too
+        best, best_key = _best_step(loose, generator, prev, start, clearance, noise,
+                                    [(w, body) for w in prev.wrist + np.vstack([offsets] + along)])
+        stuck = best is None or (not best_key[0] and best_key[2] <= math.dist(
+            prev.wrist.tolist(), start.wrist.tolist()) + 1e-9)
+        turns = _chest_turns(generator.settings, body)
+        if stuck and turns:
+            best, best_key = _best_step(loose, generator, prev, start, clearance, noise,
+                                        [(w, b) for b in turns for w in prev.wrist
+                                         + np.vstack([np.zeros((1, 3)), offsets])])
+            stuck = best is None or not best_key[0]
+        if stuck:
             return None                          # nothing farther from it, nor out along it
         poses.append(best)
         clearance = max(clearance, best_key[1])
     return None
+
+
+def _best_step(loose, generator, prev: Pose, start: Pose, clearance: float, noise: float,
+               tries) -> tuple:
+    """(pose, key) of the best escape step among ``tries`` [(wrist, chest rotation)] from
+    ``prev`` (:func:`escape`), or (None, None)."""
+    best, best_key = None, None
+    for w, b in tries:
+        pose = loose.solve(w, prev, body_rotation=b, hand_scale=1.0)
+        if pose is None:
+            continue
+        c = start_clearance(generator, pose)
+        if c < min(clearance, 0.0) - noise:
+            continue            # never nearer what it touches, nor back into it once out
+        # the farthest from what it touches; where no step gets farther (a hand in a
+        # sleeve, its faces parallel to the walls; an arm out of contact at the top of
+        # its clearance, within the margin still), the farthest from the start, so that
+        # it slides on out
+        farther = c > clearance + noise
+        key = (farther, c if farther else -math.inf,
+               math.dist(w.tolist(), start.wrist.tolist()), c)
+        if best_key is None or key > best_key:
+            best, best_key = pose, key
+    return best, best_key
 
 
 #: The chest's turn (degrees) an escape step may take, either way (:func:`_chest_turns`).
