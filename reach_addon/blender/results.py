@@ -89,14 +89,14 @@ def start_as_it_shows(armature, info, plans, obstacles, sweep=None) -> None:
     """Turn, in place, each segment of ``plans`` (core Plans) refused as touching an
     obstacle at its start (``start_in_collision``, "already touches", or deeper than the
     start contact tolerance, :data:`DEEP_START`) into ``start_held``, saying so, where the
-    arm's skin (the clavicle's too where the model's clavicle is what touches) as Blender shows it now touches nothing
-    (:func:`.skin.skin_clearance` against ``obstacles``, looking half an arm length
-    out): the refusal is then a claim about Reach's model of the arm, not about what the
-    user sees. Likewise, with ``sweep`` (the pipeline's ``_sweep(f0, f1)``), a start an
-    animated obstacle moves into on a later frame (:func:`~reach_addon.core.sweep.
-    coming_into`) where the skin, clavicle included, stays clear of it on that frame. The
-    character's own body, an enclosed chest and an obstacle moving into a chase are left
-    as they are."""
+    arm's skin (the clavicle's too where the model's clavicle is what touches) as Blender
+    shows it now touches nothing (:func:`.skin.skin_clearance` against ``obstacles``,
+    looking half an arm length out): the refusal is then a claim about Reach's model of the
+    arm, not about what the user sees. Likewise, with ``sweep`` (the pipeline's
+    ``_sweep(f0, f1)``), a start an animated obstacle moves into on a later frame
+    (:func:`~reach_addon.core.sweep.coming_into`) where the skin, clavicle included, stays
+    clear of it on that frame. The character's own body, an enclosed chest and an
+    obstacle moving into a chase are left as they are."""
     length = info.arm.arm_length
     skin = None
     for plan in plans:
@@ -195,8 +195,8 @@ def measure_naturalness(context, armature, info, results, settings, obstacles=No
     run's :class:`~reach_addon.core.collision.Obstacles`) ``forced_bend_frames``, the
     frames bent more than :data:`FORCED_FROM` where the hand held at its rest alignment,
     or turned straight back to it, would come within ``settings.clearance`` (arm
-    lengths, which a keyed pose keeps) of an obstacle (:func:`relaxed_hand_hits`), and ``bend_forced_by``, the obstacle it meets most often
-    (None without any). Changes the scene's frame."""
+    lengths, which a keyed pose keeps) of an obstacle (:func:`relaxed_hand_hits`), and
+    ``bend_forced_by``, the obstacle it meets most often (None without any). Changes the scene's frame."""
     scene = context.scene
     bones = info.bones.arms[info.side]
     hands = info.hand_bones or (bones.hand,)

@@ -495,12 +495,13 @@ class CollisionChecker:
 
     def least_clearance(self, world_joints, horizon: float) -> float:
         """A lower bound on the least distance between the pose's capsule surfaces (no
-        margin) and the obstacles, ``inf`` where nothing is within ``horizon``: :meth:`pose_clearance` to within
-        :data:`CLEARANCE_TOLERANCE` arm lengths, less that tolerance, so a pose it calls
-        clear (``≥ 0``) is clear by any exact measure, and one in contact is never called
-        clear. Where a contact's sign matters (leaving a start in contact, a key's
-        contact), this is the measure: :meth:`clearance`'s row of points can over-report
-        by half its spacing, enough to miss an edge between two of them."""
+        margin) and the obstacles, ``inf`` where nothing is within ``horizon``:
+        :meth:`pose_clearance` to within :data:`CLEARANCE_TOLERANCE` arm lengths, less
+        that tolerance, so a pose it calls clear (``≥ 0``) is clear by any exact measure,
+        and one in contact is never called clear. Where a contact's sign matters (leaving
+        a start in contact, a key's contact), this is the measure: :meth:`clearance`'s row
+        of points can over-report by half its spacing, enough to miss an edge between two
+        of them."""
         tolerance = CLEARANCE_TOLERANCE * self.arm.arm_length
         cap = horizon + tolerance
         c = self.pose_clearance(world_joints, cap, tolerance)

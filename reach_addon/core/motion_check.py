@@ -90,8 +90,9 @@ def _between_hit(generator, a: Pose, b: Pose):
 
 def pose_clearances(arm: ArmModel, poses, checkers) -> list:
     """Each pose's least clearance (figure units, no margin; ``inf`` where nothing is
-    within half an arm length; a lower bound, :meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`),
-    measured by its own checker (one per pose: a chase against moving obstacles
+    within half an arm length; a lower bound,
+    :meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`), measured by its
+    own checker (one per pose: a chase against moving obstacles
     has one obstacle set per frame)."""
     horizon = 0.5 * arm.arm_length
     return [checker.least_clearance(arm.to_world_points(p.joints), horizon)
