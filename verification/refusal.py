@@ -357,6 +357,7 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
     v = Verdict(target, reason, CONFIRMED, "", "ik", goal_states=len(region.rows),
                 table1_chest_deg=round(table1, 3))
     chest = f"chest {round(space.lo[0]) + 0}..{round(space.hi[0]) + 0}°"
+    held = None
     if not len(region.rows):
         v.detail = (f"no valid goal state: the IK over the swivel circle ({SWIVEL_STEP_DEG:g}° "
                     f"steps), the chest range ({chest}, {CHEST_STEP_DEG:g}° steps) and "
@@ -368,51 +369,29 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
         v.status, v.method = UNCHECKED, "ik"
         v.detail = (f"{len(region.rows)} valid goal states exist; the start (where the "
                     "previous leg ended) is known only to the planner, so no path is searched")
-    elif not validity.valid(start_row) and _held_validity(planner, space, start_row) is None:
+    elif not validity.valid(start_row) and \
+            (held := _held_validity(planner, space, start_row)) is None:
         v.status, v.method = INCONCLUSIVE, "ik"
         v.detail = (f"{len(region.rows)} valid goal states exist, but the start pose is not "
                     f"valid by the core's test ({why_invalid(validity, start_row)}): the "
                     "planner first moves such a start out of contact, which a search from it "
                     "cannot")
-    elif not validity.valid(start_row):
-        # nearer an obstacle than the clearance, or the model touching it: searched keeping
-        # at least the start's own clearance everywhere (never nearer, never deeper)
-        held, share = _held_validity(planner, space, start_row)
-        v.method = "ompl"
-        path, length, tested = ompl_search(held, start_row, target_c, region.rows,
-                                           budget_s=budget_s, max_states=max_states, seed=seed)
-        keep = (f"keeping at least the start's own clearance ({share:.4f} arm lengths)"
-                if share >= 0.0 else
-                f"never deeper in than Reach's model of the arm starts ({-share:.4f} arm lengths)")
-        budget = f"{budget_s:g} s" + (f" / {max_states} states" if max_states else "")
-        if path is None:
-            v.detail = (f"OMPL RRTConnect found no path in {budget} ({tested} states tested) "
-                        f"{keep} to a goal region of {len(region.rows)} valid states ({chest})")
-        elif not _path_valid(held, path):
-            v.status = INCONCLUSIVE
-            v.detail = ("OMPL RRTConnect returned a path that the core's test refuses "
-                        "between its states (not counted)")
-        else:
-            v.status = FALSE_REFUSAL
-            v.path_length = round(wrist_travel(arm, path, s.step), 4)
-            v.goal_state = [round(float(x), 3) for x in path[-1]]
-            v.detail = (f"OMPL RRTConnect found a clear path {keep} in "
-                        f"{time.perf_counter() - t0:.1f} s ({tested} states tested, "
-                        f"{len(path)} waypoints): the wrist travels {v.path_length:.3f} arm "
-                        "lengths to the goal state " + ", ".join(
-                            f"{n} {x:.1f}" for n, x in zip(JOINT_NAMES, path[-1])))
-        v.states_checked = validity.calls + held.calls
-        v.seconds = round(time.perf_counter() - t0, 4)
-        return v
     else:
+        # a start nearer an obstacle than the clearance, or whose model touches one, is
+        # searched from with the test loosened to pass it (never nearer, never deeper)
+        searcher, share = held if held is not None else (validity, None)
+        keep = "" if share is None else (
+            f" keeping at least the start's own clearance ({share:.4f} arm lengths)"
+            if share >= 0.0 else
+            f" never deeper in than Reach's model of the arm starts ({-share:.4f} arm lengths)")
         v.method = "ompl"
-        path, length, tested = ompl_search(validity, start_row, target_c, region.rows,
+        path, length, tested = ompl_search(searcher, start_row, target_c, region.rows,
                                            budget_s=budget_s, max_states=max_states, seed=seed)
         budget = f"{budget_s:g} s" + (f" / {max_states} states" if max_states else "")
         if path is None:
-            v.detail = (f"OMPL RRTConnect found no path in {budget} ({tested} states tested) "
-                        f"to a goal region of {len(region.rows)} valid states ({chest})")
-        elif not _path_valid(validity, path) or math.dist(
+            v.detail = (f"OMPL RRTConnect found no path in {budget} ({tested} states tested)"
+                        f"{keep} to a goal region of {len(region.rows)} valid states ({chest})")
+        elif not _path_valid(searcher, path) or math.dist(
                 joints_of_one(arm, path[-1])[3], target_c.tolist()) > \
                 s.goal_tolerance * arm.arm_length * (1 + 1e-6):
             v.status = INCONCLUSIVE
@@ -427,12 +406,13 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
             notes = [f"the wrist {gap:.4f} arm lengths from the target"]
             if abs(goal[0] - table1) > 1.0:
                 notes.append(f"the chest turned {goal[0]:.1f}° where Table 1 gives {table1:.1f}°")
-            v.detail = (f"OMPL RRTConnect found a clear path in {time.perf_counter() - t0:.1f} s "
-                        f"({tested} states tested, {len(path)} waypoints, {length:.2f} long in "
-                        f"the joint metric): the wrist travels {travel:.3f} arm lengths to the "
-                        "goal state " + ", ".join(f"{n} {x:.1f}" for n, x in zip(JOINT_NAMES, goal))
+            v.detail = (f"OMPL RRTConnect found a clear path{keep} in "
+                        f"{time.perf_counter() - t0:.1f} s ({tested} states tested, {len(path)} "
+                        f"waypoints, {length:.2f} long in the joint metric): the wrist travels "
+                        f"{travel:.3f} arm lengths to the goal state "
+                        + ", ".join(f"{n} {x:.1f}" for n, x in zip(JOINT_NAMES, goal))
                         + f" ({'; '.join(notes)})")
-    v.states_checked = validity.calls
+    v.states_checked = validity.calls + (held[0].calls if held is not None else 0)
     v.seconds = round(time.perf_counter() - t0, 4)
     return v
 

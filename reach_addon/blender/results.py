@@ -98,7 +98,7 @@ def start_as_it_shows(armature, info, plans, obstacles, sweep=None) -> None:
     clear of it on that frame. The character's own body, an enclosed chest and an
     obstacle moving into a chase are left as they are."""
     length = info.arm.arm_length
-    skin = None
+    skins = {}           # the skin's clearance, without and with the clavicle's
     for plan in plans:
         for seg in plan.segments:
             if seg.reason != START_IN_COLLISION:
@@ -111,9 +111,10 @@ def start_as_it_shows(armature, info, plans, obstacles, sweep=None) -> None:
             if "already touches" not in seg.message and not deep:
                 continue
             clavicle = "(at the clavicle)" in seg.message
-            if skin is None or clavicle:
-                skin = skin_clearance(info, armature, obstacles, 0.5 * length,
-                                      clavicle=clavicle)
+            if clavicle not in skins:
+                skins[clavicle] = skin_clearance(info, armature, obstacles, 0.5 * length,
+                                                 clavicle=clavicle)
+            skin = skins[clavicle]
             if skin <= 0.0:
                 continue
             clear = (f"{seg.message.split(';')[0]} as Reach models the arm (one capsule per "

@@ -58,9 +58,10 @@ def hand_grid(settings, start_hand, bound: float, extra=(), rest=(1.0, 0.0, 0.0)
     step = bend_step(settings.hand_grid_step, bound)
     b_max, s_max = settings.wrist_bend_max, settings.wrist_side_max
     if b_max > 0:
-        half = np.arange(1, math.floor(b_max / step + 1e-9) + 1) * step
-        half = np.append(half, b_max) if b_max - half[-1:].sum() > 1e-9 else half
-        bends = np.concatenate([-half[::-1], [0.0], half])
+        half = list(np.arange(1, math.floor(b_max / step + 1e-9) + 1) * step)
+        if b_max - (half[-1] if half else 0.0) > 1e-9:
+            half.append(b_max)                   # the wrist's limit is a state too
+        bends = np.concatenate([-np.array(half[::-1]), [0.0], half])
     else:
         bends = [0.0]
     n_side = 2 * math.ceil(s_max / (2.5 * settings.hand_grid_step)) + 1 if s_max > 0 else 1

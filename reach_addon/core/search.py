@@ -41,12 +41,12 @@ GOAL_BALL_FAR = 0.97
 FINE_SWIVEL_STEP = 1.0
 
 
-def goal_ball(target, settings, arm_length: float, toward=(), share: float = GOAL_BALL) -> np.ndarray:
-    """The rim of the target's tolerance ball, (n, 3): ``target`` + ``share`` (default
-    :data:`GOAL_BALL`) × ``goal_tolerance`` × ``arm_length`` toward each point of ``toward``
-    first, then along each of ``Settings.directions`` directions (:func:`sphere_directions`)."""
+def goal_ball(target, settings, arm_length: float, toward=()) -> np.ndarray:
+    """The rim of the target's tolerance ball, (n, 3): ``target`` + :data:`GOAL_BALL` ×
+    ``goal_tolerance`` × ``arm_length`` toward each point of ``toward`` first, then along
+    each of ``Settings.directions`` directions (:func:`sphere_directions`)."""
     target = np.asarray(target, dtype=float)
-    r = share * settings.goal_tolerance * arm_length
+    r = GOAL_BALL * settings.goal_tolerance * arm_length
     ways = [np.asarray(p, dtype=float) - target for p in toward]
     ways = [w / np.linalg.norm(w) for w in ways if np.linalg.norm(w) > 1e-12]
     return target + r * np.vstack(ways + [sphere_directions(int(settings.directions))])
@@ -72,8 +72,8 @@ def last_tries(generator, target) -> list:
     turned = nearest_shoulder(generator, target)
     rim = goal_ball(target, generator.settings, generator.arm.arm_length,
                     (turned, shoulder, 2.0 * target - shoulder))
-    far = goal_ball(target, generator.settings, generator.arm.arm_length, (turned,),
-                    share=GOAL_BALL_FAR)[0]
+    # the rim's first point, toward the turned shoulder, pushed out to GOAL_BALL_FAR
+    far = target + (rim[0] - target) * (GOAL_BALL_FAR / GOAL_BALL)
     fine = generator.finer(FINE_SWIVEL_STEP)
     return [(generator, p) for p in rim] + [(generator, far)] + \
         [(fine, p) for p in (target, rim[0], rim[1], rim[2], far)]
