@@ -5,17 +5,19 @@ Deeper than ``Settings.start_contact_depth`` (:func:`start_clearance`, negative 
 it is refused (:func:`depth_message`). Otherwise :func:`escape` takes search steps with a
 generator for a thinner arm (every radius less by what the start lacks) — the wrist's
 steps at the chest as it is, and only where none of them gets on, with the chest turned a
-little either way — each the step
-that most increases the real arm's clearance and, while it touches, never one that
-decreases it (where none increases it, the one that takes the wrist farthest, keeping the
-clearance while it touches and never touching again once out), until the real arm is
-clear with the whole margin, at most ``max_steps`` steps. The escape's poses lead the
-motion; the hand pass checks their frames with the thinner arm.
+little either way — each the step that most increases the real arm's clearance and, while
+it touches, never one that decreases it (where none increases it, the one that takes the
+wrist farthest, keeping the clearance while it touches and never touching again once out),
+until the real arm is clear with the whole margin, at most ``max_steps`` steps. Where
+that greedy way is stuck or runs out of steps, a best-first search over the same steps,
+under the same rule, with chest turns from every pose (:func:`_search`). The escape's
+poses lead the motion; the hand pass checks their frames with the thinner arm.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import heapq
 import math
 
 import numpy as np
@@ -59,31 +61,57 @@ def thinner(generator: ConfigurationGenerator, by: float) -> ConfigurationGenera
 
 
 def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
-           max_steps: int = 40) -> Escape | None:
-    """Move out of contact (see the module docstring), or None if every step from
-    somewhere on the way fails to increase the clearance."""
+           max_steps: int = 40, max_expansions: int = 30) -> Escape | None:
+    """Move out of contact (see the module docstring): the greedy way first
+    (:func:`_greedy`, at most ``max_steps`` steps), and where it is stuck or runs out of
+    steps, a best-first search (:func:`_search`, at most ``max_expansions`` poses
+    expanded). None if neither gets the real arm clear."""
     arm, margin = generator.arm, generator.checker.margin
     c0 = start_clearance(generator, start)
-    loose = thinner(generator, margin - min(c0, margin) + 1e-3 * arm.arm_length)
-    offsets = generator.step_length * sphere_directions(int(generator.settings.directions))
+    by = margin - min(c0, margin) + 1e-3 * arm.arm_length
+    loose = thinner(generator, by)
+    poses = _greedy(loose, generator, start, c0, max_steps)
+    if poses is None:
+        loose = _passing(generator, start, by)
+        poses = _search(loose, generator, start, c0, max_expansions)
+    return None if poses is None else Escape(poses, loose, c0, obstacle)
+
+
+def _offsets(generator: ConfigurationGenerator, prev: Pose) -> np.ndarray:
+    """The wrist's escape steps from ``prev``: the search's directions, and along the
+    limbs (a hand in a sleeve or a slot slides out only along it, which no direction of
+    the sphere follows closely enough)."""
+    along = [prev.wrist - prev.elbow, prev.joints[4] - prev.wrist]
+    along = [generator.step_length * s * v / max(float(np.linalg.norm(v)), 1e-12)
+             for v in along for s in (1.0, -1.0)]
+    return np.vstack([generator.step_length * sphere_directions(int(generator.settings.directions))]
+                     + along)
+
+
+def _noise(generator: ConfigurationGenerator) -> float:
+    """What the clearance's measure may err by (it errs low): a step that keeps the
+    clearance (a hand sliding along a plane) reads as that much nearer or farther."""
+    return CLEARANCE_TOLERANCE * generator.arm.arm_length
+
+
+def _greedy(loose, generator, start: Pose, c0: float, max_steps: int) -> list | None:
+    """The greedy escape of the module docstring: the poses from ``start`` to the first
+    the real arm's test calls clear, or None."""
+    arm = generator.arm
     poses, clearance = [start], c0
-    # what the clearance's measure may err by (it errs low): a step that keeps the
-    # clearance (a hand sliding along a plane) reads as that much nearer or farther
-    noise = CLEARANCE_TOLERANCE * arm.arm_length
-    for _ in range(max_steps):
+    noise = _noise(generator)
+    for step in range(max_steps + 1):
         if not generator.checker.collides(arm.to_world_points(poses[-1].joints)):
-            return Escape(poses, loose, c0, obstacle)
+            return poses
+        if step == max_steps:
+            return None
         prev = poses[-1]
-        # the search's directions, and along the limbs: a hand in a sleeve or a slot slides
-        # out only along it, which no direction of the sphere follows closely enough
-        along = [prev.wrist - prev.elbow, prev.joints[4] - prev.wrist]
-        along = [generator.step_length * s * v / max(float(np.linalg.norm(v)), 1e-12)
-                 for v in along for s in (1.0, -1.0)]
         body = prev.config.body_rotation
+        offsets = _offsets(generator, prev)
         # the wrist's steps with the chest as it is; only where none gets on, with the
         # chest turned a little either way too
         best, best_key = _best_step(loose, generator, prev, start, clearance, noise,
-                                    [(w, body) for w in prev.wrist + np.vstack([offsets] + along)])
+                                    [(w, body) for w in prev.wrist + offsets])
         stuck = best is None or (not best_key[0] and best_key[2] <= math.dist(
             prev.wrist.tolist(), start.wrist.tolist()) + 1e-9)
         turns = _chest_turns(generator.settings, body)
@@ -97,6 +125,82 @@ def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
         poses.append(best)
         clearance = max(clearance, best_key[1])
     return None
+
+
+def _search(loose, generator, start: Pose, c0: float, max_expansions: int) -> list | None:
+    """Where the greedy escape is stuck: a best-first search over the same steps, the
+    wrist's and, from every pose, the chest turned :data:`ESCAPE_CHEST_STEP` either way
+    (with the wrist kept or stepped). A step is legal by the greedy way's rule: while the
+    real arm touches, never deeper than the least depth it has reached on its way, and once a
+    pose on its way is out of contact, never in contact again (the rule
+    :func:`~reach_addon.core.motion_check.escape_contact` holds the motion to). The
+    pose of greatest real clearance is expanded first (ties: the wrist farthest from the
+    start), each wrist cell (half a step) and chest turn once; the first pose the real
+    arm's test calls clear ends it, and its way back to the start is the escape. Fuzz seeds
+    5045 (an upper arm along a thin wall, whose way out gains clearance only every few
+    slides) and 5235 (a clavicle in a mesh, which only the chest moves) escape here."""
+    arm = generator.arm
+    noise = _noise(generator)
+    cell = 0.5 * generator.step_length
+
+    def key(pose):
+        return tuple(np.round(pose.wrist / cell).astype(int).tolist()) + (
+            round(pose.config.body_rotation / ESCAPE_CHEST_STEP),)
+
+    nodes = [(start, -1, c0)]
+    seen = {key(start)}
+    heap = [(-c0, 0.0, 0)]
+    for _ in range(max_expansions):
+        if not heap:
+            return None
+        _c, _far, i = heapq.heappop(heap)
+        prev, _parent, c_prev = nodes[i]
+        body = prev.config.body_rotation
+        offsets = _offsets(generator, prev)
+        tries = [(w, body) for w in prev.wrist + offsets]
+        tries += [(w, b) for b in _chest_turns(generator.settings, body)
+                  for w in prev.wrist + np.vstack([np.zeros((1, 3)), offsets])]
+        floor = min(c_prev, 0.0)
+        for w, b in tries:
+            pose = loose.solve(w, prev, body_rotation=b, hand_scale=1.0)
+            if pose is None or key(pose) in seen:
+                continue
+            c = start_clearance(generator, pose)
+            if c < floor - noise:
+                continue
+            seen.add(key(pose))
+            nodes.append((pose, i, max(c, c_prev)))
+            if not generator.checker.collides(arm.to_world_points(pose.joints)):
+                way, j = [], len(nodes) - 1
+                while j >= 0:
+                    way.append(nodes[j][0])
+                    j = nodes[j][1]
+                return way[::-1]
+            heapq.heappush(heap, (-c, -math.dist(pose.wrist.tolist(), start.wrist.tolist()),
+                                  len(nodes) - 1))
+    return None
+
+
+def _passing(generator: ConfigurationGenerator, start: Pose, by: float,
+             grow: float = 1.5) -> ConfigurationGenerator:
+    """The :func:`thinner` generator, less by ``by`` and then by ``grow`` times as much
+    again until its own test passes ``start`` (the wrist where it is, the chest as it is),
+    or, where none does before every radius is at its floor, the thinnest (a hand sunk
+    into a table leaves by turning, which the start's own hand cannot). The generator's
+    capsule test is conservative (a short piece of a capsule is settled by a sphere up to
+    ~12 % wider than its radius), so an arm thinned by exactly what the start lacks may
+    still refuse a pose as deep as the start (fuzz seed 5235: a clavicle 0.018 arm lengths
+    into a mesh, which the wrist's steps never move). Only the solve uses the thinner arm;
+    every step is measured on the real one."""
+    arm = generator.arm
+    while True:
+        loose = thinner(generator, by)
+        if loose.solve(start.wrist, start, body_rotation=start.config.body_rotation,
+                       hand_scale=1.0) is not None or all(
+                getattr(loose.arm, k) <= 0.1 * getattr(arm, k) * (1 + 1e-9)
+                for k in ("upper_arm_radius", "forearm_radius", "hand_radius")):
+            return loose
+        by *= grow
 
 
 def _best_step(loose, generator, prev: Pose, start: Pose, clearance: float, noise: float,

@@ -116,7 +116,8 @@ CAMPAIGN_FALSE_REFUSALS = {}
 def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
     """False refusals of full campaigns: five in the first 1,193 scenes of the one at
     4289954, 6024, 6356 and 6397 in a later partial run, 783 in one at 76fb172, 209
-    in one at 341957e, 7408 in one at 2bf9405 and 5196 in one at fbe5464:
+    in one at 341957e, 7408 in one at 2bf9405, 5196 in one at fbe5464, 5045 and 5235 in
+    one at 9c6e3d3:
 
     - 5257 ``out_of_reach`` and 5310 ``needs_lean``: a pose fits only at a swivel angle
       between the search's 5° samples with the elbow folded to its limit (5257), or
@@ -159,9 +160,16 @@ def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
       the wrist moved off while OMPL left with the chest turned; the escape now turns
       the chest where the wrist's steps are stuck (``contact.escape``), and the chase
       then misses the target (``no_path``, a pursuit claim the cross-check leaves);
+    - 5045 and 5235 ``start_held``, from a campaign at 9c6e3d3: an upper arm along a thin
+      wall whose greedy escape ran out of steps (the last one clear was never tested) and
+      a clavicle in a mesh, which the thinner arm's own conservative test still refused
+      and which only the chest moves; the escape now thins the arm until its test passes
+      the start and, where the greedy way is stuck, searches best-first with chest turns
+      (``contact._search``);
     - :data:`CAMPAIGN_FALSE_REFUSALS`, still false refusals (the list stays true: a seed
       that stops being one fails this test too)."""
-    seeds = [209, 783, 5170, 5196, 5221, 5257, 5278, 5310, 6024, 6356, 6397, 7074, 7408]
+    seeds = [209, 783, 5045, 5170, 5196, 5221, 5235, 5257, 5278, 5310, 6024, 6356, 6397, 7074,
+             7408]
     results = campaign.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
     false = {r["seed"]: _false_reason(r) for r in results if r["category"] == "false_refusal"}
     assert false == CAMPAIGN_FALSE_REFUSALS

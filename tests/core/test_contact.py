@@ -116,6 +116,32 @@ def test_a_chase_from_a_hand_resting_on_a_table(arm):
         is None
 
 
+def test_a_clavicle_against_a_box_leaves_by_turning_the_chest(arm):
+    """A box behind the clavicle, its capsule 0.3 of its radius in: no step of the wrist
+    moves the clavicle, so the greedy way out is stuck; the escape's search turns the
+    chest (fuzz seed 5235, a clavicle in a mesh), every early frame no nearer the box."""
+    from reach_addon.core import contact
+
+    joints = start_joints(arm)
+    mid, r = 0.5 * (joints[0] + joints[1]), arm.upper_arm_radius
+    face = mid[1] + 0.7 * r
+    scene = {"Box": [((mid[0] - 0.03, face, mid[2] - 0.05), (mid[0] + 0.03, face + 0.04,
+                                                              mid[2] + 0.05))]}
+    s = Settings()
+    planner = Planner(arm, obstacles(scene), s)
+    gen = planner.generator
+    start = gen.config_pose(HANGING)
+    assert gen.start_problem(start) == ("clavicle", "Box")
+    c0 = contact.start_clearance(gen, start)
+    loose = contact.thinner(gen, gen.checker.margin - c0 + 1e-3 * arm.arm_length)
+    assert contact._greedy(loose, gen, start, c0, 40) is None
+    way = contact.escape(gen, start, "Box")
+    assert way is not None and abs(way.poses[-1].config.body_rotation) >= 5.0
+    plan = planner.plan(Task("reach", TARGET[None], HANGING))
+    assert plan.success, plan.message
+    check_way_out(arm, plan, scene, s)
+
+
 def test_a_way_out_that_touches_again_after_clearing_is_caught(arm):
     """The rule an independent check of a baked way out applies: a start in contact may
     stay in contact only while leaving it. Keys of a hand on a table (the elbow bent 20°,
