@@ -22,9 +22,12 @@ problem rebuilt by the pipeline's readers (:func:`rebuild`), toward a goal regio
 states with the wrist within the goal tolerance (:func:`goal_region`); ``budget_s``
 seconds (and at most ``max_states`` states) where that region is not empty. A start the
 core's test refuses for being nearer an obstacle than the clearance, or for its model
-standing into one (a start in contact), is searched from with that test loosened just
-enough to pass it (:func:`_held_validity`): a way that never comes nearer, nor goes
-deeper, than the start. The start
+standing into one (a start in contact), is searched from with the obstacle part of that
+test replaced by the arm's least clearance, held to the start's own
+(:func:`_held_validity`): a way that never comes nearer, nor goes deeper, than the start.
+A ``start_held`` whose model is deeper than a start may touch (a bone through an
+obstacle's surface included) by :func:`check_deep_start`: the model's capsules at the
+start against the obstacles, by this module's own geometry. The start
 claim (``start_in_collision``) by :func:`check_start`: Blender's evaluated skin of the
 reaching arm and hand against the obstacles' triangles (:mod:`verification.geometry`), or,
 where the claim is that the chest lies inside a closed mesh, that point by ray parity;
@@ -443,47 +446,49 @@ def check_no_pose_at(planner, start_row, target_c, inside: Verdict, *,
     return v
 
 
-def _held_validity(planner, space, start_row):
-    """For a start the core's test refuses only for its nearness to an obstacle: (the
-    core's state test loosened just enough to pass it — the clearance lowered to the start's
-    own where the start keeps some, else, where Reach's model of the arm stands into an
-    obstacle, the arm's radii less the least depth d that passes it and no clearance, as a
-    start in contact may move while never going deeper — and what it keeps, in arm lengths:
-    the clearance, or -d). None for a start refused for anything else, or deeper than a
-    start may touch. The depth is sought from the arm's capsules' own
-    (:meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`) up, by half as
-    much again each time: the state test reads the hand as a fan of fingers, which may
-    stand deeper than the hand's one capsule."""
-    import dataclasses
+class HeldValidity(StateValidity):
+    """The core's state test for a search from a start in contact or nearer an obstacle
+    than the clearance (:func:`_held_validity`): legal and clear of the body as the core's
+    test has it, and, for the obstacles, the arm's least clearance
+    (:meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`, exact to within
+    its tolerance, the capsules without the margin) no less than ``floor``."""
 
-    from reach_addon.core.collision import CollisionChecker
+    def __init__(self, arm, settings, checker, space, floor: float):
+        super().__init__(arm, settings, checker, space)
+        self.floor = floor
+
+    def clear(self, world_joints) -> bool:
+        return self.checker.least_clearance(world_joints, self.arm.arm_length) >= self.floor
+
+
+def _held_validity(planner, space, start_row):
+    """For a start the core's test refuses only for its nearness to an obstacle: (a
+    :class:`HeldValidity` whose floor is the start's own least clearance c, less the
+    measure's tolerance, and c in arm lengths: negative where Reach's model of the arm
+    stands into an obstacle). A way it passes never comes nearer, nor goes deeper, than the
+    start, by the measure the planner's escape keeps to (:mod:`~reach_addon.core.contact`).
+    None for a start refused for anything else, or deeper than a start may touch (a bone
+    through an obstacle's surface is, as the planner has it:
+    :func:`~reach_addon.core.contact.bone_touches`).
+
+    Not the core's capsule test loosened (a thinner arm, a lower clearance) until it
+    passes the start: that test is conservative (a short piece of a capsule settled by a
+    sphere up to ~12 % wider, the margin), and no thinning passes a capsule whose axis
+    crosses a thin obstacle (fuzz seed 5103, a forearm's axis through a plane: inconclusive
+    while the search used it)."""
+    from reach_addon.core.collision import CLEARANCE_TOLERANCE
+    from reach_addon.core.contact import bone_touches
 
     arm, s = planner.arm, planner.settings
     length = arm.arm_length
+    checker = planner.generator.checker
     world = arm.to_world_points(np.asarray(joints_of_one(arm, [float(x) for x in start_row])))
-    c = planner.generator.checker.least_clearance(world, length)
-    deepest = s.start_contact_depth * length
-    if not -deepest <= c < s.clearance * length:
+    c = checker.least_clearance(world, length)
+    if not -s.start_contact_depth * length <= c < s.clearance * length or \
+            (c < 0.0 and bone_touches(checker, world)):
         return None
-    if c >= 0.0:
-        lowered = s.replace(clearance=max(0.0, c / length - 1e-4))
-        held = StateValidity(arm, lowered, CollisionChecker(arm, planner.generator.obstacles,
-                                                            lowered), space)
-        return (held, c / length) if held.valid(start_row) else None
-    lowered = s.replace(clearance=0.0)
-    by = -c + 1e-4 * length
-    while by <= deepest:
-        # (each radius kept at least a tenth of itself: a capsule of no radius is a
-        # segment, which the checker's bisection never settles)
-        model = dataclasses.replace(arm, **{k: max(getattr(arm, k) - by, 0.1 * getattr(arm, k))
-                                            for k in ("upper_arm_radius", "forearm_radius",
-                                                      "hand_radius")})
-        held = StateValidity(model, lowered, CollisionChecker(model, planner.generator.obstacles,
-                                                              lowered), space)
-        if held.valid(start_row):
-            return held, -by / length
-        by *= 1.5
-    return None
+    held = HeldValidity(arm, s, checker, space, c - CLEARANCE_TOLERANCE * length)
+    return (held, c / length) if held.valid(start_row) else None
 
 
 # --- Blender: the obstacles by the README's rules, the character, the start's skin ---------
@@ -807,7 +812,8 @@ class Problem:
     pipeline keeps it), the :class:`reach_addon.core.Planner` on the pipeline's obstacles
     (``planner``; swept over the animation where obstacles move: ``moving``), the start
     row (degrees), the start ``frame``, the target objects' names and the names left out
-    of the obstacles (``exclude``: the character, the targets)."""
+    of the obstacles (``exclude``: the character, the targets), and the obstacles'
+    ``pieces`` the planner was built on [(label, world vertices, triangles)]."""
 
     info: object
     settings: object
@@ -818,6 +824,7 @@ class Problem:
     exclude: set
     collection: object
     moving: set
+    pieces: list = ()
 
 
 def rebuild(context, report: dict, task: str = "reach", obstacles: str | None = None,
@@ -874,7 +881,79 @@ def rebuild(context, report: dict, task: str = "reach", obstacles: str | None = 
         context.view_layer.update()
     planner = Planner(info.arm, obstacles_from_pieces(pieces), settings)
     start_row = pose_row(planner.generator.config_pose(info.start, info.start_hand))
-    return Problem(info, settings, planner, start_row, frame, names, exclude, collection, moving)
+    return Problem(info, settings, planner, start_row, frame, names, exclude, collection, moving,
+                   pieces)
+
+
+#: Why the start claim of a later target is not checked.
+LATER_START = ("a later target's start is where the one before it ended, at its own frame, "
+               "which only the planner knows: not checked")
+
+
+def check_deep_start(problem, *, target: str = "", spacing: float = 0.01) -> Verdict:
+    """Cross-check ``start_held`` for a start whose model stands deeper in an obstacle
+    than a start may touch (the message holds ``reach_addon.blender.results.DEEP_START``):
+    confirmed where, by this module's own geometry (:mod:`verification.geometry`, exact
+    segment-to-triangle distances), against the obstacles the planner had (the rebuilt
+    problem's pieces: where obstacles move, every place they take while the reach lasts,
+    as the claim is made against them), a capsule of Reach's
+    model of the arm at the start (the rebuilt problem's start configuration) reaches
+    deeper than ``Settings.start_contact_depth``, its bone (the capsule's axis) meets an
+    obstacle's surface, or a point of a bone (every ``spacing`` arm lengths) lies inside a
+    closed obstacle by ray parity; else a false refusal."""
+    t0 = time.perf_counter()
+    arm, s = problem.info.arm, problem.settings
+    length = arm.arm_length
+    v = Verdict(target, START_HELD, FALSE_REFUSAL, "", "model")
+    world = arm.to_world_points(np.asarray(joints_of_one(
+        arm, [float(x) for x in problem.start_row])))
+    obstacles = [(label, np.asarray(v, float)[np.asarray(t)], None)
+                 for label, v, t in problem.pieces]
+    caps = [(name, world[a], world[b], r) for name, (a, b, r) in zip(
+        ("clavicle", "upper arm", "forearm", "hand"), _model_capsules(arm))]
+    touch = length * 1e-4
+    deepest, where = -math.inf, ""
+    for label, tris, shut in obstacles:
+        d = geometry.segment_triangle_distances([c[1] for c in caps], [c[2] for c in caps],
+                                                tris, horizon=length)
+        for (name, p, q, r), di in zip(caps, d):
+            if di <= touch:
+                v.status, v.clearance = CONFIRMED, round(-r / length, 4)
+                v.detail = (f"the model's {name} bone meets '{label}' (segment to triangle "
+                            f"{di / length:.5f} arm lengths)")
+            elif r - di > deepest:
+                deepest, where = r - di, f"its {name} in '{label}'"
+            if v.status != CONFIRMED and (shut if shut is not None else
+                                          (shut := geometry.closed(tris))):
+                n = max(2, int(math.ceil(float(np.linalg.norm(q - p)) / (spacing * length))) + 1)
+                pts = p + np.linspace(0.0, 1.0, n)[:, None] * (q - p)
+                if geometry.points_inside(pts, tris).any():
+                    v.status = CONFIRMED
+                    v.detail = f"a point of the model's {name} bone is inside the closed '{label}'"
+        if v.status == CONFIRMED:
+            break
+    if v.status != CONFIRMED:
+        limit = s.start_contact_depth * length
+        v.clearance = round(-deepest / length, 4) if deepest > -math.inf else None
+        if deepest >= limit * (1 - 1e-6):
+            v.status = CONFIRMED
+            v.detail = (f"the model's capsules stand {deepest / length:.4f} arm lengths deep "
+                        f"({where}), beyond the {s.start_contact_depth:g} a start may touch")
+        else:
+            v.detail = (f"the model's capsules stand at most {max(deepest, 0.0) / length:.4f} "
+                        f"arm lengths deep ({where or 'nowhere'}), within the "
+                        f"{s.start_contact_depth:g} a start may touch, no bone meets an "
+                        "obstacle and none lies inside a closed one")
+    v.seconds = round(time.perf_counter() - t0, 4)
+    return v
+
+
+def _model_capsules(arm) -> list:
+    """(first joint, second joint, radius) of Reach's model of the arm, as the README
+    describes it: the clavicle at the upper arm's radius, the upper arm, the forearm and
+    the hand."""
+    return [(0, 1, arm.upper_arm_radius), (1, 2, arm.upper_arm_radius),
+            (2, 3, arm.forearm_radius), (3, 4, arm.hand_radius)]
 
 
 def check_report(context, report: dict, task: str = "reach", obstacles: str | None = None, *,
@@ -892,6 +971,8 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
     start pose and is checked as the first is."""
     import bpy
 
+    from reach_addon.blender.results import DEEP_START
+
     failed = [(i, t) for i, t in enumerate(report.get("tasks", ())) if not t["success"]]
     if not failed:
         return []
@@ -908,15 +989,17 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
         # every target with the same claim)
         later = task != "chase" and any(p["frame_end"] > p["frame_start"] for p in tasks[:i])
         if reason == START_IN_COLLISION and later:
-            out.append(Verdict(name, reason, UNCHECKED,
-                               "a later target's start is where the one before it ended, at "
-                               "its own frame, which only the planner knows: not checked"))
+            out.append(Verdict(name, reason, UNCHECKED, LATER_START))
             continue
         if reason == START_IN_COLLISION:
             if start_verdict is None or "own body" in message or "moves into" in message:
                 start_verdict = check_start(context, armature, problem.info, problem.targets,
                                             problem.collection, target=name, message=message)
             out.append(Verdict(**{**start_verdict.to_dict(), "target": name}))
+            continue
+        if reason == START_HELD and DEEP_START in message:
+            out.append(Verdict(name, reason, UNCHECKED, LATER_START) if later else
+                       check_deep_start(problem, target=name))
             continue
         point = np.array(bpy.data.objects[name].matrix_world.translation)
         if task == "chase":

@@ -243,9 +243,26 @@ def _chest_turns(settings, body: float) -> list:
             if -limit - 1e-9 <= b <= limit + 1e-9]
 
 
-def depth_message(obstacle: str, part: str, depth: float, limit: float) -> str:
-    """Why a start in contact is refused: how deep it is, and what to do."""
-    how = "inside" if depth == float("inf") else f"{depth:.2f} arm lengths into"
+def bone_touches(checker, world_joints) -> bool:
+    """Does any capsule's axis (a bone: sternum to shoulder, shoulder to elbow, elbow to
+    wrist, wrist to the hand's end) come within :data:`CLEARANCE_TOLERANCE` arm lengths of
+    an obstacle's surface? Such a start is refused whatever its depth reads: the capsule's
+    depth is at most its radius however far the bone runs through a thin obstacle, so no
+    step's depth says which way is out (fuzz seeds 5103, 5117: a forearm's bone through a
+    plane, 0.075 arm lengths "deep", which a way out never deeper than that could pass
+    straight through)."""
+    length = checker.arm.arm_length
+    tolerance = CLEARANCE_TOLERANCE * length
+    j = np.asarray(world_joints, dtype=float)
+    return any(checker.axis_distance(j[seg.a], j[seg.b], 2.0 * tolerance, 0.5 * tolerance)
+               <= tolerance for seg in checker.segments)
+
+
+def depth_message(obstacle: str, part: str, depth: float, limit: float,
+                  how: str | None = None) -> str:
+    """Why a start in contact is refused: how deep it is (``how``, else the depth, or
+    "inside" where it is infinite), and what to do."""
+    how = how or ("inside" if depth == float("inf") else f"{depth:.2f} arm lengths into")
     return (f"the start pose is {how} '{obstacle}' (at the {part}), deeper than the "
             f"{limit:.2f} arm lengths a start may touch (Start contact tolerance); move the "
             "arm or the obstacle apart before planning")

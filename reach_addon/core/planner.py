@@ -23,7 +23,7 @@ import numpy as np
 from .arm import ArmModel, Pose
 from .chase import chase_steps
 from .collision import Obstacles
-from .contact import depth_message, escape, start_clearance
+from .contact import bone_touches, depth_message, escape, start_clearance
 from .diagnosis import diagnose_target
 from .elbow import relax_elbow
 from .errors import NO_PATH, START_HELD, START_IN_COLLISION, require_finite
@@ -243,11 +243,16 @@ class Planner:
         world = self.arm.to_world_points(start.joints)
         axis = [world[a] + t * (world[b] - world[a]) for a, b in ((1, 2), (2, 3), (3, 4))
                 for t in (0.0, 0.5, 1.0)]
+        how = None
         if any(self.obstacles.point_inside(p) for p in axis):
             depth = math.inf                     # a joint inside a closed obstacle
+        elif depth > 0.0 and bone_touches(gen.checker, world):
+            # a bone itself through an obstacle's surface: no depth of its capsule's measure
+            # tells which way is out (through a thin plane every way is as deep)
+            depth, how = math.inf, "bone-deep in"
         if depth > limit:
             return None, self._start_failure(task, start, problem,
-                                             depth_message(obstacle, part, depth, limit))
+                                             depth_message(obstacle, part, depth, limit, how))
         way_out = escape(gen, start, obstacle)
         if way_out is None:
             if depth <= 0.0:

@@ -186,7 +186,12 @@ class StateValidity:
                     (self.checker.check_hand and
                      segment_hits_body(wrist, hand, arm.hand_radius, caps)):
                 return False
-        return not self.checker.collides(arm.to_world_points(np.array(joints)), include_hand=True)
+        return self.clear(arm.to_world_points(np.array(joints)))
+
+    def clear(self, world_joints) -> bool:
+        """The obstacle part of :meth:`valid`: is the pose (world joints, (5, 3)) clear
+        by the core's checker, arm and hand, with the clearance margin?"""
+        return not self.checker.collides(world_joints, include_hand=True)
 
 
 def goal_configurations(generator, target, start: Pose, validity: StateValidity,

@@ -166,10 +166,16 @@ def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
       and which only the chest moves; the escape now thins the arm until its test passes
       the start and, where the greedy way is stuck, searches best-first with chest turns
       (``contact._search``);
+    - 5103 ``start_held``, found when the cross-check's search from a start in contact
+      held the arm's exact least clearance to the start's (it had been inconclusive): a
+      forearm's bone through a plane, its capsule only its radius "deep", which a way
+      never deeper than that passed straight through; the planner now refuses a bone
+      through an obstacle's surface as deeper than a start may touch
+      (``contact.bone_touches``), which ``refusal.check_deep_start`` confirms;
     - :data:`CAMPAIGN_FALSE_REFUSALS`, still false refusals (the list stays true: a seed
       that stops being one fails this test too)."""
-    seeds = [209, 783, 5045, 5170, 5196, 5221, 5235, 5257, 5278, 5310, 6024, 6356, 6397, 7074,
-             7408]
+    seeds = [209, 783, 5045, 5103, 5170, 5196, 5221, 5235, 5257, 5278, 5310, 6024, 6356, 6397,
+             7074, 7408]
     results = campaign.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
     false = {r["seed"]: _false_reason(r) for r in results if r["category"] == "false_refusal"}
     assert false == CAMPAIGN_FALSE_REFUSALS

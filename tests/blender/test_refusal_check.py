@@ -208,7 +208,52 @@ def test_a_skin_clear_of_a_sleeve_its_capsule_is_deep_in_is_held_not_in_collisio
     assert (rc, task["reason"]) == (1, "start_held"), task["message"]
     assert "Sleeve" in task["message"] and "raise the start contact tolerance" in task["message"]
     (v,) = refusal.check_report(bpy.context, report)
-    assert v.status != "false_refusal", v.detail
+    assert (v.status, v.method) == ("confirmed", "model"), v.detail
+    assert "deep" in v.detail
+
+
+def test_a_bone_through_a_plane_is_refused_as_deep_and_the_geometry_confirms_it(tmp_path):
+    """A rig without a skin (a bare armature, as a Rigify metarig is) with a small open
+    plane across the middle of its forearm bone: the forearm's capsule reads only its
+    radius deep however the bone runs through, so no depth says which way is out (fuzz
+    seeds 5103, 5117: a search never deeper than that passed straight through). Reach
+    refuses the start as bone-deep (``start_held``, its model in, the skin clear), and
+    the cross-check confirms the claim by its own segment-to-triangle distance; moved a
+    forearm's radius and a half off the bone (its nearest edge), the same plane is no
+    refusal at all."""
+    def plane(offset):
+        humanoid(skin=False)
+        arm = bpy.data.objects["Rig"]
+        fore = arm.pose.bones["mixamorig:RightForeArm"]
+        mw = arm.matrix_world
+        a, b = np.array(mw @ fore.head), np.array(mw @ fore.tail)
+        axis = (b - a) / np.linalg.norm(b - a)
+        from mathutils import Vector
+
+        side = np.array(Vector(axis.tolist()).orthogonal().normalized())
+        third = np.cross(axis, side)
+        h = 0.06
+        centre = 0.5 * (a + b) + (offset + (h if offset else 0.0)) * side   # its edge offset
+        corners = [centre + h * (i * side + j * third) for i, j in ((-1, -1), (1, -1), (1, 1),
+                                                                   (-1, 1))]
+        mesh = bpy.data.meshes.new("Pane")
+        mesh.from_pydata([c.tolist() for c in corners], [], [(0, 1, 2, 3)])
+        bpy.context.scene.collection.objects.link(bpy.data.objects.new("Pane", mesh))
+        return rig_mod.build(arm, "right")
+
+    info = plane(0.0)
+    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
+    rc, report = bake(tmp_path, ["Ahead"])
+    task = report["tasks"][0]
+    assert (rc, task["reason"]) == (1, "start_held"), task["message"]
+    assert "bone-deep in 'Pane' (at the forearm)" in task["message"], task["message"]
+    (v,) = refusal.check_report(bpy.context, report)
+    assert (v.status, v.method) == ("confirmed", "model"), v.detail
+    assert "forearm bone meets 'Pane'" in v.detail
+    info = plane(1.5 * info.arm.forearm_radius * info.arm.metres_per_unit)
+    rigs.add_target("Ahead", everyday.at(info, 0.6, 0.1, 0.0))
+    rc, report = bake(tmp_path, ["Ahead"], name="clear")
+    assert report["tasks"][0]["success"], report["tasks"][0]["message"]
 
 
 def sleeve():

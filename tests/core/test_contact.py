@@ -95,6 +95,31 @@ def test_a_start_deeper_than_the_tolerance_is_refused(arm):
     assert plan.reason == START_IN_COLLISION and "inside 'Table'" in plan.message
 
 
+def test_a_bone_through_a_thin_plate_is_refused_whatever_its_capsule_s_depth(arm):
+    """A thin plate across the forearm (between the points the start's closed-obstacle test
+    samples, so it is no joint inside a closed mesh): its capsule reads only its radius
+    deep (about 0.07 arm lengths, within the default start contact tolerance), however the
+    bone runs through, so no depth says which way is out; Reach refuses the start as
+    bone-deep (fuzz seeds 5103, 5117). The same plate a radius and a half off the bone
+    holds nothing back."""
+    joints = start_joints(arm)
+    mid = joints[2] + 0.3 * (joints[3] - joints[2])
+
+    def plate(dx):
+        c = mid + np.array([dx, 0.0, 0.0])
+        return {"Plate": [((c[0] - 0.04, c[1] - 0.04, c[2] - 0.002),
+                           (c[0] + 0.04, c[1] + 0.04, c[2] + 0.002))]}
+
+    s = Settings()
+    assert arm.forearm_radius < s.start_contact_depth * arm.arm_length
+    plan = Planner(arm, obstacles(plate(0.0)), s).plan(Task("reach", TARGET[None], HANGING))
+    assert plan.reason == START_IN_COLLISION, plan.message
+    assert "bone-deep in 'Plate' (at the forearm)" in plan.message, plan.message
+    scene = plate(-1.5 * arm.forearm_radius)
+    plan = Planner(arm, obstacles(scene), s).plan(Task("reach", TARGET[None], HANGING))
+    assert plan.success, plan.message
+
+
 def test_a_chase_from_a_hand_resting_on_a_table(arm):
     tip = start_joints(arm)[4]
     scene = slab_under(tip, 0.5 * arm.hand_radius)
