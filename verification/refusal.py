@@ -13,8 +13,10 @@ input file, with a :class:`Verdict` whose ``status`` is one of :data:`STATUSES`:
     the check ran but cannot decide (a start the core's own test refuses for anything but
     its nearness to an obstacle; an arm without skin whose bones are clear);
 ``unchecked``
-    the reason is not one this module checks (a chase's pursuit, a later target of any
-    task but a chase, a start inside the character's own body capsules, bad input).
+    the reason is not one this module checks (a later target of any task but a chase, a
+    start inside the character's own body capsules, bad input). A chase's ``no_path``
+    is a path claim to where the target ends, within the chase's frames at its limits
+    (:func:`chase_frames`): a path found that does not fit them is inconclusive.
 
 The path claim (:data:`PATH_REASONS`) is checked by :func:`check_path_claim`: OMPL's
 RRTConnect in the core's seven joints with the core's own state test, on the planner's
@@ -323,6 +325,40 @@ def wrist_travel(arm, path, step: float) -> float:
     return float(np.linalg.norm(np.diff(wrists, axis=0), axis=1).sum()) / arm.arm_length
 
 
+def chase_frames(planner, path, fps: float, share: float = 0.25) -> int:
+    """Frames a chase needs to follow ``path`` (K, 7, degrees) from its first state to its
+    last at its limits: the wrist at most ``Settings.chase_max_speed``, each of the arm's
+    five angles at most ``Settings.max_joint_step`` a search step (the chase's steps a
+    frame, :func:`~reach_addon.core.chase.chase_steps_per_frame`, at ``fps``), the hand's
+    whole turn, roll included, at most ``Settings.hand_space_turn_speed``. The path is
+    cut into pieces ``share`` of a step of the joint metric long; each piece takes the
+    frames its tightest limit asks at a constant rate, so a motion along it in the sum of
+    those frames keeps every limit. A bound from above: the chase may have quicker ways,
+    not slower ones along this path."""
+    from reach_addon.core.arm import ArmConfig, frame_turn
+    from reach_addon.core.chase import chase_steps_per_frame
+
+    arm, s = planner.arm, planner.settings
+    gen = planner.generator
+    steps = chase_steps_per_frame(s, fps)
+    wrist_bound = steps * s.step * arm.arm_length
+    joint_bound = steps * s.max_joint_step
+    hand_bound = s.hand_space_turn_speed / fps
+    space = JointSpace(arm, _NO_LIMITS)
+    rows = [np.asarray(path[0], dtype=float)]
+    for qa, qb in zip(path[:-1], path[1:]):
+        n = max(1, int(math.ceil(space.distance(qa, qb) / (share * s.step))))
+        rows += [qa + (qb - qa) * (k / n) for k in range(1, n + 1)]
+    poses = [gen.config_pose(ArmConfig.from_array(r[:5]), (float(r[5]), float(r[6])))
+             for r in rows]
+    total = 0.0
+    for (ra, a), (rb, b) in zip(zip(rows, poses), zip(rows[1:], poses[1:])):
+        total += max(math.dist(a.wrist.tolist(), b.wrist.tolist()) / wrist_bound,
+                     float(np.abs(rb[:5] - ra[:5]).max()) / joint_bound,
+                     frame_turn(a, b) / hand_bound)
+    return int(math.ceil(total - 1e-9))
+
+
 def _path_valid(validity: StateValidity, path) -> bool:
     """Is every state of ``path`` (K, 7, degrees) and every state between them, a step of
     the metric apart, valid by the core's test? (OMPL checked it so; this re-checks it
@@ -339,7 +375,7 @@ def _path_valid(validity: StateValidity, path) -> bool:
 
 def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: str = NO_PATH,
                      budget_s: float = OMPL_BUDGET_S, max_states: int | None = None,
-                     seed: int = 0, search: bool = True) -> Verdict:
+                     seed: int = 0, search: bool = True, frames=None) -> Verdict:
     """Cross-check the refusal "no clear path from ``start_row`` to ``target_c``".
 
     ``planner``: a :class:`reach_addon.core.Planner` holding the problem (arm model,
@@ -347,7 +383,10 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
     :func:`reach_addon.core.sampling.pose_row` gives it); ``target_c``: the target in the
     canonical frame (figure units). ``budget_s`` / ``max_states``: OMPL's budget;
     ``seed``: OMPL's random seed. ``search`` False: only the goal region is checked (a
-    start the caller does not know) — confirmed if it is empty, else unchecked. Returns a
+    start the caller does not know) — confirmed if it is empty, else unchecked. ``frames``:
+    for a chase, (frames the chase had, frames per second): a path found is a false refusal
+    only where the chase could follow it in those frames at its limits
+    (:func:`chase_frames`), else inconclusive. Returns a
     :class:`Verdict` (see the module docstring for the method)."""
     t0 = time.perf_counter()
     arm, s = planner.arm, planner.settings
@@ -409,6 +448,12 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
             notes = [f"the wrist {gap:.4f} arm lengths from the target"]
             if abs(goal[0] - table1) > 1.0:
                 notes.append(f"the chest turned {goal[0]:.1f}° where Table 1 gives {table1:.1f}°")
+            if frames is not None:
+                need = chase_frames(planner, path, frames[1])
+                notes.append(f"a chase at its limits follows it in {need} frames, "
+                             f"{frames[0]} were had")
+                if need > frames[0]:
+                    v.status = INCONCLUSIVE
             v.detail = (f"OMPL RRTConnect found a clear path{keep} in "
                         f"{time.perf_counter() - t0:.1f} s ({tested} states tested, {len(path)} "
                         f"waypoints, {length:.2f} long in the joint metric): the wrist travels "
@@ -1016,15 +1061,17 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
                                      search=not later)
             out.append(v)
         elif reason in PATH_REASONS:
-            if task == "chase" and reason == NO_PATH:
-                out.append(Verdict(name, reason, UNCHECKED,
-                                   "a chase's no_path says the wrist did not catch the moving "
-                                   "target in time (a pursuit at a speed limit): not checked"))
-                continue
+            # a chase's no_path: the wrist did not catch the target by the last frame, at
+            # the chase's limits; a way to where the target ends that a chase at those
+            # limits follows within the chase's frames belies it (the wrist may wait there)
+            timing = ((int(t["frame_end"]) - int(t["frame_start"]),
+                       scene.render.fps / scene.render.fps_base)
+                      if task == "chase" and reason == NO_PATH else None)
             out.append(check_path_claim(problem.planner, problem.start_row,
                                         arm.to_canonical_points(point), target=name,
                                         reason=reason, budget_s=budget_s,
-                                        max_states=max_states, seed=seed, search=not later))
+                                        max_states=max_states, seed=seed, search=not later,
+                                        frames=timing))
         else:
             out.append(Verdict(name, str(reason), UNCHECKED, "not a reason this module checks"))
     return out
