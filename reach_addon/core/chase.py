@@ -6,7 +6,9 @@ from the last.
 ``Settings.chase_nodes_per_frame`` nodes, committing at most
 :func:`chase_steps_per_frame` steps (``Settings.chase_max_speed``) and a hand turn within
 ``Settings.hand_space_turn_speed``. A start in contact leads with its escape
-(:func:`escape_frames`).
+(:func:`escape_frames`). Where that pursuit misses the target at the end, the chase
+plans ahead (``Settings.chase_plan_ahead``): a reach to where the target
+ends, retimed to the chase's limits, the wrist waiting there (:meth:`_Chase._plan_ahead`).
 """
 
 from __future__ import annotations
@@ -35,6 +37,18 @@ from .tasks import Task
 TURN_ROUND_OFF = 0.01
 
 
+def blend(generator: ConfigurationGenerator, a: Pose, b: Pose, t: float) -> Pose:
+    """The pose ``t`` of the way from ``a`` to ``b``: their angles blended (the twist the
+    short way), the wrist's two angles and the palm's roll too."""
+    qa, qb = a.config.as_array(), b.config.as_array()
+    delta = qb - qa
+    delta[3] = (delta[3] + 180.0) % 360.0 - 180.0            # the twist the short way
+    ha, hb = np.asarray(a.hand, dtype=float), np.asarray(b.hand, dtype=float)
+    config = ArmConfig.from_array(qa + t * delta)
+    pose = generator.config_pose(config, tuple((ha + t * (hb - ha)).tolist()))
+    return replace(pose, roll=a.roll + t * (b.roll - a.roll))
+
+
 def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
              halvings: int = 10) -> Pose | None:
     """A pose part of the way from ``a`` to ``b`` whose hand turns at most ``bound`` degrees
@@ -45,15 +59,8 @@ def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
     ``halvings`` bisections; None if no share is clear. A chase cannot slow down its frames:
     where one step of its search turns the hand faster than the bound (a twist of the upper
     arm near its bound turns the forearm 15° and more), the frame takes only part of it."""
-    qa, qb = a.config.as_array(), b.config.as_array()
-    delta = qb - qa
-    delta[3] = (delta[3] + 180.0) % 360.0 - 180.0            # the twist the short way
-    ha, hb = np.asarray(a.hand, dtype=float), np.asarray(b.hand, dtype=float)
-
     def at(t):
-        config = ArmConfig.from_array(qa + t * delta)
-        pose = generator.config_pose(config, tuple((ha + t * (hb - ha)).tolist()))
-        return replace(pose, roll=a.roll + t * (b.roll - a.roll))
+        return blend(generator, a, b, t)
 
     lo, hi = 0.0, 1.0
     for _ in range(halvings):
@@ -218,6 +225,105 @@ class _Chase:
         return picked
 
     def run(self, chunk: int):
+        """Pursue the target (:meth:`_pursue`); where that misses it at the end and
+        ``Settings.chase_plan_ahead`` is on, plan ahead to where it ends
+        (:meth:`_plan_ahead`) and keep that where it catches it. A generator: yields
+        (fraction, message) and returns the hand pass's report."""
+        hand = yield from self._pursue(chunk)
+        if self._caught(hand.poses) or not self.settings.chase_plan_ahead:
+            return hand
+        ahead = self._plan_ahead()
+        return hand if ahead is None else ahead
+
+    def _caught(self, poses) -> bool:
+        return float(np.linalg.norm(poses[-1].wrist - self.trajectory[-1])) <= \
+            self.settings.goal_tolerance * self.arm.arm_length
+
+    def _plan_ahead(self):
+        """Where the pursuit misses: the paper's reach (:meth:`Planner.plan`, guided and
+        sampling fallbacks included, against the obstacles where they are on the frame
+        before the chase) from that frame's pose to where the target ends, its frames taken
+        as fast as the chase's limits let (:meth:`_at_chase_speed`), the wrist then
+        waiting there until the last frame; where obstacles move, each frame's keys and
+        the instants into it checked against them as they are on it. The
+        pursuit aims each frame at where the target is then, and a way round an obstacle
+        that needs the wrist to leave the target's side first is beyond its few nodes a
+        frame: fuzz seeds 171 (249 frames had for a way followed in 21), 55, 225, 5199
+        and 5310, found by the cross-check of a chase's ``no_path``. The hand report of the chase so
+        planned if it catches the target with every hand turn within its bound, every
+        transition clear; else None, and the pursuit stays."""
+        first = self.lead - 1
+        start, n = self.poses[first], len(self.trajectory)
+        planner = self.planners[first]
+        t0 = time.perf_counter()
+        plan = planner.plan(Task("reach", np.asarray(self.task.targets)[-1:], start.config,
+                                 fps=self.task.fps, names=(self.task.name(0),),
+                                 start_hand=start.hand))
+        if not plan.success:
+            return None
+        way = self._at_chase_speed(planner.generator, [start] + list(plan.poses[1:]),
+                                   n - 1 - first)
+        if way is None:
+            return None
+        way += [replace(way[-1]) for _ in range(n - first - len(way))]   # waiting there
+        moving = any(p is not planner for p in self.planners[first:])
+        if moving and any(
+                self.planners[first + k].generator.transition_problem(a, b) is not None
+                or not self.planners[first + k].generator.key_clear(b)
+                for k, (a, b) in enumerate(zip(way[:-1], way[1:]), start=1)):
+            return None          # an obstacle that moves comes into the way on its frame
+        kept = list(self.poses), list(self.frames)
+        self.poses[first:] = way
+        elapsed = time.perf_counter() - t0
+        self.frames = [(SearchResult(True, None, [a, b], plan.stats.nodes_searched if k == 0
+                                     else 0, elapsed if k == 0 else 0.0, 0.0,
+                                     self.trajectory[first + 1 + k], method="ahead"), None)
+                       for k, (a, b) in enumerate(zip(way[:-1], way[1:]))]
+        hand = self._hand_pass(self.poses)
+        if self._caught(hand.poses) and self._first_too_fast(hand) is None and \
+                not hand.unclear_transitions:
+            return hand
+        self.poses[:], self.frames = kept
+        return None
+
+    def _at_chase_speed(self, gen: ConfigurationGenerator, poses: list, frames: int):
+        """``poses`` (a planned motion, one a frame at the reach's own speed) retimed as
+        fast as the chase may go, in at most ``frames`` frames: each span between two of
+        them costs the frames its tightest limit asks (the wrist at most the chase's steps
+        a frame, each arm angle at most ``Settings.max_joint_step`` a step, the hand's
+        whole turn at most its bound a frame), and the keys are laid at equal shares of the
+        whole cost, blended within a span (:func:`blend`); the fewest frames whose keys
+        all keep those limits and are clear as they interpolate. None if no count up to
+        ``frames`` does."""
+        s = self.settings
+        reach = self.steps * gen.step_length
+        joints = self.steps * s.max_joint_step
+        turn = s.hand_space_turn_speed / self.task.fps
+
+        def cost(a: Pose, b: Pose) -> float:
+            return max(math.dist(a.wrist.tolist(), b.wrist.tolist()) / reach,
+                       float(np.abs(b.config.as_array() - a.config.as_array()).max()) / joints,
+                       frame_turn(a, b) / turn)
+
+        def within(a: Pose, b: Pose) -> bool:
+            return cost(a, b) <= 1.0 + 1e-6 and gen.transition_problem(a, b) is None
+
+        costs = np.array([cost(a, b) for a, b in zip(poses[:-1], poses[1:])])
+        at = np.concatenate([[0.0], np.cumsum(costs)])
+        total = float(at[-1])
+        for n in range(max(1, int(math.ceil(total - 1e-9))), frames + 1):
+            keys = [poses[0]]
+            for k in range(1, n):
+                c = total * k / n
+                i = min(int(np.searchsorted(at, c, side="right")) - 1, len(costs) - 1)
+                t = 0.0 if costs[i] <= 0.0 else (c - at[i]) / costs[i]
+                keys.append(blend(gen, poses[i], poses[i + 1], min(max(t, 0.0), 1.0)))
+            keys.append(poses[-1])
+            if all(within(a, b) for a, b in zip(keys[:-1], keys[1:])):
+                return keys
+        return None
+
+    def _pursue(self, chunk: int):
         """Chase every frame, then hand the frames to the hand pass; where it could not keep
         the hand within its bound (the forearm itself turned too fast), chase again from that
         frame on, strictly (:func:`chase_step`). A generator: yields (fraction, message)
@@ -345,7 +451,10 @@ class _Chase:
             on_target = sum(float(np.linalg.norm(p.wrist - trajectory[f])) <=
                             s.goal_tolerance * length
                             for f, p in enumerate(poses) if f >= self.lead)
-            return None, f"caught '{name}' ({on_target} of {len(poses) - 1} frames on target)"
+            ahead = any(res.method == "ahead" for res, _c in self.frames)
+            return None, (f"caught '{name}'" + (" by planning ahead to where it ends, the wrist "
+                                                 "waiting there" if ahead else "")
+                          + f" ({on_target} of {len(poses) - 1} frames on target)")
         last = self.planners[-1]
         diagnosis = diagnose_target(last.generator, trajectory[-1])
         fake = SearchResult(False, NO_PATH, [], stats.nodes_searched, 0.0, gap * length,

@@ -284,6 +284,10 @@ class Settings:
     chase_max_speed: float = _f(
         2.0, "Chase speed", "Fastest wrist speed while chasing", "search",
         0.05, 20.0, "arm lengths/s")
+    chase_plan_ahead: bool = _f(
+        True, "Chase plans ahead", "Where following the target frame by frame misses it "
+        "(an obstacle the wrist must go round first), plan a reach to where the target "
+        "ends, taken at the chase's speed, and wait there", "search")
 
     # --- workspace (paper, "preprocessing") -------------------------------------------------
     grid_cells: int = _f(11, "Grid cells", "Cells along each side of the workspace grid "

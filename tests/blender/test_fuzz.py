@@ -111,12 +111,12 @@ def test_a_start_in_contact_never_touches_again_once_clear():
 
 #: False refusals of full campaigns that the planner still makes (seed: the reason).
 #: Seeds of :func:`test_the_campaigns_refusals_are_checked_as_they_are_claimed` that are
-#: still false refusals, and the reason: 7074's chase misses a target that a way OMPL
-#: finds reaches within the chase's frames at its limits (22 of 22; found when the
-#: cross-check came to check a chase's ``no_path``, with 9 more in the campaign at
-#: 9c6e3d3, 5310 among them, a chase since its needs_lean was mended; the chase pursues
-#: where the target is each frame and never plans ahead).
-CAMPAIGN_FALSE_REFUSALS = {5310: "no_path", 7074: "no_path"}
+#: still false refusals, and the reason: 7074's chase starts in contact and misses a
+#: target that a way OMPL finds, never deeper in than the start, reaches within the
+#: chase's frames at its limits (22 of 22; found when the cross-check came to check a
+#: chase's ``no_path``). The chase's escape first leaves contact, and its plan ahead
+#: (``chase._Chase._plan_ahead``) then needs more frames than the chase has.
+CAMPAIGN_FALSE_REFUSALS = {7074: "no_path"}
 
 
 def test_the_campaigns_refusals_are_checked_as_they_are_claimed():

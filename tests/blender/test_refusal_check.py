@@ -174,10 +174,12 @@ def test_a_starved_planner_s_no_path_is_a_false_refusal(tmp_path):
 
 def test_a_chase_s_no_path_is_checked_against_its_frames(tmp_path):
     """A target gliding from low ahead of the body to up beside it over 48 frames, nothing
-    in the way. Starved (one search node a frame) the chase misses it, and the cross-check
-    finds a way to where it ends that a chase at the same limits follows in fewer frames
-    than it had: a false refusal. Slowed to 0.05 arm lengths a second the chase misses it
-    too, and then the way found does not fit the frames: inconclusive, not false."""
+    in the way. Starved (one search node a frame) and without planning ahead the chase
+    misses it, and the cross-check finds a way to where it ends that a chase at the same
+    limits follows in fewer frames than it had: a false refusal. Planning ahead (the
+    default), the starved chase catches it. The same glide in 12 frames, chased at 0.5 arm
+    lengths a second (one search step a frame), is missed whatever the chase plans, and
+    the way found does not fit the frames: inconclusive, not false."""
     arm, info = humanoid()
     target = rigs.add_target("Glider", everyday.at(info, 0.5, 0.1, -0.5))
     bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 48
@@ -185,14 +187,25 @@ def test_a_chase_s_no_path_is_checked_against_its_frames(tmp_path):
     target.location = tuple(everyday.at(info, 0.3, 0.6, 0.2))
     target.keyframe_insert("location", frame=48)
     rc, report = bake(tmp_path, ["Glider"], "--task", "chase", "--chase-nodes-per-frame", "1",
-                      name="starved")
+                      name="ahead")
+    assert report["tasks"][0]["success"], report["tasks"][0]["message"]
+    assert "planning ahead" in report["tasks"][0]["message"]
+    rc, report = bake(tmp_path, ["Glider"], "--task", "chase", "--chase-nodes-per-frame", "1",
+                      "--no-chase-plan-ahead", name="starved")
     assert reasons(report) == {"Glider": "no_path"}, report["tasks"][0]["message"]
     (v,) = refusal.check_report(bpy.context, report, "chase")
     assert (v.status, v.method) == ("false_refusal", "ompl"), v.detail
     need, had = map(int, re.search(r"follows it in (\d+) frames, (\d+) were had",
                                    v.detail).groups())
     assert had == 47 and need <= had, v.detail
-    rc, report = bake(tmp_path, ["Glider"], "--task", "chase", "--chase-max-speed", "0.05",
+    # the same glide in 12 frames, chased at one search step a frame
+    target = bpy.data.objects["Glider"]
+    target.animation_data_clear()
+    target.location = tuple(everyday.at(info, 0.5, 0.1, -0.5))
+    target.keyframe_insert("location", frame=1)
+    target.location = tuple(everyday.at(info, 0.3, 0.6, 0.2))
+    target.keyframe_insert("location", frame=12)
+    rc, report = bake(tmp_path, ["Glider"], "--task", "chase", "--chase-max-speed", "0.5",
                       name="slow")
     assert reasons(report) == {"Glider": "no_path"}, report["tasks"][0]["message"]
     (v,) = refusal.check_report(bpy.context, report, "chase")
@@ -200,7 +213,7 @@ def test_a_chase_s_no_path_is_checked_against_its_frames(tmp_path):
     if v.status == "inconclusive":
         need, had = map(int, re.search(r"follows it in (\d+) frames, (\d+) were had",
                                        v.detail).groups())
-        assert need > had == 47, v.detail
+        assert need > had == 11, v.detail
 
 
 def test_a_skin_clear_of_a_sleeve_its_capsule_touches_is_not_refused(tmp_path):
