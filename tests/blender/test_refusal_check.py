@@ -269,14 +269,7 @@ def test_a_bone_through_a_plane_is_refused_as_deep_and_the_geometry_confirms_it(
     def plane(offset):
         humanoid(skin=False)
         arm = bpy.data.objects["Rig"]
-        fore = arm.pose.bones["mixamorig:RightForeArm"]
-        mw = arm.matrix_world
-        a, b = np.array(mw @ fore.head), np.array(mw @ fore.tail)
-        axis = (b - a) / np.linalg.norm(b - a)
-        from mathutils import Vector
-
-        side = np.array(Vector(axis.tolist()).orthogonal().normalized())
-        third = np.cross(axis, side)
+        a, b, side, third = bone_axes(arm, "mixamorig:RightForeArm")
         h = 0.06
         centre = 0.5 * (a + b) + (offset + (h if offset else 0.0)) * side   # its edge offset
         corners = [centre + h * (i * side + j * third) for i, j in ((-1, -1), (1, -1), (1, 1),
@@ -301,19 +294,25 @@ def test_a_bone_through_a_plane_is_refused_as_deep_and_the_geometry_confirms_it(
     assert report["tasks"][0]["success"], report["tasks"][0]["message"]
 
 
+def bone_axes(armature, name):
+    """A pose bone's world head and tail, and two unit directions across it (each
+    perpendicular to it and to the other)."""
+    from mathutils import Vector
+
+    bone, mw = armature.pose.bones[name], armature.matrix_world
+    head, tail = np.array(mw @ bone.head), np.array(mw @ bone.tail)
+    axis = (tail - head) / np.linalg.norm(tail - head)
+    side = np.array(Vector(axis.tolist()).orthogonal().normalized())
+    return head, tail, side, np.cross(axis, side)
+
+
 def sleeve():
     """The humanoid with a square sleeve of four closed bars round its right hand, 15 %
     wider than the hand's skin box: the skin 6 mm from the walls, the hand's round capsule
     (the box's corners) into all four."""
     arm, info = humanoid(skin_radius=0.04)
-    hand = arm.pose.bones["mixamorig:RightHand"]
-    mw = arm.matrix_world
-    wrist, tip = np.array(mw @ hand.head), np.array(mw @ hand.tail)
+    wrist, tip, side, third = bone_axes(arm, "mixamorig:RightHand")
     axis = (tip - wrist) / np.linalg.norm(tip - wrist)
-    from mathutils import Vector
-
-    side = np.array(Vector(axis.tolist()).orthogonal().normalized())
-    third = np.cross(axis, side)
     half, bar, long = 1.15 * 0.04, 0.02, np.linalg.norm(tip - wrist) + 0.06
     centre = wrist + axis * (0.01 + long / 2)
     for k, (a, b) in enumerate(((side, third), (third, side))):
