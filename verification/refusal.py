@@ -843,7 +843,7 @@ def check_target_inside(context, armature, point, exclude, collection=None, *, t
         v.detail = ("the target is inside no closed obstacle by ray parity; Reach also counts "
                     "the character's own body" + (" (as its message says)"
                                                   if "own body" in message else "")
-                    + " and reads open meshes its own way: not checked further")
+                    + ": not checked further")
     v.seconds = round(time.perf_counter() - t0, 4)
     return v
 

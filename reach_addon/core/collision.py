@@ -140,20 +140,30 @@ class Obstacles:
     """
 
     def __init__(self, tree=None, *, triangle_owner=None, owner_names=(), bounds=None,
-                 triangle_count=0):
+                 triangle_count=0, triangles=None, triangle_part=None):
         self.tree = tree
         self.triangle_owner = None if triangle_owner is None else np.asarray(triangle_owner)
         self.owner_names = list(owner_names)
         self.triangle_count = int(triangle_count)
+        #: vertex indices (M, 3) of the triangles, for :meth:`part_closed`; None: unknown,
+        #: every part read as closed
+        self.triangles = triangles
+        #: which part (one obstacle at one instant: one piece) each triangle belongs to;
+        #: None: the owner is the part
+        self.triangle_part = (self.triangle_owner if triangle_part is None
+                              else np.asarray(triangle_part))
+        self._closed: dict = {}
         if bounds is None:
             bounds = (np.full(3, -1.0), np.full(3, 1.0))
         self.bounds = (np.asarray(bounds[0], float), np.asarray(bounds[1], float))
         self.size = float(np.linalg.norm(self.bounds[1] - self.bounds[0])) or 1.0
 
     @classmethod
-    def from_triangles(cls, vertices, triangles, owners=None, owner_names=()):
+    def from_triangles(cls, vertices, triangles, owners=None, owner_names=(), parts=None):
         """Build the BVH from world-space ``vertices`` (N, 3) and ``triangles`` (M, 3) of
-        vertex indices. ``owners`` (M,) indexes ``owner_names``. Needs ``mathutils`` (in
+        vertex indices. ``owners`` (M,) indexes ``owner_names``; ``parts`` (M,) says which
+        piece each triangle is of (one obstacle at one instant of a sweep; default: the
+        owner), the unit :meth:`point_inside` reads an inside of. Needs ``mathutils`` (in
         Blender, or after ``import bpy`` with the bpy wheel)."""
         from mathutils.bvhtree import BVHTree
 
@@ -174,7 +184,8 @@ class Obstacles:
             if collecting:
                 gc.enable()
         return cls(tree, triangle_owner=owners, owner_names=owner_names,
-                   bounds=(verts.min(0), verts.max(0)), triangle_count=len(tris))
+                   bounds=(verts.min(0), verts.max(0)), triangle_count=len(tris),
+                   triangles=tris, triangle_part=parts)
 
     @property
     def empty(self) -> bool:
@@ -210,12 +221,52 @@ class Obstacles:
         return math.inf if hit is None else float(hit[3])
 
     def point_inside(self, point) -> bool:
-        """Is ``point`` inside a closed obstacle? Ray parity along the six axis directions,
-        majority vote (≥ 4 odd): robust to open meshes (a plane is crossed by at most one
-        axis ray) and to rays grazing an edge."""
+        """Is ``point`` inside a closed obstacle? :meth:`enclosing_parts` is not empty."""
+        return bool(self.enclosing_parts(point))
+
+    def enclosing_parts(self, point) -> list:
+        """The parts (pieces: one obstacle at one instant) that enclose ``point``, in
+        order: closed parts (:meth:`part_closed`) whose own triangles the axis rays from
+        the point cross an odd number of times along at least four of the six directions
+        (a majority, robust to a ray grazing an edge). Parity is read per part, since two
+        overlapping solids (or one obstacle at two instants of a sweep) cross twice as
+        often; and only closed parts count, since an open mesh encloses nothing: a point
+        in an open-ended tube or a box without a lid is crossed oddly along four or five
+        axes, yet lies in air (fuzz seed 5413: a hand in an open mesh refused as inside
+        it)."""
         if self.tree is None:
-            return False
-        return sum(len(hits) % 2 for hits in self._crossings(point)) >= 4
+            return []
+        votes: dict = {}
+        for hits in self._crossings(point):
+            if self.triangle_part is None:
+                odd = {0} if len(hits) % 2 else set()
+            else:
+                counts: dict = {}
+                for i in hits:
+                    k = int(self.triangle_part[int(i)])
+                    counts[k] = counts.get(k, 0) + 1
+                odd = {k for k, n in counts.items() if n % 2}
+            for k in odd:
+                votes[k] = votes.get(k, 0) + 1
+        return sorted(k for k, n in votes.items() if n >= 4 and self.part_closed(k))
+
+    def part_closed(self, part: int) -> bool:
+        """Is the part closed, so that it has an inside: every undirected edge of its
+        triangles used by an even number of them (two; or pairs of faces doubled)? Edges
+        by vertex index, as the mesh shares its vertices. Read when first asked, then
+        kept. True where the triangles are not known."""
+        if part not in self._closed:
+            tris = self.triangles
+            if tris is None:
+                self._closed[part] = True
+            else:
+                if self.triangle_part is not None:
+                    tris = tris[self.triangle_part == part]
+                edges = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]],
+                                                tris[:, [2, 0]]]), axis=1)
+                _keys, counts = np.unique(edges, axis=0, return_counts=True)
+                self._closed[part] = bool(len(tris)) and bool(np.all(counts % 2 == 0))
+        return self._closed[part]
 
     def _crossings(self, point) -> list:
         """The triangle indices each of the six axis rays from ``point`` crosses, in order."""
@@ -243,18 +294,13 @@ class Obstacles:
         return out
 
     def enclosing_owner(self, point) -> str:
-        """Name of the obstacle that encloses ``point`` by its own ray parity (the first
-        whose crossings are odd along at least four of the six axis rays), else of the
-        obstacle nearest to it (for messages)."""
+        """Name of the obstacle that encloses ``point`` (the first of
+        :meth:`enclosing_parts`), else of the obstacle nearest to it (for messages)."""
         if self.tree is not None and self.triangle_owner is not None and self.owner_names:
-            per_owner: dict = {}
-            for hits in self._crossings(point):
-                owners = [int(self.triangle_owner[int(i)]) for i in hits]
-                for o in set(owners):
-                    per_owner[o] = per_owner.get(o, 0) + owners.count(o) % 2
-            inside = sorted(o for o, odd in per_owner.items() if odd >= 4)
+            inside = self.enclosing_parts(point)
             if inside:
-                return self.owner_names[inside[0]]
+                first = int(np.flatnonzero(self.triangle_part == inside[0])[0])
+                return self.owner_names[int(self.triangle_owner[first])]
         hit = self.nearest(point, 10.0 * self.size)
         return self.owner(None if hit is None else hit[2])
 

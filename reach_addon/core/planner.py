@@ -216,8 +216,8 @@ class Planner:
             msg = (f"the character's chest (sternum) is enclosed by the mesh '{obstacle}', "
                    "and Reach counts everything a mesh encloses as solid; if it is a "
                    f"room or box round the character, leave '{obstacle}' out of the obstacles "
-                   "(plan against an obstacle collection without it) or delete the faces the "
-                   "arm cannot touch (a mesh open on three sides encloses nothing); if it "
+                   "(plan against an obstacle collection without it) or delete a face the "
+                   "arm cannot touch (an open mesh encloses nothing); if it "
                    "passes through the chest, move the character out of it")
         msg = msg or (f"the start pose already touches '{obstacle}' (at the {part}); move the "
                       "arm or the obstacle apart, or lower the clearance, before planning")

@@ -25,16 +25,17 @@ def obstacles_from_pieces(pieces) -> Obstacles:
     if not pieces:
         return Obstacles(None)
     labels: dict[str, int] = {}
-    verts, tris, owners = [], [], []
+    verts, tris, owners, parts = [], [], [], []
     offset = 0
-    for label, v, t in pieces:
+    for k, (label, v, t) in enumerate(pieces):
         owner = labels.setdefault(label, len(labels))
         verts.append(v)
         tris.append(t + offset)
         owners.append(np.full(len(t), owner))
+        parts.append(np.full(len(t), k))
         offset += len(v)
     return Obstacles.from_triangles(np.concatenate(verts), np.concatenate(tris),
-                                    np.concatenate(owners), list(labels))
+                                    np.concatenate(owners), list(labels), np.concatenate(parts))
 
 
 def plan_among_moving(planner, task, first_frame: int, still, moving, sweep):

@@ -192,3 +192,59 @@ def test_a_way_out_that_touches_again_after_clearing_is_caught(arm):
     assert at == 2 and obstacle == "Table", (at, part, obstacle)
     out = keys(20.0, 24.0, 26.0, 30.0)
     assert escape_contact(gen, out, pose_clearances(arm, out, [gen.checker] * 4)) is None
+
+
+def open_bin(centre, half, depth, missing=("top",)):
+    """(vertices, triangles) of a box around ``centre`` (half widths ``half`` in x and y,
+    ``depth`` tall, its top face at ``centre``'s height plus half the depth), one mesh
+    with the ``missing`` faces ("top", "bottom") left out: open, so it encloses nothing."""
+    from reach_addon.samples import box
+    lo = np.asarray(centre, float) - (half, half, depth / 2)
+    hi = np.asarray(centre, float) + (half, half, depth / 2)
+    verts, tris = box(lo, hi)
+    keep = []
+    for t in tris:
+        z = verts[t, 2]
+        if ("top" in missing and np.all(z == hi[2])) or ("bottom" in missing and np.all(z == lo[2])):
+            continue
+        keep.append(t)
+    return verts, np.array(keep)
+
+
+def test_open_meshes_enclose_nothing_and_overlapping_solids_each_enclose_their_inside():
+    """An open-topped bin or an open-ended tube reads as air inside (ray parity is odd
+    along four or five axes there, yet nothing is solid); two overlapping closed boxes
+    each enclose their common part (crossed twice there by one ray, once per box)."""
+    from reach_addon.core import Obstacles
+    from reach_addon.samples import triangle_soup
+    for missing in (("top",), ("top", "bottom")):
+        v, t = open_bin((0, 0, 0), 0.2, 0.4, missing)
+        bin_ = Obstacles.from_triangles(v, t, np.zeros(len(t), int), ["Bin"])
+        assert not bin_.point_inside((0.0, 0.0, 0.0)), missing
+        assert not bin_.part_closed(0)
+    v, t = open_bin((0, 0, 0), 0.2, 0.4, ())
+    assert Obstacles.from_triangles(v, t).point_inside((0.0, 0.0, 0.0))
+    verts, tris, owners, names = triangle_soup({"A": [((0, 0, 0), (1, 1, 1))],
+                                                "B": [((0.5, 0.2, 0.2), (1.5, 0.8, 0.8))]})
+    both = Obstacles.from_triangles(verts, tris, owners, names)
+    assert both.point_inside((0.75, 0.5, 0.5)) and both.enclosing_owner((0.75, 0.5, 0.5)) == "A"
+    assert both.enclosing_owner((1.25, 0.5, 0.5)) == "B"
+
+
+def test_a_hand_touching_the_wall_inside_an_open_bin_is_planned_out(arm):
+    """The hand hangs in an open-topped bin, touching its wall: it is in contact, not
+    inside anything, so Reach leaves the contact and reaches (fuzz seed 5413: refused as
+    inside an open mesh, by a parity that read the bin's inside as solid)."""
+    from reach_addon.core import Obstacles
+    joints = start_joints(arm)
+    hand = 0.5 * (joints[3] + joints[4])
+    half = 0.12
+    # the bin's -x wall half a hand radius into the hand's capsule
+    centre = hand.copy()
+    centre[0] = joints[4][0] - 0.5 * arm.hand_radius + half
+    v, t = open_bin(centre, half, 0.3)
+    obs = Obstacles.from_triangles(v, t, np.zeros(len(t), int), ["Bin"])
+    assert not any(obs.point_inside(p) for p in joints[1:])
+    plan = Planner(arm, obs, Settings()).plan(Task("reach", TARGET[None], HANGING))
+    assert "inside" not in plan.message, plan.message
+    assert plan.success, plan.message
