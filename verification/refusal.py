@@ -328,21 +328,19 @@ def wrist_travel(arm, path, step: float) -> float:
 def chase_frames(planner, path, fps: float, share: float = 0.25) -> int:
     """Frames a chase needs to follow ``path`` (K, 7, degrees) from its first state to its
     last at its limits: the wrist at most ``Settings.chase_max_speed``, each of the arm's
-    five angles at most ``Settings.max_joint_step`` a search step (the chase's steps a
-    frame, :func:`~reach_addon.core.chase.chase_steps_per_frame`, at ``fps``), the hand's
+    five angles at most ``Settings.max_joint_step`` for each step length the wrist may go
+    (``chase_max_speed / fps / step`` of them a frame), the hand's
     whole turn, roll included, at most ``Settings.hand_space_turn_speed``. The path is
     cut into pieces ``share`` of a step of the joint metric long; each piece takes the
     frames its tightest limit asks at a constant rate, so a motion along it in the sum of
     those frames keeps every limit. A bound from above: the chase may have quicker ways,
     not slower ones along this path."""
     from reach_addon.core.arm import ArmConfig, frame_turn
-    from reach_addon.core.chase import chase_steps_per_frame
 
     arm, s = planner.arm, planner.settings
     gen = planner.generator
-    steps = chase_steps_per_frame(s, fps)
-    wrist_bound = steps * s.step * arm.arm_length
-    joint_bound = steps * s.max_joint_step
+    wrist_bound = s.chase_max_speed / fps * arm.arm_length
+    joint_bound = s.chase_max_speed / fps / s.step * s.max_joint_step
     hand_bound = s.hand_space_turn_speed / fps
     space = JointSpace(arm, _NO_LIMITS)
     rows = [np.asarray(path[0], dtype=float)]

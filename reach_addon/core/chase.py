@@ -20,6 +20,7 @@ from dataclasses import replace
 import numpy as np
 
 from .arm import ArmConfig, Pose, frame_turn
+from .collision import Obstacles
 from .diagnosis import diagnose_target
 from .elbow import relax_elbow
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
@@ -163,6 +164,15 @@ def chase_steps_per_frame(settings: Settings, fps: float) -> int:
     return max(1, int(settings.chase_max_speed / fps / settings.step + 1e-9))
 
 
+def chase_rate(settings: Settings, fps: float) -> float:
+    """The chase's limits a frame, in search steps: ``chase_max_speed / fps / step``. The
+    wrist moves at most that many step lengths a frame (``Settings.chase_max_speed``) and
+    each arm angle at most that many times ``Settings.max_joint_step`` (the search's
+    bound a step). :func:`chase_steps_per_frame` is its whole part, what the pursuit's
+    search takes."""
+    return settings.chase_max_speed / fps / settings.step
+
+
 def chase_steps(planners, task: Task, chunk: int = 1):
     """Plan a chase with one planner per frame (``planners[f]`` holds the obstacles at
     frame ``f``; pass the same planner for frames where nothing moved): each frame is
@@ -241,20 +251,45 @@ class _Chase:
 
     def _plan_ahead(self):
         """Where the pursuit misses: the paper's reach (:meth:`Planner.plan`, guided and
-        sampling fallbacks included, against the obstacles where they are on the frame
-        before the chase) from that frame's pose to where the target ends, its frames taken
-        as fast as the chase's limits let (:meth:`_at_chase_speed`), the wrist then
-        waiting there until the last frame; where obstacles move, each frame's keys and
-        the instants into it checked against them as they are on it. The
+        sampling fallbacks included) from the pose of the frame before the chase to where
+        the target ends, its frames taken as fast as the chase's limits let
+        (:meth:`_at_chase_speed`), the wrist then waiting there until the last frame. The
         pursuit aims each frame at where the target is then, and a way round an obstacle
         that needs the wrist to leave the target's side first is beyond its few nodes a
         frame: fuzz seeds 171 (249 frames had for a way followed in 21), 55, 225, 5199
-        and 5310, found by the cross-check of a chase's ``no_path``. The hand report of the chase so
-        planned if it catches the target with every hand turn within its bound, every
+        and 5310, found by the cross-check of a chase's ``no_path``.
+
+        The reach is planned among the obstacles where they are on that frame; where
+        obstacles move and one comes into that way, again among every place they take
+        over the chase's frames (:meth:`~reach_addon.core.Obstacles.union`: a way clear of
+        all of them whenever it runs; fuzz seed 384, a box that moved into the first
+        way). Either way each frame's keys and the instants into it are checked against
+        the obstacles as they are on it. The hand report of the first chase so planned
+        that catches the target with every hand turn within its bound and every
         transition clear; else None, and the pursuit stays."""
         first = self.lead - 1
+        for planner in self._ahead_planners(first):
+            hand = self._ahead_with(planner, first)
+            if hand is not None:
+                return hand
+        return None
+
+    def _ahead_planners(self, first: int):
+        """The planners :meth:`_plan_ahead` tries, in order: the one of frame ``first``,
+        then (where obstacles move from it on) one among every place they take."""
+        yield self.planners[first]
+        distinct = list({id(p): p for p in self.planners[first:]}.values())
+        if len(distinct) > 1:
+            from .planner import Planner
+            try:
+                union = Obstacles.union([p.obstacles for p in distinct])
+            except ValueError:
+                return
+            yield Planner(self.arm, union, self.settings)
+
+    def _ahead_with(self, planner, first: int):
+        """:meth:`_plan_ahead` with ``planner``'s obstacles: the hand report, or None."""
         start, n = self.poses[first], len(self.trajectory)
-        planner = self.planners[first]
         t0 = time.perf_counter()
         plan = planner.plan(Task("reach", np.asarray(self.task.targets)[-1:], start.config,
                                  fps=self.task.fps, names=(self.task.name(0),),
@@ -280,8 +315,10 @@ class _Chase:
                                      self.trajectory[first + 1 + k], method="ahead"), None)
                        for k, (a, b) in enumerate(zip(way[:-1], way[1:]))]
         hand = self._hand_pass(self.poses)
+        # transitions of the escape from a start in contact (before the chase's first
+        # frame) touch by design; :meth:`_way_out` checked them (fuzz seed 5239)
         if self._caught(hand.poses) and self._first_too_fast(hand) is None and \
-                not hand.unclear_transitions:
+                not any(k >= first for k in hand.unclear_transitions):
             return hand
         self.poses[:], self.frames = kept
         return None
@@ -294,10 +331,14 @@ class _Chase:
         whole turn at most its bound a frame), and the keys are laid at equal shares of the
         whole cost, blended within a span (:func:`blend`); the fewest frames whose keys
         all keep those limits and are clear as they interpolate. None if no count up to
-        ``frames`` does."""
+        ``frames`` does. The limits are the settings' own (:func:`chase_rate`), not the
+        pursuit's whole steps a frame: at 24 fps the default speed is 2.78 steps a frame,
+        which the pursuit takes as 2, and a reach retimed at 2 missed by 0.16 of a frame
+        a way OMPL's path showed fits at the limit (fuzz seed 213)."""
         s = self.settings
-        reach = self.steps * gen.step_length
-        joints = self.steps * s.max_joint_step
+        rate = chase_rate(s, self.task.fps)
+        reach = rate * gen.step_length
+        joints = rate * s.max_joint_step
         turn = s.hand_space_turn_speed / self.task.fps
 
         def cost(a: Pose, b: Pose) -> float:
@@ -337,8 +378,7 @@ class _Chase:
             yield from self._chase_frames(strict_from, chunk)
             hand = self._hand()
             late = self._first_too_fast(hand)
-            caught = float(np.linalg.norm(self.poses[-1].wrist - self.trajectory[-1])) <= \
-                self.settings.goal_tolerance * self.arm.arm_length
+            caught = self._caught(self.poses)
             if strict_from < n and not caught and loose is not None:
                 self.poses, self.frames, hand = loose
                 return hand
@@ -497,4 +537,5 @@ def escape_of(way_out, poses):
         return None
     end = next((k for k, p in enumerate(poses) if p is way_out.poses[-1]), 0)
     return way_out.generator, float(end)
+
 
