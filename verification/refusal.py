@@ -371,6 +371,39 @@ def _path_valid(validity: StateValidity, path) -> bool:
     return True
 
 
+def _leaves_as_reach_does(held: HeldValidity, path):
+    """For a path from a start in contact, searched with :class:`HeldValidity` (never
+    deeper than the start): does it also leave contact as the planner's escape promises
+    (:mod:`reach_addon.core.contact`), at every state a step of the metric apart: never
+    deeper than the least depth it has reached, and never back in once out? The
+    measure's tolerance is allowed either way. None if so; else (the share of the way
+    where it breaks the rule, the clearance there, the best before it), in arm lengths.
+    A path that slides out part way and back in is not one Reach would take: HeldValidity,
+    a state test, cannot hold a rule about the path (fuzz seed 7074: a straight path to
+    the chest's limit, never deeper than the start, which a chase from the escape's end
+    could not follow in its frames)."""
+    from reach_addon.core.collision import CLEARANCE_TOLERANCE
+
+    arm, space = held.arm, held.space
+    length = arm.arm_length
+    tolerance = CLEARANCE_TOLERANCE * length
+    step = space.settings.step
+    total = sum(space.distance(a, b) for a, b in zip(path[:-1], path[1:])) or 1.0
+    best, done = -math.inf, 0.0
+    for qa, qb in zip(path[:-1], path[1:]):
+        d = space.distance(qa, qb)
+        n = max(1, int(math.ceil(d / step)))
+        for k in range(n + 1):
+            q = qa + (qb - qa) * (k / n)
+            world = arm.to_world_points(np.asarray(joints_of_one(arm, [float(x) for x in q])))
+            c = held.checker.least_clearance(world, length)
+            if best > -math.inf and c < min(best, 0.0) - tolerance:
+                return (done + d * k / n) / total, c / length, best / length
+            best = max(best, c)
+        done += d
+    return None
+
+
 def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: str = NO_PATH,
                      budget_s: float = OMPL_BUDGET_S, max_states: int | None = None,
                      seed: int = 0, search: bool = True, frames=None) -> Verdict:
@@ -437,6 +470,13 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
             v.status = INCONCLUSIVE
             v.detail = ("OMPL RRTConnect returned a path that the core's test refuses "
                         "between its states, or that ends off the target (not counted)")
+        elif held is not None and (broke := _leaves_as_reach_does(held[0], path)) is not None:
+            at, c, best = broke
+            v.status = INCONCLUSIVE
+            v.detail = (f"OMPL RRTConnect found a path{keep}, but {at:.0%} of the way along it "
+                        f"the arm comes back to a clearance of {c:.4f} arm lengths after "
+                        f"{best:.4f}: Reach leaves a contact never deeper than the least depth "
+                        "it has reached, and never back in once out (not counted)")
         else:
             goal = path[-1]
             gap = math.dist(joints_of_one(arm, goal)[3], target_c.tolist()) / arm.arm_length

@@ -248,3 +248,26 @@ def test_a_hand_touching_the_wall_inside_an_open_bin_is_planned_out(arm):
     plan = Planner(arm, obs, Settings()).plan(Task("reach", TARGET[None], HANGING))
     assert "inside" not in plan.message, plan.message
     assert plan.success, plan.message
+
+
+def test_the_check_counts_a_way_out_and_back_in_as_no_way_reach_takes(arm):
+    """The refusal check searches from a start in contact with a state test that holds the
+    arm no deeper than the start; a path it finds counts only if it also leaves contact as
+    Reach's escape does, never deeper than the least depth reached (fuzz seed 7074: a way
+    0.0085 arm lengths deep at best that went back to 0.0090)."""
+    from reach_addon.core.sampling import JointSpace, pose_row
+    from verification.refusal import HeldValidity, _leaves_as_reach_does
+    tip = start_joints(arm)[4]
+    planner = Planner(arm, obstacles(slab_under(tip, -0.3 * arm.hand_radius)), Settings())
+    start = pose_row(planner.generator.config_pose(HANGING))
+    lifted = start.copy()
+    lifted[4] += 30.0                          # the elbow bent: the hand rises off the table
+    space = JointSpace(arm, planner.settings, start)
+    checker = planner.generator.checker
+    c0 = checker.least_clearance(arm.to_world_points(planner.generator.config_pose(
+        HANGING).joints), arm.arm_length)
+    assert c0 < 0.0
+    held = HeldValidity(arm, planner.settings, checker, space, c0)
+    assert _leaves_as_reach_does(held, [start, lifted]) is None
+    at, c, best = _leaves_as_reach_does(held, [start, lifted, start])
+    assert 0.5 < at <= 1.0 and c < min(best, 0.0)
