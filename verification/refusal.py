@@ -737,7 +737,7 @@ def _arm_skin(context, armature, bones: set):
 
 #: The claim that an animated obstacle moves into the arm's start pose (core.sweep): its
 #: name and the frame where it meets the pose.
-MOVES_IN = re.compile(r"'(.+?)' moves into the arm's start pose \(at the [^)]*\) on frame (\d+)")
+MOVES_IN = re.compile(r"'(.+?)' moves into the arm's start pose \(at the [^)]*\) on frame (-?\d+)")
 
 
 def check_start(context, armature, info, exclude, collection=None, *, target: str = "",

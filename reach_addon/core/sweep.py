@@ -83,7 +83,7 @@ def coming_into(message: str):
     return (found.group(1), int(found.group(2))) if found else None
 
 
-_COMING = re.compile(r"'(.+?)' moves into the arm's start pose \(at the [^)]*\) on frame (\d+)")
+_COMING = re.compile(r"'(.+?)' moves into the arm's start pose \(at the [^)]*\) on frame (-?\d+)")
 
 
 def _name_what_comes(plan, first_frame: int, swept, clear_start, settings) -> None:

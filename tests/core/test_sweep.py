@@ -158,3 +158,6 @@ def test_a_box_that_comes_to_the_start_pose_is_named_with_its_frame(reach):
     # the Blender layer reads the obstacle and the frame back to check the skin there
     assert coming_into(seg.message) == ("Swing", FIRST + 6)
     assert coming_into("the start pose already touches 'Swing' (at the hand)") is None
+    # a scene's frames may be negative (fuzz seed 25: frame -8 read as no claim at all)
+    assert coming_into("'Box' moves into the arm's start pose (at the forearm) on frame -8, "
+                       "while the reach for 'Cup' lasts") == ("Box", -8)
