@@ -280,12 +280,13 @@ class _Chase:
         yield self.planners[first]
         distinct = list({id(p): p for p in self.planners[first:]}.values())
         if len(distinct) > 1:
-            from .planner import Planner
             try:
                 union = Obstacles.union([p.obstacles for p in distinct])
             except ValueError:
                 return
-            yield Planner(self.arm, union, self.settings)
+            # a planner like the chase's own (its class: chase must not import planner,
+            # which imports chase)
+            yield type(distinct[0])(self.arm, union, self.settings)
 
     def _ahead_with(self, planner, first: int):
         """:meth:`_plan_ahead` with ``planner``'s obstacles: the hand report, or None."""
