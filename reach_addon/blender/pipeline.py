@@ -26,6 +26,7 @@ from ..core.steps import drain, relay
 from ..core.chase import chase_steps
 from ..core.sweep import plan_among_moving
 from . import bake as bake_mod
+from . import balance as balance_mod
 from . import body as body_mod
 from . import rig as rig_mod
 from . import viz
@@ -354,8 +355,9 @@ class PipelineRun:
 
     def report(self) -> None:
         """Stage 7: the :class:`Outcome` (``outcome``), a result per target; a baked result's
-        orientation and naturalness measured on the evaluated bones
-        (:func:`.results.measure_orientation`, :func:`.results.measure_naturalness`);
+        orientation, naturalness and balance measured on the evaluated bones
+        (:func:`.results.measure_orientation`, :func:`.results.measure_naturalness`,
+        :func:`.balance.measure`);
         the carried-target note added to every message."""
         baked = self.baked
         outcome = Outcome(self.request, self.info, [k.pair for k in self.plans], [],
@@ -370,6 +372,7 @@ class PipelineRun:
                                 self.settings)
             measure_naturalness(self.context, self.armature, self.info, outcome.results,
                                 self.settings, self.obstacles)
+            balance_mod.measure(self.context, self.armature, self.info, outcome.results)
         for r in outcome.results if self.still else ():
             r.message += f"; {self.still}"
         self.outcome = outcome
