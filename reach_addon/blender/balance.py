@@ -1,19 +1,22 @@
 """The body's balance on a rig: its legs found by their shape, its segments read from the
 evaluated bones, and the centre of mass's margin over the feet (:mod:`..core.balance`).
 
-**Legs** (:func:`find_legs`). No names are read. A leg is the bone path, from a bone
-beside the spine, down to the lowest bone tail on one side of the body. On that path:
+**Legs** (:func:`find_legs`). No names are read. A leg is a chain of bones that move
+skin, walked up from a bone while the parents stay on its side of the body and below the
+chest; on each side the chain that drops farthest (half the chest's height or more). On
+its joints (the bones' heads, and a tail where the next bone does not start there):
 
-- the **hip** is the head of its first bone that is long (a tenth of the path or more)
-  and points down;
-- the **ankle** is the tail of its last bone that points down;
+- the **hip** is its first joint;
+- the **ankle** is the joint whose height above the lowest joint is nearest
+  :data:`ANKLE_HEIGHT` of the hip's (the joints' heights, not the bones' directions: a
+  glTF bone's tail points anywhere);
 - the **knee** is the joint between the two that lies farthest from the line joining
   them (the joint nearest their middle, for a straight leg);
-- the **toe** is the tail, below the ankle, that lies farthest forward.
+- the **toe** is the point, past the ankle or on a bone that starts near it, that lies
+  farthest forward.
 
-"Down" is within 60° of the body's down axis, in the rest pose. A rig where no such pair
-of legs is found has no legs for Reach (a bust, a robot on a stand), and no balance
-figure is given.
+A rig where no such pair of legs is found has no legs for Reach (a bust, a robot on a
+stand), and no balance figure is given.
 
 **Segments** (:func:`body_segments`). These follow :data:`~..core.balance.WINTER`:
 
@@ -36,10 +39,10 @@ import numpy as np
 from ..core import balance as core_balance
 from . import skin
 from .hand_reading import hand_shape
-from .rig_detect import ancestors
 
-#: A leg bone "points down" within this angle of the body's down axis (degrees).
-DOWN_WITHIN = 60.0
+#: The ankle's height over the hip's (the greater trochanter's), both above the ground:
+#: 0.039 and 0.530 of stature (Drillis & Contini, 1966).
+ANKLE_HEIGHT = 0.039 / 0.530
 
 
 @dataclass
@@ -69,10 +72,12 @@ def _point(armature, where, pose: bool) -> np.ndarray:
 
 
 def _weighted(armature) -> set:
-    """The bones that move some skin (:func:`.skin.skin_bones`), or all bones where nothing
-    is skinned. (An FBX file's leaf "_end" bones move nothing and may point anywhere:
-    Quaternius' shins end in one more than a leg's length below the feet.)"""
-    return skin.skin_bones(armature) or {b.name for b in armature.data.bones}
+    """The bones that move some skin (:func:`.skin.skin_bones`); where nothing is skinned,
+    the deforming bones (a generated Rigify rig's DEF- bones, not its controls), or all
+    bones where none deform. (An FBX file's leaf "_end" bones move nothing and may point
+    anywhere: Quaternius' shins end in one more than a leg's length below the feet.)"""
+    return skin.skin_bones(armature) or {b.name for b in armature.data.bones if b.use_deform} \
+        or {b.name for b in armature.data.bones}
 
 
 def find_legs(armature, bmap, frame) -> list:
@@ -80,28 +85,18 @@ def find_legs(armature, bmap, frame) -> list:
     rig's :class:`~.rig_detect.BoneMap`; ``frame``: its :class:`~.body_frame.BodyFrame`
     (world axes, turned into the armature's rest space here).
 
-    A leg is read from joints, the heads of its bones (a glTF joint has no tail, and the
-    importer's tails point anywhere: CesiumMan's leg bones lie level). Its first bone is
-    a child of the spine (the chest and its ancestors) whose chain of largest children
-    reaches down at least half the chest's height; the chain's points are the bones'
-    heads and the last one's tail. The hip is the first point, the ankle the first point
-    after which the chain runs more forward than down (else its last), the knee between
-    (the point farthest off the hip-ankle line, or the one nearest its middle for a
-    straight leg). The toe is the point farthest forward among the chain's points past
-    the ankle and the heads and tails of the bones whose head lies within a fifth of the
-    leg's length of the ankle on the same side (a foot may hang from the root, as an IK
-    foot does). Bones that move no skin are left out (:func:`_weighted`)."""
+    See the module docstring. No parentage to the spine is asked for: a generated Rigify
+    rig hangs its legs from a bone its chest does not descend from, and a Quaternius foot
+    hangs from the root."""
     bones = armature.data.bones
     inv = np.linalg.inv(np.array(armature.matrix_world)[:3, :3])
     up = inv @ np.asarray(frame.up, dtype=float)
     up /= np.linalg.norm(up)
     right = inv @ np.asarray(frame.right, dtype=float)
     forward = inv @ np.asarray(frame.forward, dtype=float)
-    chest = bones[bmap.chest]
-    spine = [chest] + ancestors(chest)
-    names = {b.name for b in spine}
     used = _weighted(armature)
-    centre = np.array(chest.head_local)
+    centre = np.array(bones[bmap.chest].head_local)
+    arms = {n for a in bmap.arms.values() for n in (a.upper_arm, a.forearm, a.hand) if n}
 
     def head(b):
         return np.array(b.head_local)
@@ -109,54 +104,60 @@ def find_legs(armature, bmap, frame) -> list:
     def tail(b):
         return np.array(b.tail_local)
 
-    def size(b):
-        return b.length + sum(c.length for c in b.children_recursive if c.name in used)
-
-    def chain(first):
-        path = [first]
-        while True:
-            kids = [c for c in path[-1].children if c.name in used]
-            if not kids:
-                return path
-            path.append(max(kids, key=size))
+    def side_of(p):
+        return float((p - centre) @ right)
 
     lowest = min(float(head(b) @ up) for b in bones if b.name in used)
     height = float(centre @ up) - lowest
     found: dict = {}
-    for s in spine:
-        for c in s.children:
-            if c.name in names or c.name not in used:
-                continue
-            path = chain(c)
-            points = [(b.name, "head") for b in path] + [(path[-1].name, "tail")]
-            coords = [head(b) for b in path] + [tail(path[-1])]
-            drop = float(coords[0] @ up) - min(float(p @ up) for p in coords)
-            side = "right" if (coords[0] - centre) @ right > 0.0 else "left"
-            if drop >= 0.5 * height and (side not in found or drop > found[side][0]):
-                found[side] = (drop, points, coords)
+    for end in bones:
+        if end.name not in used or end.name in arms:
+            continue
+        sign = np.sign(side_of(head(end)))
+        if abs(side_of(head(end))) < 0.02 * height:
+            continue
+        path = [end]
+        while path[-1].parent is not None:
+            parent = path[-1].parent
+            if parent.name not in used or parent.name in arms or \
+                    sign * side_of(head(parent)) < 0.02 * height or \
+                    float(head(parent) @ up) >= float(centre @ up):
+                break
+            path.append(parent)
+        path.reverse()
+        if any(n.name in arms for p in path for n in [p] + list(p.children)):
+            continue
+        points, coords = _chain_points(path)
+        drop = float(coords[0] @ up) - min(float(p @ up) for p in coords)
+        side = "right" if sign > 0.0 else "left"
+        if drop >= 0.5 * height and (side not in found or drop > found[side][0]):
+            found[side] = (drop, points, coords)
     if set(found) != {"right", "left"}:
         return []
     legs = []
     for side in ("right", "left"):
         _drop, points, coords = found[side]
-        k_ankle = len(coords) - 1
-        for k in range(1, len(coords) - 1):
-            step = coords[k + 1] - coords[k]
-            if float(step @ forward) > float(-step @ up) and \
-                    float(coords[0] @ up - coords[k] @ up) >= 0.5 * height:
-                k_ankle = k
-                break
+        hip_height = float(coords[0] @ up) - lowest
+
+        def off_ankle(k, coords=coords, hip_height=hip_height):
+            return abs(float(coords[k] @ up) - lowest - ANKLE_HEIGHT * hip_height)
+
+        # a bone's head is a joint in every format; its tail only where nothing else is
+        heads = [k for k in range(1, len(coords)) if points[k][1] == "head"]
+        k_ankle = min(heads, key=off_ankle, default=None)
+        if k_ankle is None or off_ankle(k_ankle) > 0.05 * hip_height:
+            k_ankle = min(range(1, len(coords)), key=off_ankle)
         hip, ankle = coords[0], coords[k_ankle]
         line = ankle - hip
         leg_length = float(np.linalg.norm(line))
         if leg_length <= 0.0 or k_ankle < 1:
             return []
-        k_knee = _knee(coords[:k_ankle + 1], hip, line)
+        k_knee = _knee(coords[:k_ankle + 1], hip, line, [p[1] == "head" for p in points])
         sign = 1.0 if side == "right" else -1.0
         toes = list(zip(points[k_ankle + 1:], coords[k_ankle + 1:]))
         for b in bones:
             if b.name in used and float(np.linalg.norm(head(b) - ankle)) <= 0.2 * leg_length \
-                    and sign * float((head(b) - centre) @ right) > 0.0:
+                    and sign * side_of(head(b)) > 0.0:
                 toes += [((b.name, "head"), head(b)), ((b.name, "tail"), tail(b))]
         if not toes:
             return []
@@ -169,13 +170,31 @@ def find_legs(armature, bmap, frame) -> list:
     return legs
 
 
-def _knee(coords, hip, line) -> int:
+def _chain_points(path) -> tuple:
+    """(bone points, rest coordinates) along a bone ``path``: each bone's head, and its tail
+    too where the next bone does not start there (a heel bone hung from the shin starts at
+    the heel, not the ankle) and for the last."""
+    points, coords = [], []
+    for k, b in enumerate(path):
+        points.append((b.name, "head"))
+        coords.append(np.array(b.head_local))
+        nxt = path[k + 1] if k + 1 < len(path) else None
+        if nxt is None or np.linalg.norm(np.array(nxt.head_local) - np.array(b.tail_local)) > \
+                1e-3 * max(b.length, 1e-9):
+            points.append((b.name, "tail"))
+            coords.append(np.array(b.tail_local))
+    return points, coords
+
+
+def _knee(coords, hip, line, is_head) -> int:
     """The knee's index among a leg's points ``coords`` from ``hip`` to the ankle (the
     last) along ``line``: the point farthest off the line, or for a straight leg the one
-    nearest its middle."""
+    nearest its middle; a bone's head where there is one between (``is_head``: a bone's
+    tail may point anywhere)."""
     inner = list(range(1, len(coords) - 1))
     if not inner:
         return 0
+    inner = [k for k in inner if is_head[k]] or inner
     span = max(float(line @ line), 1e-300)
 
     def off_line(k):
@@ -252,8 +271,9 @@ SOLE_BAND = 0.03
 def support_now(armature, legs, up) -> tuple:
     """(the support polygon now, in :func:`~..core.balance.ground_basis` coordinates of
     ``up``; what it was read from). Where the feet have skin, the convex hull of their
-    soles (:data:`SOLE_BAND`), "skin"; else the feet's rectangles from the ankles to the
-    toes (:func:`~..core.balance.support_polygon`), "bones"."""
+    soles (:data:`SOLE_BAND`), "skin"; else the feet's rectangles from the heels to the
+    toes (:func:`~..core.balance.support_polygon`) with the joints of the feet's bones no
+    higher than the ankles (a heel bone marks the heel), "bones"."""
     names = {n for leg in legs for n in leg.foot_bones}
     points = skin.skin_points(armature, names) if names else np.zeros((0, 3))
     if len(points) >= 3:
@@ -265,7 +285,15 @@ def support_now(armature, legs, up) -> tuple:
         if len(polygon) >= 3:
             return polygon, "skin"
     feet = [(_point(armature, leg.ankle, True), _point(armature, leg.toe, True)) for leg in legs]
-    return core_balance.support_polygon(feet, up), "bones"
+    rectangles = core_balance.support_polygon(feet, up)
+    # and the joints of the feet's bones (a heel bone marks where the heel is)
+    ankle_height = min(float(_point(armature, leg.ankle, True) @ up) for leg in legs)
+    joints = [_point(armature, (n, end), True) for n in names for end in ("head", "tail")]
+    joints = [p for p in joints if float(p @ up) <= ankle_height]
+    if not joints:
+        return rectangles, "bones"
+    basis = core_balance.ground_basis(up)        # the rectangles' corners back in 3-D
+    return core_balance.polygon_of([basis.T @ c for c in rectangles] + joints, up), "bones"
 
 
 def margin_now(armature, bmap, legs, up) -> float:

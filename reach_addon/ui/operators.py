@@ -392,6 +392,11 @@ def result_lines(props) -> list:
             if st.get("touching_transitions") or st.get("unbounded_hand_turns"):
                 lines.append(f"  hand: {st['touching_transitions']} frame(s) touching between "
                              f"keys, {st['unbounded_hand_turns']} turn(s) over the limit")
+        if st.get("com_margin_min") is not None:
+            lines.append(f"  balance: centre of mass {st['com_margin_min']:.2f} arm lengths "
+                         "inside the feet at least" if st["com_margin_min"] >= 0.0 else
+                         f"  balance: centre of mass {-st['com_margin_min']:.2f} arm lengths "
+                         "outside the feet")
         if st.get("orientation_error_deg") is not None:
             lines.append(f"  palm {st['orientation_error_deg']:.0f}° from the target's axes"
                          + ("" if st["orientation_met"] else " (over tolerance)"))

@@ -98,6 +98,10 @@ def test_bake_reaches_round_an_obstacle_on_real_rigs(fresh, addon, kind):
     assert f"  wrist bend {st['mean_wrist_bend_deg']:.0f}° mean, " \
            f"{st['max_wrist_bend_deg']:.0f}° max; turn ≤ " \
            f"{st['max_wrist_turn_deg_per_frame']:.0f}°/frame" in lines
+    # and the balance the arm's motion kept (every rig here has legs)
+    m = st["com_margin_min"]
+    assert (f"  balance: centre of mass {m:.2f} arm lengths inside the feet at least" if m >= 0
+            else f"  balance: centre of mass {-m:.2f} arm lengths outside the feet") in lines
 
     # upper arm, forearm and hand clear of the plate by their radii at every instant
     capsules = clearance.Arm(arm, info, chain)
