@@ -26,13 +26,11 @@ from ..core.steps import drain, relay
 from ..core.chase import chase_steps
 from ..core.sweep import plan_among_moving
 from . import bake as bake_mod
-from . import balance as balance_mod
 from . import body as body_mod
 from . import rig as rig_mod
 from . import viz
 from .bake import KeyedPlan
-from .results import (arm_note, measure_naturalness, measure_orientation, start_as_it_shows,
-                      task_results)
+from .results import arm_note, measure_baked, start_as_it_shows, task_results
 from .scene import (KEPT, ObstacleCache, character_objects, finite, gather_pieces,
                     visit_obstacles)
 
@@ -356,8 +354,7 @@ class PipelineRun:
     def report(self) -> None:
         """Stage 7: the :class:`Outcome` (``outcome``), a result per target; a baked result's
         orientation, naturalness and balance measured on the evaluated bones
-        (:func:`.results.measure_orientation`, :func:`.results.measure_naturalness`,
-        :func:`.balance.measure`);
+        (:func:`.results.measure_baked`);
         the carried-target note added to every message."""
         baked = self.baked
         outcome = Outcome(self.request, self.info, [k.pair for k in self.plans], [],
@@ -368,11 +365,8 @@ class PipelineRun:
         outcome.results = task_results(self.info, self.plans, baked.bones if baked else [],
                                        self.request, baked)
         if outcome.baked:
-            measure_orientation(self.context, self.armature, self.info, outcome.results,
-                                self.settings)
-            measure_naturalness(self.context, self.armature, self.info, outcome.results,
-                                self.settings, self.obstacles)
-            balance_mod.measure(self.context, self.armature, self.info, outcome.results)
+            measure_baked(self.context, self.armature, self.info, outcome.results,
+                          self.settings, self.obstacles)
         for r in outcome.results if self.still else ():
             r.message += f"; {self.still}"
         self.outcome = outcome

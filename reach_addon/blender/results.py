@@ -17,7 +17,7 @@ from ..core.arm import frame_angle
 from ..core.elbow import chicken_wing
 from ..core.orient import palm_frame, wanted_axes
 from ..core.sweep import coming_into, obstacles_from_pieces
-from . import hand_reading
+from . import balance, hand_reading
 from .rig import rest_hand_axis
 from .skin import skin_clearance
 
@@ -182,6 +182,15 @@ def measure_orientation(context, armature, info, results, settings) -> None:
         error = float(frame_angle(palm_frame(d, to_world @ n), palm_frame(finger, palm)))
         r.stats["orientation_error_deg"] = error
         r.stats["orientation_met"] = error <= settings.orientation_tolerance
+
+
+def measure_baked(context, armature, info, results, settings, obstacles) -> None:
+    """What Blender's evaluated bones show of each baked result of ``results``, put into
+    its stats in place: the orientation (:func:`measure_orientation`), the naturalness
+    (:func:`measure_naturalness`) and the balance (:func:`.balance.measure`)."""
+    measure_orientation(context, armature, info, results, settings)
+    measure_naturalness(context, armature, info, results, settings, obstacles)
+    balance.measure(context, armature, info, results)
 
 
 def measure_naturalness(context, armature, info, results, settings, obstacles=None) -> None:

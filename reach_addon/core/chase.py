@@ -19,8 +19,8 @@ from dataclasses import replace
 
 import numpy as np
 
+from . import obstacle_union
 from .arm import ArmConfig, Pose, frame_turn
-from .collision import Obstacles
 from .diagnosis import diagnose_target
 from .elbow import relax_elbow
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
@@ -261,7 +261,7 @@ class _Chase:
 
         The reach is planned among the obstacles where they are on that frame; where
         obstacles move and one comes into that way, again among every place they take
-        over the chase's frames (:meth:`~reach_addon.core.Obstacles.union`: a way clear of
+        over the chase's frames (:func:`~reach_addon.core.obstacle_union.union`: a way clear of
         all of them whenever it runs; fuzz seed 384, a box that moved into the first
         way). Either way each frame's keys and the instants into it are checked against
         the obstacles as they are on it. The hand report of the first chase so planned
@@ -281,7 +281,7 @@ class _Chase:
         distinct = list({id(p): p for p in self.planners[first:]}.values())
         if len(distinct) > 1:
             try:
-                union = Obstacles.union([p.obstacles for p in distinct])
+                union = obstacle_union.union([p.obstacles for p in distinct])
             except ValueError:
                 return
             # a planner like the chase's own (its class: chase must not import planner,

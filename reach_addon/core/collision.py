@@ -12,7 +12,6 @@ sternum, checked to be outside every obstacle once per plan. Distances are in wo
 from __future__ import annotations
 
 import gc
-import hashlib
 import math
 from typing import NamedTuple
 
@@ -149,8 +148,8 @@ class Obstacles:
         #: vertex indices (M, 3) of the triangles, for :meth:`part_closed`; None: unknown,
         #: every part read as closed
         self.triangles = triangles
-        #: the world-space vertices (N, 3) the triangles index, for :meth:`union`; None:
-        #: unknown
+        #: the world-space vertices (N, 3) the triangles index (for
+        #: :func:`~reach_addon.core.obstacle_union.union`); None: unknown
         self.vertices = vertices
         #: which part (one obstacle at one instant: one piece) each triangle belongs to;
         #: None: the owner is the part
@@ -190,44 +189,6 @@ class Obstacles:
         return cls(tree, triangle_owner=owners, owner_names=owner_names,
                    bounds=(verts.min(0), verts.max(0)), triangle_count=len(tris),
                    triangles=tris, triangle_part=parts, vertices=verts)
-
-    @classmethod
-    def union(cls, sets) -> Obstacles:
-        """One BVH of every piece of ``sets`` (Obstacles built by :meth:`from_triangles`):
-        the places obstacles take over several frames, as one obstacle set. A piece met
-        again (the same owner, the same world triangles: an obstacle that did not move)
-        is taken once. Raises ValueError where a set's triangles are not known."""
-        names: dict = {}
-        seen = set()
-        verts, tris, owners, parts = [], [], [], []
-        offset = 0
-        for obs in sets:
-            if obs.tree is None:
-                continue
-            if obs.triangles is None or obs.vertices is None:
-                raise ValueError("a union needs obstacles built from triangles")
-            part = obs.triangle_part if obs.triangle_part is not None else \
-                np.zeros(len(obs.triangles), dtype=np.int64)
-            for k in np.unique(part):
-                mine = obs.triangles[part == k]
-                first = int(np.flatnonzero(part == k)[0])
-                name = obs.owner(first)
-                corners = np.ascontiguousarray(obs.vertices[mine])
-                key = (name, corners.shape, hashlib.blake2b(corners.tobytes(),
-                                                            digest_size=16).digest())
-                if key in seen:
-                    continue
-                seen.add(key)
-                used, local = np.unique(mine, return_inverse=True)
-                verts.append(obs.vertices[used])
-                tris.append(local.reshape(-1, 3) + offset)
-                owners.append(np.full(len(mine), names.setdefault(name, len(names))))
-                parts.append(np.full(len(mine), len(parts)))
-                offset += len(used)
-        if not tris:
-            return cls(None)
-        return cls.from_triangles(np.concatenate(verts), np.concatenate(tris),
-                                  np.concatenate(owners), list(names), np.concatenate(parts))
 
     @property
     def empty(self) -> bool:

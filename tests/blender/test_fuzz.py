@@ -185,7 +185,7 @@ def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
       the 2.78 the speed limit allows, 0.16 of a frame too slow (213; now at the limit,
       ``chase.chase_rate``); a box that moved into the way planned among the first frame's
       obstacles (384; now planned again among every place they take,
-      ``Obstacles.union``); a start in contact whose escape's own transitions were held
+      ``obstacle_union.union``); a start in contact whose escape's own transitions were held
       against the way ahead (5239);
     - :data:`CAMPAIGN_FALSE_REFUSALS`, still false refusals (the list stays true: a seed
       that stops being one fails this test too)."""

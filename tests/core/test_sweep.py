@@ -53,17 +53,18 @@ def test_a_union_of_frames_holds_each_place_once_and_each_inside():
     ahead plans among where obstacles move): a box that stays is taken once, one that
     moves at each place, and each place encloses its own inside."""
     from reach_addon.core import Obstacles
+    from reach_addon.core.obstacle_union import union as union_of
     still = cube("Crate", (0.0, 0.0, 0.0), 0.1)
     frames = [obstacles_from_pieces(still + cube("Ball", (x, 0.0, 0.0), 0.05))
               for x in (0.5, 0.5, 0.8)]
-    union = Obstacles.union(frames)
+    union = union_of(frames)
     assert sorted(union.owner_names) == ["Ball", "Crate"]
     assert union.triangle_count == 3 * 12
     for x in (0.0, 0.5, 0.8):
         assert union.point_inside((x, 0.0, 0.0)), x
     assert not union.point_inside((0.65, 0.0, 0.0))
     assert union.enclosing_owner((0.8, 0.0, 0.0)) == "Ball"
-    assert Obstacles.union([Obstacles(None)]).tree is None
+    assert union_of([Obstacles(None)]).tree is None
 
 
 def test_without_moving_obstacles_the_first_plan_is_the_answer(reach):
