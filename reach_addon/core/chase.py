@@ -51,9 +51,10 @@ def blend(generator: ConfigurationGenerator, a: Pose, b: Pose, t: float) -> Pose
 
 
 def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
-             halvings: int = 10) -> Pose | None:
+             halvings: int = 10, measure=frame_turn) -> Pose | None:
     """A pose part of the way from ``a`` to ``b`` whose hand turns at most ``bound`` degrees
-    from ``a``'s (roll included, :func:`~reach_addon.core.arm.frame_turn`),
+    from ``a``'s (roll included, :func:`~reach_addon.core.arm.frame_turn`; ``measure``:
+    another figure of the move from ``a``, such as :func:`wrist_travel`),
     and that is clear as a key and as the keys from ``a`` interpolate
     (:meth:`ConfigurationGenerator.key_clear`, ``transition_problem``): the angles of the
     two poses, the wrist's two and the roll included, blended at the largest share found by
@@ -66,7 +67,7 @@ def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
     lo, hi = 0.0, 1.0
     for _ in range(halvings):
         mid = 0.5 * (lo + hi)
-        if frame_turn(a, at(mid)) <= bound:
+        if measure(a, at(mid)) <= bound:
             lo = mid
         else:
             hi = mid
@@ -76,6 +77,11 @@ def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
             return pose
         lo *= 0.5
     return None
+
+
+def wrist_travel(a: Pose, b: Pose) -> float:
+    """How far the wrist moves from ``a`` to ``b`` (figure units)."""
+    return math.dist(a.wrist.tolist(), b.wrist.tolist())
 
 
 def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int,
@@ -89,7 +95,9 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
     does not reach the target and the free one does, or where the kept one is stuck (not
     half a step nearer) and the free one gets a step nearer (it runs only where one of
     these can happen). The pose committed is :func:`_commit`'s: at most ``steps`` along
-    the path, clear as the keys interpolate, the hand's turn in space within
+    the path (and where ``Settings.chase_max_speed`` allows less than one step a frame,
+    :func:`chase_rate`, only that part of it, :func:`part_way`), clear as the keys
+    interpolate, the hand's turn in space within
     ``Settings.hand_space_turn_speed`` / ``fps``; with ``strict`` (where the hand pass
     could not keep the hand within its bound, :func:`chase_steps`) that bound holds on the
     target too and a first step too fast is taken only part of the way (:func:`part_way`).
@@ -124,6 +132,13 @@ def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps:
     pose, result = best[1], best[2]
     result.nodes_searched = sum(r[2].nodes_searched for r in results)
     result.search_time_s = sum(r[2].search_time_s for r in results)
+    # a speed limit below one search step a frame: the frame takes part of its step
+    limit = chase_rate(s, fps) * generator.step_length
+    if limit < generator.step_length and wrist_travel(previous, pose) > limit:
+        slower = part_way(view, previous, pose, limit, measure=wrist_travel)
+        if slower is None:
+            slower, result.held = replace(previous), True
+        pose = slower
     return pose, result
 
 

@@ -130,9 +130,24 @@ def test_chase_reach_follows_a_moving_target(arm):
     wrists = p.wrist_trajectory()
     assert np.linalg.norm(wrists[-1] - path[-1]) <= s.goal_tolerance * arm.arm_length
     per_frame = np.linalg.norm(np.diff(wrists, axis=0), axis=1)
-    limit = int(s.chase_max_speed / 24.0 / s.step) * s.step * arm.arm_length
+    limit = s.chase_max_speed / 24.0 * arm.arm_length
     assert per_frame.max() <= limit + 1e-9
     check_plan(p, scene)
+
+
+def test_a_chase_slower_than_a_step_a_frame_keeps_its_speed_limit(arm):
+    """A speed limit of 0.24 arm lengths a second is half a search step a frame at 24 fps:
+    each frame takes part of its step (it took a whole one, twice the limit)."""
+    frames = 48
+    t = np.linspace(0, 1, frames)[:, None]
+    path = np.array([-0.30, -0.45, 1.20]) + t * np.array([0.0, 0.0, 0.3])
+    s = Settings(chase_max_speed=0.24, chase_plan_ahead=False)
+    assert s.chase_max_speed / 24.0 < s.step
+    p = plan(Task("chase", path, HANGING, fps=24.0), arm, None, s)
+    per_frame = np.linalg.norm(np.diff(p.wrist_trajectory(), axis=0), axis=1)
+    limit = s.chase_max_speed / 24.0 * arm.arm_length
+    assert per_frame.max() <= limit * (1 + 1e-6), per_frame.max() / limit
+    assert per_frame.max() >= 0.9 * limit               # and it goes at the limit
 
 
 def test_target_out_of_reach_gets_the_closest_approach(arm):
