@@ -134,40 +134,47 @@ def find_legs(armature, bmap, frame) -> list:
             found[side] = (drop, points, coords)
     if set(found) != {"right", "left"}:
         return []
-    legs = []
-    for side in ("right", "left"):
-        _drop, points, coords = found[side]
-        hip_height = float(coords[0] @ up) - lowest
+    legs = [_leg(armature, used, found[side][1], found[side][2], up, forward,
+                 lowest, (1.0 if side == "right" else -1.0) * right, centre)
+            for side in ("right", "left")]
+    return legs if all(legs) else []
 
-        def off_ankle(k, coords=coords, hip_height=hip_height):
-            return abs(float(coords[k] @ up) - lowest - ANKLE_HEIGHT * hip_height)
 
-        # a bone's head is a joint in every format; its tail only where nothing else is
-        heads = [k for k in range(1, len(coords)) if points[k][1] == "head"]
-        k_ankle = min(heads, key=off_ankle, default=None)
-        if k_ankle is None or off_ankle(k_ankle) > 0.05 * hip_height:
-            k_ankle = min(range(1, len(coords)), key=off_ankle)
-        hip, ankle = coords[0], coords[k_ankle]
-        line = ankle - hip
-        leg_length = float(np.linalg.norm(line))
-        if leg_length <= 0.0 or k_ankle < 1:
-            return []
-        k_knee = _knee(coords[:k_ankle + 1], hip, line, [p[1] == "head" for p in points])
-        sign = 1.0 if side == "right" else -1.0
-        toes = list(zip(points[k_ankle + 1:], coords[k_ankle + 1:]))
-        for b in bones:
-            if b.name in used and float(np.linalg.norm(head(b) - ankle)) <= 0.2 * leg_length \
-                    and sign * side_of(head(b)) > 0.0:
-                toes += [((b.name, "head"), head(b)), ((b.name, "tail"), tail(b))]
-        if not toes:
-            return []
-        toe, at = max(toes, key=lambda pc: float(pc[1] @ forward))
-        if float((at - ankle) @ forward) <= 0.0:
-            return []
-        foot = {p[0] for p in points[k_knee:]} | {p[0] for p, _c in toes}
-        foot |= {c.name for n in list(foot) for c in bones[n].children_recursive}
-        legs.append(Leg(points[0], points[k_knee], points[k_ankle], toe, tuple(sorted(foot))))
-    return legs
+def _leg(armature, used, points, coords, up, forward, lowest, outward, centre):
+    """A :class:`Leg` from its chain's ``points`` and rest ``coords`` (:func:`find_legs`;
+    ``outward``: the body's axis toward its side), or None where it has no foot ahead of
+    the ankle."""
+    bones = armature.data.bones
+    hip_height = float(coords[0] @ up) - lowest
+
+    def off_ankle(k):
+        return abs(float(coords[k] @ up) - lowest - ANKLE_HEIGHT * hip_height)
+
+    # a bone's head is a joint in every format; its tail only where nothing else is
+    heads = [k for k in range(1, len(coords)) if points[k][1] == "head"]
+    k_ankle = min(heads, key=off_ankle, default=None)
+    if k_ankle is None or off_ankle(k_ankle) > 0.05 * hip_height:
+        k_ankle = min(range(1, len(coords)), key=off_ankle)
+    hip, ankle = coords[0], coords[k_ankle]
+    line = ankle - hip
+    leg_length = float(np.linalg.norm(line))
+    if leg_length <= 0.0:
+        return None
+    k_knee = _knee(coords[:k_ankle + 1], hip, line, [p[1] == "head" for p in points])
+    toes = list(zip(points[k_ankle + 1:], coords[k_ankle + 1:]))
+    for b in bones:
+        h = np.array(b.head_local)
+        if b.name in used and float(np.linalg.norm(h - ankle)) <= 0.2 * leg_length \
+                and float((h - centre) @ outward) > 0.0:
+            toes += [((b.name, "head"), h), ((b.name, "tail"), np.array(b.tail_local))]
+    if not toes:
+        return None
+    toe, at = max(toes, key=lambda pc: float(pc[1] @ forward))
+    if float((at - ankle) @ forward) <= 0.0:
+        return None
+    foot = {p[0] for p in points[k_knee:]} | {p[0] for p, _c in toes}
+    foot |= {c.name for n in list(foot) for c in bones[n].children_recursive}
+    return Leg(points[0], points[k_knee], points[k_ankle], toe, tuple(sorted(foot)))
 
 
 def _chain_points(path) -> tuple:
