@@ -313,7 +313,8 @@ class HandPass(HandDP):
         allowed: frame by frame, forward then back, a frame bent by a grid step or more
         turns back toward the rig's rest alignment (the wrist's two angles blended) as far
         as the turns to both neighbours' hands keep both bounds (against the forearm and in
-        space, roll included; :meth:`_most_share`), or the first of :data:`TIGHTEN_SHARES`
+        space, roll included), each scaled by the transition's ease (:meth:`_turns_fit`,
+        :meth:`_most_share`), or the first of :data:`TIGHTEN_SHARES`
         of that whose key is clear with the whole margin and whose instants to both
         neighbours are clear as the keys interpolate. The grid's states lie a step
         apart (5° at 24 fps), and where the forearm's own turn takes part of the bound in
@@ -354,15 +355,8 @@ class HandPass(HandDP):
         bisection) at which frame ``k``'s hand keeps both turn bounds to both neighbours in
         ``built`` (:meth:`_tighten`; the clearance is asked after)."""
         def within(share):
-            moved = self._with_hand(pose, hand + share * (rest - hand))
-            c = np.array(hand_coefficients(*moved.hand))
-            for j in (k - 1, k + 1):
-                if 0 <= j < len(built):
-                    other = built[j]
-                    if float(wrist_turn(c, np.array(hand_coefficients(*other.hand)))) > \
-                            self.bound + 1e-9 or frame_turn(other, moved) > self.space_bound + 1e-9:
-                        return False
-            return True
+            return self._turns_fit(k, self._with_hand(pose, hand + share * (rest - hand)),
+                                   built)
 
         if within(1.0):
             return 1.0
@@ -380,18 +374,32 @@ class HandPass(HandDP):
         joints[4] = joints[3] + self.arm.hand_length * (np.array(hand_coefficients(*hand)) @ axes)
         return Pose(pose.config, joints, pose.bend, pose.f_r, hand)
 
+    def _turns_fit(self, k: int, pose: Pose, built: list) -> bool:
+        """Do frame ``k``'s ``pose`` and its neighbours in ``built`` turn the hand within
+        both bounds (against the forearm and in space), each taken at the ease of the
+        transition (:meth:`_ease`: at the start of a move the DP eases the hand in with
+        the motion, and this pass must not undo that: a bake joined to the user's
+        animation would start with a jump)?"""
+        c = np.array(hand_coefficients(*pose.hand))
+        n = len(built)
+        for j in (k - 1, k + 1):
+            if 0 <= j < n:
+                other = built[j]
+                ease = self._ease(max(j, k), n)
+                rel = float(wrist_turn(c, np.array(hand_coefficients(*other.hand))))
+                if rel > ease * self.bound + 1e-9 or \
+                        frame_turn(other, pose) > ease * self.space_bound + 1e-9:
+                    return False
+        return True
+
     def _fits(self, k: int, pose: Pose, built: list) -> bool:
         """May frame ``k`` take ``pose`` (its hand changed) between its neighbours in
         ``built``: both turn bounds to each, its key clear with the whole margin, and the
         instants to each clear? (:meth:`_tighten`)"""
         gen = self._gen(k)
         c = np.array(hand_coefficients(*pose.hand))
-        for j in (k - 1, k + 1):
-            if 0 <= j < len(built):
-                other = built[j]
-                rel = float(wrist_turn(c, np.array(hand_coefficients(*other.hand))))
-                if rel > self.bound + 1e-9 or frame_turn(other, pose) > self.space_bound + 1e-9:
-                    return False
+        if not self._turns_fit(k, pose, built):
+            return False
         if not gen.hands_clear(pose.joints, pose.bend, pose.config.body_rotation, c[None])[0]:
             return False
         n = self.settings.instants_per_frame
