@@ -334,3 +334,22 @@ def test_the_code_digest_follows_the_code_not_the_scheduler(tmp_path):
     core = root / "reach_addon" / "core" / "search.py"
     core.write_text(core.read_text() + "\n# a change\n")
     assert campaign.code_digest(root) != before
+
+
+def test_a_scene_a_signal_stopped_is_not_recorded_and_runs_again(tmp_path, monkeypatch):
+    """Pausing a campaign (SIGTERM) stops a scene's bake with exit status 143; that scene
+    gets no result, so a resumed campaign runs it again (seeds 621 and 5514 were recorded
+    as "nondeterministic" when the second of their two bakes was stopped so)."""
+    ran = []
+
+    def fake_scene(seed, *args, **kwargs):
+        ran.append(seed)
+        if seed == 2:
+            raise campaign.StoppedError(seed)
+        return {"seed": seed, "category": "success_verified"}
+
+    monkeypatch.setattr(campaign, "run_scene", fake_scene)
+    results = tmp_path / "worker-0-3-1.jsonl"
+    campaign.worker([1, 2, 3], results, subframes=1, keep=tmp_path / "scene")
+    assert ran == [1, 2]
+    assert sorted(campaign.kept_results(tmp_path)) == [1]

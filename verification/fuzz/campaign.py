@@ -37,12 +37,24 @@ from .checks import (CROSS_CHECK_BUDGET_S, SUBFRAMES, bake_argv, classify, cross
 from .scenes import generate
 
 
+#: The exit statuses of a bake that SIGTERM or Ctrl+C stopped (128 + the signal's number).
+STOPPED = (143, 130)
+
+
+class StoppedError(Exception):
+    """A scene's bake was stopped by a signal (the campaign being stopped): the scene has
+    no result, and runs again when the campaign is resumed. Fuzz seeds 621 and 5514 of
+    the campaign at 11ae6bb were recorded as "nondeterministic" when a pause's SIGTERM
+    stopped their second bake (exit status 143)."""
+
+
 def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
               subframes: int = SUBFRAMES, quick: bool = False,
               cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> dict:
     """Generate, build, bake twice and check one scene, its refusals cross-checked
     (:func:`cross_check`, OMPL given ``cross_check_s`` seconds each; 0 skips it); returns
-    its result (JSON). ``quick``, ``shapes``: as :func:`generate` takes them."""
+    its result (JSON). ``quick``, ``shapes``: as :func:`generate` takes them. Raises
+    :class:`StoppedError` where a signal stopped a bake."""
     import bpy
 
     t0 = time.perf_counter()
@@ -66,6 +78,8 @@ def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
     for k in (1, 2):
         output, report = scene_dir / f"output{k}.blend", scene_dir / f"report{k}.json"
         run = run_cli(bake_argv(spec, manifest, output, report))
+        if run["rc"] in STOPPED:
+            raise StoppedError(seed)
         run["report"] = json.loads(report.read_text()) if report.exists() else None
         run["output"] = output
         runs.append(run)
@@ -130,8 +144,11 @@ def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
             for seed in seeds:
                 out.write(json.dumps({"seed": int(seed), "event": "start"}) + "\n")
                 out.flush()
-                result = run_scene(int(seed), scene_dir, cache, library, subframes, quick,
-                                   cross_check_s, shapes)
+                try:
+                    result = run_scene(int(seed), scene_dir, cache, library, subframes, quick,
+                                       cross_check_s, shapes)
+                except StoppedError:
+                    break          # no result: the scene runs again on resume
                 out.write(json.dumps(result) + "\n")
                 out.flush()
     finally:
