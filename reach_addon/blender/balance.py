@@ -57,18 +57,14 @@ class Leg:
     foot_bones: tuple = ()
 
 
-def _point(armature, where, pose: bool) -> np.ndarray:
-    """World (``pose``: the evaluated pose) or armature-space rest position of a bone point."""
+def _point(armature, where) -> np.ndarray:
+    """World position of a bone point (:class:`Leg`) in the evaluated pose."""
     name, end = where
-    if pose:
-        b = armature.pose.bones[name]
-        h, t = np.array(b.head), np.array(b.tail)
-        mw = np.array(armature.matrix_world)
-        p = h if end == "head" else t if end == "tail" else 0.5 * (h + t)
-        return mw[:3, :3] @ p + mw[:3, 3]
-    b = armature.data.bones[name]
-    h, t = np.array(b.head_local), np.array(b.tail_local)
-    return h if end == "head" else t if end == "tail" else 0.5 * (h + t)
+    b = armature.pose.bones[name]
+    h, t = np.array(b.head), np.array(b.tail)
+    p = h if end == "head" else t if end == "tail" else 0.5 * (h + t)
+    mw = np.array(armature.matrix_world)
+    return mw[:3, :3] @ p + mw[:3, 3]
 
 
 def _weighted(armature) -> set:
@@ -233,7 +229,7 @@ def hands_now(armature, bmap) -> dict:
     out = {}
     mw = np.array(armature.matrix_world)
     for a in bmap.arms.values():
-        e, w = (_point(armature, (n, "head"), True) for n in (a.forearm, a.hand))
+        e, w = (_point(armature, (n, "head")) for n in (a.forearm, a.hand))
         axis, length, _spread = hand_shape(armature, a.hand, float(np.linalg.norm(w - e)))
         rotation = mw[:3, :3] @ np.array(armature.pose.bones[a.hand].matrix)[:3, :3]
         out[a.hand] = (np.linalg.solve(rotation, axis), float(length))
@@ -245,7 +241,7 @@ def body_segments(armature, bmap, legs, hands=None) -> list:
     [(kind, proximal, distal)] for :func:`~..core.balance.centre_of_mass` (see the module
     docstring). ``hands``: :func:`hands_now` read before (default: now)."""
     def at(where):
-        return _point(armature, where, True)
+        return _point(armature, where)
 
     hands = hands if hands is not None else hands_now(armature, bmap)
     mw = np.array(armature.matrix_world)
@@ -285,17 +281,17 @@ def support_now(armature, legs, up) -> tuple:
     points = skin.skin_points(armature, names) if names else np.zeros((0, 3))
     if len(points) >= 3:
         heights = points @ (np.asarray(up, dtype=float) / np.linalg.norm(up))
-        hip, ankle = _point(armature, legs[0].hip, True), _point(armature, legs[0].ankle, True)
+        hip, ankle = _point(armature, legs[0].hip), _point(armature, legs[0].ankle)
         band = SOLE_BAND * float(np.linalg.norm(hip - ankle))
         sole = points[heights <= heights.min() + band]
         polygon = core_balance.polygon_of(sole, up)
         if len(polygon) >= 3:
             return polygon, "skin"
-    feet = [(_point(armature, leg.ankle, True), _point(armature, leg.toe, True)) for leg in legs]
+    feet = [(_point(armature, leg.ankle), _point(armature, leg.toe)) for leg in legs]
     rectangles = core_balance.support_polygon(feet, up)
     # and the joints of the feet's bones (a heel bone marks where the heel is)
-    ankle_height = min(float(_point(armature, leg.ankle, True) @ up) for leg in legs)
-    joints = [_point(armature, (n, end), True) for n in names for end in ("head", "tail")]
+    ankle_height = min(float(_point(armature, leg.ankle) @ up) for leg in legs)
+    joints = [_point(armature, (n, end)) for n in names for end in ("head", "tail")]
     joints = [p for p in joints if float(p @ up) <= ankle_height]
     if not joints:
         return rectangles, "bones"

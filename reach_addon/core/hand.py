@@ -543,12 +543,7 @@ class HandPass(HandDP):
         arm = self.arm
         out = []
         for pose, hand in zip(poses, hands):
-            hand = (float(hand[0]), float(hand[1]))
-            axes = self._gen(0).hand_axes(pose.joints, pose.bend)
-            d = np.array(hand_coefficients(*hand)) @ axes
-            joints = pose.joints.copy()
-            joints[4] = joints[3] + arm.hand_length * d
-            out.append(Pose(pose.config, joints, pose.bend, pose.f_r, hand))
+            out.append(self._with_hand(pose, hand))
         coef = np.array([hand_coefficients(*h) for h in hands])
         bends = wrist_turn(coef, arm.rest_coefficients)     # the bend from the neutral wrist
         rel = wrist_turn(coef[1:], coef[:-1]) if len(coef) > 1 else np.zeros(1)
