@@ -18,7 +18,7 @@ from . import ik
 from .arm import Pose, hand_coefficients
 from .body_capsules import body_hit, self_collision
 from .errors import ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, TARGET_IN_OBSTACLE
-from .numeric import cross
+from .lean import least_lean
 from .search import last_tries
 
 #: How far the body's up axis, read from the bones, may be off the true vertical (degrees;
@@ -234,20 +234,9 @@ def _beyond_reach(generator, wrist, sol) -> Diagnosis:
     reach = arm.arm_length
     if distance <= reach:
         return Diagnosis(OUT_OF_REACH, distance=distance, missing=0.0)
-    waist = np.asarray(arm.waist, dtype=float)
-    toward = np.array([wrist[0] - waist[0], wrist[1] - waist[1], 0.0])
-    if np.linalg.norm(toward) < 1e-9:
-        toward = np.array([0.0, 1.0, 0.0])
-    toward /= np.linalg.norm(toward)
-    axis = cross([0.0, 0.0, 1.0], toward)
-    v = shoulder - waist
-    for lean in np.arange(1.0, generator.settings.lean_max + 0.5, 1.0):
-        t = math.radians(lean)
-        moved = waist + v * math.cos(t) + cross(axis, v) * math.sin(t) + \
-            axis * float(axis @ v) * (1.0 - math.cos(t))
-        if np.linalg.norm(wrist - moved) <= reach:
-            return Diagnosis(NEEDS_LEAN, distance=distance, missing=distance - reach,
-                             lean_deg=float(lean))
+    lean = least_lean(shoulder, arm.waist, wrist, reach, generator.settings.lean_max)
+    if lean is not None:
+        return Diagnosis(NEEDS_LEAN, distance=distance, missing=distance - reach, lean_deg=lean)
     height = float(wrist[2] - shoulder[2])
     horizontal = float(np.hypot(wrist[0] - shoulder[0], wrist[1] - shoulder[1]))
     elevation = math.atan2(abs(height), horizontal)

@@ -1,0 +1,154 @@
+"""The trunk's lean: how far the upper body must tip at the hips to bring a target within
+the arm's reach, what that lean costs, and the ranges it keeps to.
+
+The first piece of the whole-body reach (issue "Reach past the arm"; the plan is in
+``docs/design/core.md``, *balance.py*). The refusal ``needs_lean`` reads its lean from
+here (:func:`least_lean`), and so will the planner when it leans.
+
+**Geometry.** The upper body turns rigidly about a horizontal axis ``k`` through the
+``pivot`` (the hips; the arm model's waist where the rig gives none). ``k`` is at right
+angles to the pivot's horizontal direction ``h`` to the target, ``k = up × h``, so the
+trunk tips straight toward the target: flexion for a target ahead, a lateral bend for one
+to the side, both for one in between. A point ``v`` of the upper body, relative to the
+pivot, goes to (Rodrigues, :func:`rotate_about`)
+
+.. math:: R_k(θ)\\,v = v\\cos θ + (k × v)\\sin θ + k\\,(k·v)(1 - \\cos θ)
+
+**The least lean** (:func:`least_lean`) is the least θ in [0, θ_max] with
+
+.. math:: |t - p - R_k(θ)(s - p)| \\le r
+
+for the shoulder ``s``, the pivot ``p``, the target ``t`` and the reach ``r``: in closed
+form, the leans that reach are one window of angles (a lean past the target's height takes
+the shoulder away again), and the least is its lower end.
+
+**Cost** (:func:`reba_trunk_score`): REBA's trunk score (Hignett & McAtamney 2000,
+*Rapid Entire Body Assessment*, Applied Ergonomics 31: 201-205): 1 upright; 2 for a
+flexion of 0-20° or an extension of 0-20°; 3 for a flexion of 20-60° or an extension
+beyond 20°; 4 for a flexion beyond 60°; +1 where the trunk is also twisted or bent to
+the side. A whole-body reach ranks its stages (arm and chest, lean, squat, step) by it.
+
+**Ranges** (:data:`TRUNK_RANGE_DEG`): the American Academy of Orthopaedic Surgeons'
+average ranges of motion (*Joint Motion: Method of Measuring and Recording*, 1965):
+thoracolumbar flexion 80°, extension 25°, lateral bend 35°, rotation 45°; hip flexion
+120° (knee bent), extension 30°. A young adult's lean with the feet fixed reaches about
+37-42 cm past the arm (Duncan et al. 1990, *Functional reach*, J Gerontol 45: M192).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: The AAOS (1965) average ranges of motion the lean keeps within (degrees); see the
+#: module docstring.
+TRUNK_RANGE_DEG = {
+    "thoracolumbar_flexion": 80.0,
+    "thoracolumbar_extension": 25.0,
+    "thoracolumbar_lateral_bend": 35.0,
+    "thoracolumbar_rotation": 45.0,
+    "hip_flexion": 120.0,
+    "hip_extension": 30.0,
+}
+
+#: The canonical frame's up axis (the arm frame: x outward, y forward, z up).
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def lean_axis(pivot, target) -> np.ndarray:
+    """The axis the trunk tips about to lean toward ``target`` (canonical, unit):
+    ``up × h`` with ``h`` the pivot's horizontal direction to the target (straight ahead,
+    +y, where the target is right above or below the pivot)."""
+    d = np.asarray(target, dtype=float) - np.asarray(pivot, dtype=float)
+    h = np.array([d[0], d[1], 0.0])
+    n = float(np.linalg.norm(h))
+    h = h / n if n > 1e-9 else np.array([0.0, 1.0, 0.0])
+    return np.cross(UP, h)
+
+
+def rotate_about(points, pivot, axis, angle_deg) -> np.ndarray:
+    """``points`` (..., 3) turned by ``angle_deg`` about the line through ``pivot`` along
+    the unit ``axis`` (Rodrigues):
+    :math:`p + v\\cos θ + (k × v)\\sin θ + k (k·v)(1 - \\cos θ)`, ``v = x - p``."""
+    p = np.asarray(pivot, dtype=float)
+    k = np.asarray(axis, dtype=float)
+    v = np.asarray(points, dtype=float) - p
+    t = math.radians(float(angle_deg))
+    c, s = math.cos(t), math.sin(t)
+    kv = v @ k
+    return p + v * c + np.cross(k, v) * s + k * (kv[..., None] if np.ndim(kv) else kv) * (1.0 - c)
+
+
+def lean_rotation(pivot, axis, angle_deg) -> np.ndarray:
+    """The 4×4 rigid transform (canonical frame) of a lean: :func:`rotate_about` as a
+    matrix, so a leaned arm's ``to_world`` is ``to_world @ lean_rotation(...)``."""
+    m = np.eye(4)
+    m[:3, :3] = rotate_about(np.eye(3), np.zeros(3), axis, angle_deg).T
+    p = np.asarray(pivot, dtype=float)
+    m[:3, 3] = p - m[:3, :3] @ p
+    return m
+
+
+def shoulder_after_lean(shoulder, pivot, target, angle_deg) -> np.ndarray:
+    """Where the shoulder is after leaning ``angle_deg`` toward ``target`` about ``pivot``
+    (:func:`lean_axis`, :func:`rotate_about`)."""
+    return rotate_about(shoulder, pivot, lean_axis(pivot, target), angle_deg)
+
+
+def least_lean(shoulder, pivot, target, reach, lean_max_deg):
+    """The least lean (degrees) toward ``target`` that brings it within ``reach`` of the
+    shoulder: 0 where it already is, ``None`` where no lean up to ``lean_max_deg`` does.
+
+    In closed form: with ``v = s - p``, ``d = t - p`` and the lean's axis ``k``,
+
+    .. math::
+        |d - R_k(θ) v|^2 \\le r^2 \\iff A\\cos θ + B\\sin θ \\ge D,\\quad
+        A = d·v - (k·d)(k·v),\\ B = d·(k × v),\\
+        D = \\tfrac12(|d|^2 + |v|^2 - r^2) - (k·d)(k·v)
+
+    and :math:`A\\cos θ + B\\sin θ = M\\cos(θ - φ)` (:math:`M = \\sqrt{A^2 + B^2}`,
+    :math:`φ = \\operatorname{atan2}(B, A)`), so the leans that reach are the window
+    :math:`|θ - φ| \\le \\arccos(D / M)`: the least is 0 inside it, else its lower end."""
+    p = np.asarray(pivot, dtype=float)
+    v = np.asarray(shoulder, dtype=float) - p
+    d = np.asarray(target, dtype=float) - p
+    k = lean_axis(p, target)
+    kk = float(k @ d) * float(k @ v)
+    a = float(d @ v) - kk
+    b = float(d @ np.cross(k, v))
+    need = 0.5 * (float(d @ d) + float(v @ v) - float(reach) ** 2) - kk
+    m = math.hypot(a, b)
+    if m <= 1e-12 * max(1.0, float(v @ v)):
+        return 0.0 if need <= 0.0 else None
+    if need > m:
+        return None
+    phi = math.degrees(math.atan2(b, a))
+    half = math.degrees(math.acos(max(-1.0, need / m)))
+    if a >= need:                      # θ = 0 reaches: M cos(0 - φ) = A
+        return 0.0
+    lowest = (phi - half) % 360.0
+    return lowest if lowest <= float(lean_max_deg) else None
+
+
+def reba_trunk_score(flexion_deg: float, twisted_or_side_bent: bool = False) -> int:
+    """REBA's trunk score for a trunk flexed ``flexion_deg`` from upright (negative:
+    extension), +1 where it is also twisted or bent to the side (Hignett & McAtamney
+    2000):
+
+    ======================================  =====
+    upright (0°)                            1
+    flexion or extension of 0-20°           2
+    flexion of 20-60°, extension beyond 20° 3
+    flexion beyond 60°                      4
+    ======================================  ====="""
+    f = float(flexion_deg)
+    if abs(f) < 1e-9:
+        score = 1
+    elif -20.0 <= f <= 20.0:
+        score = 2
+    elif f < -20.0 or f <= 60.0:
+        score = 3
+    else:
+        score = 4
+    return score + (1 if twisted_or_side_bent else 0)

@@ -1,0 +1,84 @@
+"""The trunk's lean (``core.lean``): its rotation, the least lean that reaches, REBA's trunk
+score; and the ``needs_lean`` refusal reading its lean from it. Figures worked by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from reach_addon.core import lean
+
+
+def test_a_lean_toward_a_target_ahead_tips_the_trunk_forward():
+    axis = lean.lean_axis([0.0, 0.0, 0.0], [0.0, 2.0, 1.0])
+    assert np.allclose(axis, [-1.0, 0.0, 0.0])
+    # the top of a trunk 1 tall, leaned 30°: sin 30° forward, cos 30° up
+    top = lean.rotate_about([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], axis, 30.0)
+    assert np.allclose(top, [0.0, 0.5, math.sqrt(3) / 2])
+
+
+def test_a_lean_to_the_side_bends_the_trunk_sideways_about_the_pivot():
+    pivot = np.array([0.1, 0.2, -1.0])
+    top = lean.shoulder_after_lean(pivot + [0.0, 0.0, 1.0], pivot, pivot + [3.0, 0.0, 0.5], 90.0)
+    assert np.allclose(top, pivot + [1.0, 0.0, 0.0])
+
+
+def test_the_lean_matrix_moves_points_as_the_rotation_does():
+    rng = np.random.default_rng(3)
+    pivot, pts = rng.normal(size=3), rng.normal(size=(5, 3))
+    axis = lean.lean_axis(pivot, rng.normal(size=3))
+    m = lean.lean_rotation(pivot, axis, 37.0)
+    moved = pts @ m[:3, :3].T + m[:3, 3]
+    assert np.allclose(moved, lean.rotate_about(pts, pivot, axis, 37.0))
+    assert np.allclose(m[:3, :3] @ m[:3, :3].T, np.eye(3)) and np.linalg.det(m[:3, :3]) > 0
+    assert np.allclose(np.linalg.norm(moved - pivot, axis=1), np.linalg.norm(pts - pivot, axis=1))
+
+
+def test_the_least_lean_is_the_one_that_just_reaches():
+    """Shoulder 1 above the pivot, target 1 ahead and 1 up, reach 0.5. Leaned θ, the
+    shoulder is at (0, sin θ, cos θ), and |t - s|² = 3 - 2 (sin θ + cos θ) ≤ 0.25 first at
+    θ = asin(1.375 / √2) - 45° = 31.476°."""
+    expected = math.degrees(math.asin(1.375 / math.sqrt(2.0))) - 45.0
+    got = lean.least_lean([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, 1.0, 1.0], 0.5, 45.0)
+    assert got == pytest.approx(expected, abs=0.01) and got >= expected - 1e-9
+    assert lean.least_lean([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, 1.0, 1.0], 0.5, 30.0) is None
+    assert lean.least_lean([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, 0.3, 1.0], 0.5, 30.0) == 0.0
+
+
+def test_a_narrow_window_of_leans_is_found_and_its_least_is_given():
+    """Target on the unit circle the shoulder sweeps, at 60°, reach 0.02: only leans within
+    2 asin(0.01) = 1.146° of 60° reach it; the least is 58.854°. A brute-force scan of
+    leans every 0.001° agrees."""
+    target = [0.0, math.sin(math.radians(60.0)), math.cos(math.radians(60.0))]
+    got = lean.least_lean([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], target, 0.02, 90.0)
+    assert got == pytest.approx(60.0 - math.degrees(2 * math.asin(0.01)), abs=1e-6)
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        shoulder, pivot, tgt = rng.normal(size=3), rng.normal(size=3), rng.normal(size=3) * 2
+        reach = float(rng.uniform(0.2, 1.5))
+        angles = np.arange(0.0, 90.0, 0.001)
+        k = lean.lean_axis(pivot, tgt)
+        tops = np.array([lean.rotate_about(shoulder, pivot, k, a) for a in angles[::50]])
+        hits = angles[::50][np.linalg.norm(tops - tgt, axis=1) <= reach]
+        got = lean.least_lean(shoulder, pivot, tgt, reach, 90.0)
+        if len(hits):
+            assert got is not None and got <= hits[0] + 1e-9 and got > hits[0] - 0.05 - 1e-9
+        if got is not None:
+            top = lean.shoulder_after_lean(shoulder, pivot, tgt, got)
+            assert np.linalg.norm(top - tgt) <= reach + 1e-9
+
+
+@pytest.mark.parametrize("flexion, twisted, score", [
+    (0.0, False, 1), (10.0, False, 2), (-15.0, False, 2), (20.0, False, 2), (35.0, False, 3),
+    (-30.0, False, 3), (60.0, False, 3), (75.0, False, 4), (35.0, True, 4), (0.0, True, 2),
+])
+def test_reba_trunk_score(flexion, twisted, score):
+    assert lean.reba_trunk_score(flexion, twisted) == score
+
+
+def test_the_ranges_are_the_aaos_averages():
+    r = lean.TRUNK_RANGE_DEG
+    assert (r["thoracolumbar_flexion"], r["thoracolumbar_lateral_bend"], r["hip_flexion"]) == \
+        (80.0, 35.0, 120.0)
