@@ -926,6 +926,7 @@ def rebuild(context, report: dict, task: str = "reach", obstacles: str | None = 
     import bpy
 
     from reach_addon.blender import pipeline
+    from reach_addon.blender.carried import carried_targets
     from reach_addon.blender import rig as rig_mod
     from reach_addon.blender.scene import (KEPT, character_objects, gather_pieces,
                                            obstacles_from_pieces)
@@ -945,7 +946,7 @@ def rebuild(context, report: dict, task: str = "reach", obstacles: str | None = 
                                overrides=dict(overrides or {}))
     first = np.array(targets[0].matrix_world.translation)
     info = rig_mod.build(armature, report["arm"], request.overrides, target=first)
-    info, settings, _note = pipeline._carried_targets(armature, targets, info, request, first)
+    info, settings, _note = carried_targets(armature, targets, info, request, first)
     collection = bpy.data.collections.get(obstacles) if obstacles else None
     exclude = character_objects(armature, scene) | set(names)
     # as the pipeline reads them: objects wholly beyond the arm's reach sphere are not read

@@ -30,6 +30,7 @@ from . import body as body_mod
 from . import rig as rig_mod
 from . import viz
 from .bake import KeyedPlan
+from .carried import carried_targets
 from .results import arm_note, measure_baked, start_as_it_shows, task_results
 from .scene import (KEPT, ObstacleCache, character_objects, finite, gather_pieces,
                     visit_obstacles)
@@ -212,7 +213,7 @@ class PipelineRun:
 
     def read_rig(self):
         """Stage 1 (yields once): the rig read on the start frame (:func:`.rig.build`), with
-        the arm and settings :func:`_carried_targets` chooses: ``info``, ``settings`` and
+        the arm and settings :func:`.carried.carried_targets` chooses: ``info``, ``settings`` and
         ``still`` (the note for the results, or None)."""
         scene = self.context.scene
         if scene.frame_current != self.frame_start:
@@ -221,7 +222,7 @@ class PipelineRun:
         first = np.array(self.targets[0].matrix_world.translation)
         info = rig_mod.build(self.armature, self.request.side, self.request.overrides,
                              target=first)
-        self.info, self.settings, self.still = _carried_targets(
+        self.info, self.settings, self.still = carried_targets(
             self.armature, self.targets, info, self.request, first)
         yield 0.02, "reading the rig"
 
@@ -431,83 +432,6 @@ def _progress(plan_steps, k: int, count: int):
     progress; returns the plan."""
     return relay(plan_steps, lambda progress: (0.05 + 0.85 * (k + progress[0]) / count,
                                                progress[1]))
-
-
-def _carrying_bone(ob, armature, seen=None):
-    """The bone of ``armature`` that carries ``ob``: the bone it (or a parent of it, at any
-    depth, or the target of one of their constraints) is parented to or constrained to;
-    None if no bone of ``armature`` moves it."""
-    seen = set() if seen is None else seen
-    while ob is not None and ob.name not in seen:
-        seen.add(ob.name)
-        for c in getattr(ob, "constraints", ()):
-            other = getattr(c, "target", None)
-            if c.mute or c.influence <= 0.0 or other is None:
-                continue
-            if other == armature:
-                if getattr(c, "subtarget", ""):
-                    return c.subtarget
-            else:
-                bone = _carrying_bone(other, armature, seen)
-                if bone is not None:
-                    return bone
-        if ob.parent == armature:
-            return ob.parent_bone if ob.parent_type == "BONE" and ob.parent_bone else None
-        ob = ob.parent
-    return None
-
-
-def _under(armature, bone_name, names) -> bool:
-    """Is bone ``bone_name`` one of ``names`` or below one of them?"""
-    bone = armature.data.bones.get(bone_name)
-    while bone is not None:
-        if bone.name in names:
-            return True
-        bone = bone.parent
-    return False
-
-
-def _carried_targets(armature, targets, info, request, first):
-    """The rig and settings for ``targets`` carried by the character's own bones: one on
-    a bone of the reaching arm (upper arm, forearm, hand or below) would move with the
-    hand, so that arm is refused (ReachError; with ``auto``, the other arm's rig is taken
-    if it carries none); one on a bone the chest carries (the neck, the head, the other
-    arm) would move as the chest turns, so chest rotation is turned off. ``info``: the
-    rig read for the request; ``first``: the first target's world position. Returns
-    (info, settings, note): the note for the results when the chest is kept still, else
-    None."""
-    settings = request.settings
-    carried = [(t, b) for t in targets if (b := _carrying_bone(t, armature)) is not None]
-    if not carried:
-        return info, settings, None
-
-    def on_arm(rig):
-        a = rig.bones.arms[rig.side]
-        names = {a.upper_arm, a.forearm, a.hand} | {a.keyed(r) for r in ("upper_arm", "forearm",
-                                                                          "hand")}
-        return [(t, b) for t, b in carried if _under(armature, b, names)]
-
-    if on_arm(info) and request.side == "auto":
-        other = rig_mod.build(armature, "left" if info.side == "right" else "right",
-                              request.overrides, target=first)
-        if not on_arm(other):
-            info = other
-    held = on_arm(info)
-    if held:
-        t, b = held[0]
-        raise ReachError(f"target '{t.name}' is carried by bone '{b}' of the {info.side} arm, "
-                         "which the reach moves, so the hand could never arrive on it; parent "
-                         "it to something that stays still, or reach with the other arm")
-    a = info.bones.arms[info.side]
-    chest = {info.bones.chest, info.bones.keyed_chest, a.clavicle, a.keyed("clavicle")} - {None}
-    on_chest = [(t, b) for t, b in carried if _under(armature, b, chest)]
-    if settings.chest_rotation and on_chest:
-        t, b = on_chest[0]
-        return info, settings.replace(chest_rotation=False), (
-            f"the chest was kept still: target '{t.name}' is carried by bone '{b}', which "
-            "turns with the chest, so turning the chest would move it; parent the target to "
-            "something that stays still to let the chest turn")
-    return info, settings, None
 
 
 def _moving_owners(context, exclude, collection, frame) -> set:
