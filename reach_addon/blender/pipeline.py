@@ -27,6 +27,7 @@ from ..core.chase import chase_steps
 from ..core.sweep import plan_among_moving
 from . import bake as bake_mod
 from . import body as body_mod
+from . import lean as lean_mod
 from . import rig as rig_mod
 from . import viz
 from .bake import KeyedPlan
@@ -209,6 +210,7 @@ class PipelineRun:
         self.frame_start = scene.frame_current if request.frame_start is None \
             else int(request.frame_start)
         self.warnings = []            # what a Bake of this preview would refuse
+        self.lean = None              # a lean planned before the reach (.lean.RigLean)
         self.outcome = None
 
     def read_rig(self):
@@ -297,6 +299,10 @@ class PipelineRun:
             frame += len(plan.poses)
         start_as_it_shows(self.armature, self.info, [k.plan for k in self.plans],
                           self.obstacles, self._sweep if self.moving else None)
+        if self.settings.lean and len(self.plans) == 1 and not self.moving and \
+                self.frame_obstacles is None:        # a lean, then the reach (stage 1)
+            self.lean, self.plans[0] = lean_mod.plan(self.context, self.armature, self.info,
+                                                     self.planner, self.plans[0])
 
     def _frame_planners(self) -> list:
         """A planner per frame of a chase, one per distinct set of obstacles."""
@@ -341,6 +347,10 @@ class PipelineRun:
         self.baked, self.failure, self.drawing = None, None, self.request.draw
         if not self.bake:
             return
+        if self.to_key and self.lean is not None:
+            self.baked = lean_mod.bake(self.context, self.armature, self.info, self.lean,
+                                       self.to_key, self.request.new_action)
+            return
         if self.to_key:
             self.baked = bake_mod.bake(self.context, self.armature, self.info, self.to_key,
                                        self.request.new_action)
@@ -365,6 +375,7 @@ class PipelineRun:
             outcome.baked, outcome.action = True, baked.action
         outcome.results = task_results(self.info, self.plans, baked.bones if baked else [],
                                        self.request, baked)
+        lean_mod.report(outcome.results, self.lean, self.info.arm.arm_length)
         if outcome.baked:
             measure_baked(self.context, self.armature, self.info, outcome.results,
                           self.settings, self.obstacles)

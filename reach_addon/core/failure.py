@@ -58,8 +58,9 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
         return NEEDS_LEAN, (
             f"target '{name}' is out of reach by {size(d.missing)} without leaning "
             f"({d.distance / length:.2f} arm lengths from the shoulder): leaning the trunk "
-            f"about {d.lean_deg:.0f}° would reach it, which Reach does not plan "
-            f"({closest}); move the target or the character closer")
+            f"about {d.lean_deg:.0f}° would reach it ({closest}); turn on Lean to lean "
+            "first (a single reach's Plan or Bake), or move the target or the character "
+            "closer")
     if d.reason == NEEDS_STEP:
         return NEEDS_STEP, (
             f"target '{name}' is out of reach even leaning {settings.lean_max:.0f}° "

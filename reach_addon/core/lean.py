@@ -37,9 +37,13 @@ thoracolumbar flexion 80°, extension 25°, lateral bend 35°, rotation 45°; hi
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
+
+from .torso import rotate_about_spine
 
 #: The AAOS (1965) average ranges of motion the lean keeps within (degrees); see the
 #: module docstring.
@@ -152,3 +156,116 @@ def reba_trunk_score(flexion_deg: float, twisted_or_side_bent: bool = False) -> 
     else:
         score = 4
     return score + (1 if twisted_or_side_bent else 0)
+
+
+@dataclass(frozen=True)
+class Lean:
+    """A lean of the upper body (canonical frame of the upright arm): ``angle`` degrees
+    about the line through ``pivot`` along the unit ``axis`` (:func:`lean_axis`)."""
+
+    pivot: np.ndarray
+    axis: np.ndarray
+    angle: float
+
+    def matrix(self, fraction: float = 1.0) -> np.ndarray:
+        """The 4×4 canonical transform of ``fraction`` of the lean (:func:`lean_rotation`)."""
+        return lean_rotation(self.pivot, self.axis, self.angle * float(fraction))
+
+
+def leaned_arm(arm, lean: Lean, fraction: float = 1.0):
+    """``arm`` on a trunk leaned by ``fraction`` of ``lean``: the same arm in its own
+    (leaned) canonical frame, whose ``to_world`` is ``arm.to_world @ L``. The body
+    capsules that turn with the chest (chest, head) lean with it; the others (the pelvis,
+    below the pivot) stay where they are in the world, so in the leaned frame they turn by
+    ``L⁻¹``."""
+    m = lean.matrix(fraction)
+    back = np.linalg.inv(m)
+
+    def stay(c):
+        if c.turns_with_chest:
+            return c
+        a, b = (back[:3, :3] @ np.asarray(p, dtype=float) + back[:3, 3] for p in (c.a, c.b))
+        return dataclasses.replace(c, a=a, b=b)
+
+    return dataclasses.replace(arm, to_world=np.asarray(arm.to_world, dtype=float) @ m,
+                               body_capsules=tuple(stay(c) for c in arm.body_capsules))
+
+
+#: The chest turns :func:`choose_lean` tries, degrees apart.
+CHEST_TURN_STEP = 5.0
+
+
+def chest_turns(settings) -> list:
+    """Every chest turn (degrees) the planner may give a reach: every
+    :data:`CHEST_TURN_STEP` within ``Settings.chest_rotation_max`` either way, where chest
+    rotation is on; else none (0)."""
+    if not settings.chest_rotation or settings.chest_rotation_max <= 0.0:
+        return [0.0]
+    n = int(math.ceil(settings.chest_rotation_max / CHEST_TURN_STEP))
+    return [float(t) for t in np.linspace(-settings.chest_rotation_max,
+                                          settings.chest_rotation_max, 2 * n + 1)]
+
+
+def choose_lean(arm, target_c, pivot_c, settings, turns=(0.0,)) -> Lean | None:
+    """The least lean, about ``pivot_c``, that brings ``target_c`` (canonical) within
+    ``Settings.lean_reach`` arm lengths of the shoulder (:func:`least_lean`), at most
+    ``Settings.lean_max``, with the chest turned by one of ``turns`` (degrees; the planner
+    then fits its own turn on the leaned trunk); ``None`` where none does. 0° where the
+    target is within that reach already."""
+    reach = settings.lean_reach * arm.arm_length
+    leans = [least_lean(rotate_about_spine(arm.shoulder, float(t)), pivot_c, target_c, reach,
+                        settings.lean_max) for t in turns]
+    leans = [x for x in leans if x is not None]
+    if not leans:
+        return None
+    return Lean(np.asarray(pivot_c, dtype=float), lean_axis(pivot_c, target_c), float(min(leans)))
+
+
+def lean_frames(arm, joints_c, lean: Lean, settings, fps: float) -> np.ndarray:
+    """The lean's fraction on each frame of its own phase, before the arm moves: a
+    minimum-jerk curve (:func:`~reach_addon.core.torso.minimum_jerk`) over as many frames
+    as the wrist's arc (``lean.angle`` in radians times its distance from the pivot)
+    takes at the automatic duration's speed (:func:`~reach_addon.core.motion.auto_duration`
+    reasoning: ``Settings.mean_speed`` arm lengths a second, at least
+    ``Settings.min_duration``). Frame 0 is the upright start (fraction 0); the last is 1."""
+    wrist = np.asarray(joints_c, dtype=float)[3]
+    arc = math.radians(lean.angle) * float(np.linalg.norm(wrist - lean.pivot)) / arm.arm_length
+    seconds = max(settings.min_duration, arc / settings.mean_speed)
+    n = max(2, int(math.ceil(seconds * fps)) + 1)
+    t = np.linspace(0.0, 1.0, n)
+    return t * t * t * (10.0 + t * (-15.0 + 6.0 * t))
+
+
+#: Instants checked between two frames of the lean (besides the frames themselves).
+LEAN_SUBSTEPS = 4
+
+
+def lean_hit(arm, joints_c, lean: Lean, fractions, checker):
+    """The first part that touches an obstacle as the trunk leans: (fraction, part name,
+    obstacle name), or ``None`` where the lean is clear. The arm holds its start pose
+    (``joints_c``, canonical (5, 3)) on the leaning trunk; the arm's capsules (hand
+    included, as ``checker`` tests them) and the chest's and head's capsules are tested on
+    every frame of ``fractions`` and :data:`LEAN_SUBSTEPS` instants between two. A body
+    capsule already touching at the start (fraction 0) is not held to it: the body's
+    capsules are proportional guesses, and a rig may stand close to a table."""
+    joints_c = np.asarray(joints_c, dtype=float)
+    body = [c for c in arm.body_capsules if c.turns_with_chest]
+    upright = arm.to_world
+    clear_at_start = [c for c in body if checker.capsule_clear(
+        *(upright[:3, :3] @ np.asarray(p, dtype=float) + upright[:3, 3] for p in (c.a, c.b)),
+        c.radius)]
+    f = np.asarray(fractions, dtype=float)
+    steps = np.linspace(0.0, 1.0, LEAN_SUBSTEPS + 2)[1:]
+    instants = np.concatenate([[f[0]]] + [a + (b - a) * steps for a, b in zip(f[:-1], f[1:])])
+    for fraction in instants:
+        m = upright @ lean.matrix(float(fraction))
+        world = joints_c @ m[:3, :3].T + m[:3, 3]
+        hit = checker.first_hit(world)
+        if hit is not None:
+            return float(fraction), hit[0], hit[1]
+        for c in clear_at_start:
+            a, b = (m[:3, :3] @ np.asarray(p, dtype=float) + m[:3, 3] for p in (c.a, c.b))
+            if not checker.capsule_clear(a, b, c.radius):
+                near = checker.obstacles.nearest(0.5 * (a + b), math.inf)
+                return float(fraction), c.name, checker.obstacles.owner(near[2] if near else None)
+    return None

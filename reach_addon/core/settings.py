@@ -115,9 +115,20 @@ class Settings:
         "the wrist: 1 the fingertips (default), 0.4 the centre of a grip, 0 the wrist",
         "body", 0.0, 1.0)
     lean_max: float = _f(
-        45.0, "Lean limit", "Farthest trunk lean (about the waist) that a target beyond the "
-        "arm's reach is reported as 'reachable by leaning' for; farther, by stepping. Reach "
-        "plans no lean: it says what would reach the target", "body", 0.0, 90.0, "deg")
+        45.0, "Lean limit", "Farthest trunk lean (at the hips) that a target beyond the "
+        "arm's reach is leaned for (with Lean on) or reported as 'reachable by leaning'; "
+        "farther, by stepping. Well within the AAOS ranges (1965) of the spine's flexion, "
+        "80°, and the hip's, 120°, which a lean shares", "body", 0.0, 90.0, "deg")
+    lean: bool = _f(
+        False, "Lean", "Lean the trunk at the hips, feet planted, where a single reach's "
+        "target is beyond the arm: the trunk leans first, then the arm reaches. Off by "
+        "default until the fuzz campaign has checked it; the hips do not move back yet, so "
+        "a lean that would carry the centre of mass past the feet is refused", "body")
+    lean_reach: float = _f(
+        0.98, "Lean to", "A lean brings the target this far from the shoulder (arm "
+        "lengths): people reaching by a lean extend the arm nearly straight (the functional "
+        "reach test); 0.98 leaves the elbow bent about 23° on equal arm segments", "body",
+        0.5, 1.0)
     chest_phase_delay: float = _f(
         0.25, "Chest delay", "Fraction of a reach's progress toward its target before "
         "the chest starts to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)

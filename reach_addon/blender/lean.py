@@ -1,0 +1,286 @@
+"""The trunk's lean on a rig (:mod:`..core.whole_body`): the bone that leans it, its pivot,
+the balance the lean leaves, and its keys.
+
+**The lean bone** (:func:`lean_bone`) is the highest bone of the chest's chain (the keyed
+chest, its parent, and so on up) that carries neither leg (:func:`.balance.find_legs`):
+turning it turns the chest, both arms and the head and leaves the legs and feet where they
+are. Its head is the lean's pivot. On most rigs it is the lowest spine bone above the
+hips (the hips carry the legs); on a generated Rigify rig it is the chest control. A rig
+without legs has none, and does not lean.
+
+**Balance.** The hips do not move back yet, so a lean is refused where it would leave the
+centre of mass past the feet (:func:`.balance.margin_now`), and farther past them than the
+rig stands as posed: a template or a rig whose feet Reach reads poorly may stand past its
+own feet, and is then held to that.
+
+**Posing and keying** (:func:`lean_basis`): a lean is a rotation of the lean bone's pose
+matrix ``M`` about its head, ``M' = T_h R T_h⁻¹ M``; its channel (basis) matrix is then
+``B' = B M⁻¹ M'``, whatever the bone's parents, rotation mode or roll.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core import NEEDS_LEAN, Planner
+from ..core.whole_body import LeanPhase, lean_then_reach
+from . import balance
+from . import bake as bake_mod
+from .bake import KeyedPlan
+from .bone_matrices import channel_values
+from .fcurves import Channels, ensure_action, write_channel
+from .rig_detect import ancestors
+
+
+def lean_bone(armature, bmap, legs) -> str | None:
+    """The bone that leans the trunk (see the module docstring), or None without legs."""
+    if not legs:
+        return None
+    bones = armature.data.bones
+    hips = [bones[leg.hip[0]] for leg in legs]
+    carried = {b.name for h in hips for b in [h] + ancestors(h)}
+    chain = [bones[bmap.keyed_chest]] + ancestors(bones[bmap.keyed_chest])
+    found = None
+    for b in chain:
+        if b.name in carried:
+            break
+        found = b.name
+    return found
+
+
+def pivot_world(armature, bone: str) -> np.ndarray:
+    """The lean bone's head now (world): the lean's pivot."""
+    mw = np.array(armature.matrix_world)
+    return mw[:3, :3] @ np.array(armature.pose.bones[bone].head) + mw[:3, 3]
+
+
+def lean_basis(armature, bone: str, rotations_world) -> np.ndarray:
+    """The lean bone's channel (basis) matrices (F, 4, 4) for the world rotations
+    ``rotations_world`` (F, 3, 3) of the trunk about its head, from its pose now (see the
+    module docstring)."""
+    pb = armature.pose.bones[bone]
+    a = np.array(armature.matrix_world)[:3, :3]
+    a_inv = np.linalg.inv(a)
+    m = np.array(pb.matrix)
+    basis = np.array(pb.matrix_basis)
+    m_inv = np.linalg.inv(m)
+    out = []
+    for r in np.asarray(rotations_world, dtype=float):
+        leaned = m.copy()
+        leaned[:3, :3] = a_inv @ r @ a @ m[:3, :3]
+        out.append(basis @ m_inv @ leaned)
+    return np.array(out)
+
+
+def world_rotations(info, phase) -> np.ndarray:
+    """The trunk's world rotations (F, 3, 3) on the lean's frames: the canonical lean
+    (:meth:`~..core.lean.Lean.matrix`) carried into the world, ``M R M⁻¹`` with ``M`` the
+    arm's canonical-to-world rotation (a mirror for a left arm)."""
+    m = np.asarray(info.arm.to_world, dtype=float)[:3, :3]
+    return np.array([m @ phase.lean.matrix(f)[:3, :3] @ m.T for f in phase.fractions])
+
+
+def pose_lean(context, armature, bone: str, basis) -> None:
+    """Set the lean bone's channel matrix to ``basis`` (4, 4) and evaluate."""
+    from mathutils import Matrix
+
+    armature.pose.bones[bone].matrix_basis = Matrix(np.asarray(basis).tolist())
+    context.view_layer.update()
+
+
+def margin_leaned(context, armature, info, legs, bone, basis) -> float:
+    """The centre of mass's margin over the feet (world units, :func:`.balance.margin_now`)
+    with the trunk leaned by ``basis``; the pose is put back after."""
+    pb = armature.pose.bones[bone]
+    before = pb.matrix_basis.copy()
+    try:
+        pose_lean(context, armature, bone, basis)
+        return balance.margin_now(armature, info.bones, legs, np.asarray(info.frame.up, float))
+    finally:
+        pb.matrix_basis = before
+        context.view_layer.update()
+
+
+def animated(armature, bone: str) -> bool:
+    """Does the armature's action key the lean bone's rotation (a lean would overwrite it)?"""
+    ad = armature.animation_data
+    action = ad.action if ad else None
+    if action is None:
+        return False
+    prefix = f'pose.bones["{bone}"].rotation'
+    bag = Channels(armature, action).bag
+    return any(fc.data_path.startswith(prefix) for fc in bag.fcurves)
+
+
+def key_lean(armature, bone: str, bases, frames, new_action: bool = False) -> None:
+    """Key the lean bone's rotation to ``bases`` (F, 4, 4) on ``frames`` (F,)."""
+    pb = armature.pose.bones[bone]
+    path, values = channel_values(pb, bases)
+    action = ensure_action(armature, new_action)
+    write_channel(Channels(armature, action), f'pose.bones["{bone}"].{path}', values,
+                  np.asarray(frames, dtype=float), bone)
+
+
+@dataclass
+class RigLean:
+    """A lean planned on the rig: the core's ``phase`` (:class:`~..core.whole_body.
+    LeanPhase`), the lean ``bone``, its channel matrices ``bases`` on the lean's frames
+    (the first upright, the last the reach's first frame), the ``frame_start`` it starts
+    on, and the centre of mass's ``margin`` over the feet at the full lean, the arm at its
+    start (world units)."""
+
+    phase: LeanPhase
+    bone: str
+    bases: np.ndarray
+    frame_start: int
+    margin: float
+
+
+def plan(context, armature, info, planner, keyed):
+    """Try a lean where ``keyed`` (the :class:`.bake.KeyedPlan` of a single reach) was refused
+    as ``needs_lean`` and ``Settings.lean`` is on (:func:`~..core.whole_body.
+    lean_then_reach`), among ``planner``'s obstacles and settings, each lean held to the
+    balance (:class:`BalanceCheck`). Returns (:class:`RigLean`, the reach's KeyedPlan on
+    the leaned trunk); or (None, ``keyed``) with its message saying why no lean was planned."""
+    made = []
+
+    def make_planner(arm):
+        made.append(Planner(arm, planner.obstacles, planner.settings))
+        return made[-1]
+
+    failed, task = keyed.plan, keyed.plan.task
+    if not planner.settings.lean or failed.reason != NEEDS_LEAN or task.kind != "reach":
+        return None, keyed
+    legs = balance.find_legs(armature, info.bones, info.frame)
+    bone = lean_bone(armature, info.bones, legs)
+    if bone is None:
+        why = "Reach finds no legs on this rig, and leans only a body standing on its feet"
+    elif animated(armature, bone):
+        why = f"bone '{bone}', which leans the trunk, has keys of its own"
+    else:
+        pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
+        check = BalanceCheck(context, armature, info, legs, bone)
+        phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check)
+        if phase is not None:
+            bases = lean_basis(armature, bone, world_rotations(info, phase))
+            first = keyed.first_frame
+            return RigLean(phase, bone, bases, first, check.margins[-1]), KeyedPlan(
+                reach_or_why, first + phase.frames, (made[-1].generator.checker,), True)
+        why = reach_or_why
+    for seg in failed.segments:
+        if seg.reason == NEEDS_LEAN:
+            seg.message += f"; with Lean on: {why}"
+    return None, keyed
+
+
+class BalanceCheck:
+    """``check(lean)``: why a lean (:class:`~..core.lean.Lean`) may not be taken, or None:
+    the centre of mass's margin over the feet with the trunk at the full lean, the arm at
+    its start (:func:`margin_leaned`), may not fall below 0 nor below the rig's own as it
+    stands (see the module docstring). ``margins``: each lean's margin, in turn."""
+
+    def __init__(self, context, armature, info, legs, bone):
+        self.context, self.armature, self.info, self.legs, self.bone = \
+            context, armature, info, legs, bone
+        self.standing = balance.margin_now(armature, info.bones, legs,
+                                           np.asarray(info.frame.up, float))
+        self.margins = []
+
+    def __call__(self, lean):
+        m = np.asarray(self.info.arm.to_world, dtype=float)[:3, :3]
+        basis = lean_basis(self.armature, self.bone, [m @ lean.matrix()[:3, :3] @ m.T])[0]
+        margin = margin_leaned(self.context, self.armature, self.info, self.legs, self.bone,
+                               basis)
+        self.margins.append(margin)
+        if margin >= min(0.0, self.standing):
+            return None
+        length = self.info.arm.arm_length
+        why = (f"leaning {lean.angle:.0f}° would carry the centre of mass "
+               f"{-margin / length:.3f} arm lengths past the feet, and Reach does not move "
+               "the hips back yet")
+        if self.standing < 0.0:
+            why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"
+        return why
+
+
+def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False):
+    """Key the lean, then the reach on the leaned trunk (:func:`.bake.bake`, for ``info``'s
+    arm on the leaned trunk): the reach is baked with the lean bone posed at the full lean;
+    then the lean bone is keyed on the lean's frames (continuous with what the bake keyed
+    on it, where it keyed it: the chest may be the lean bone) and held at the full lean
+    through the reach, and every bone and switch the bake keyed holds its first key through
+    the lean. Returns the bake's :class:`.bake.BakeResult`, its frame range from the lean's
+    first frame."""
+    pb = armature.pose.bones[lean.bone]
+    before = pb.matrix_basis.copy()
+    pose_lean(context, armature, lean.bone, lean.bases[-1])
+    try:
+        result = bake_mod.bake(context, armature, dataclasses.replace(info, arm=lean.phase.arm),
+                               plans, new_action)
+    except Exception:
+        pb.matrix_basis = before
+        context.view_layer.update()
+        raise
+    first, last = lean.frame_start, result.frames[1]
+    reach_first = first + lean.phase.frames
+    channels = Channels(armature, ensure_action(armature, False))
+    switches = [b for side, (b, _prop) in info.bones.ik_fk.items() if side == info.side]
+    _hold(channels, set(result.bones) | set(switches), lean.bone, first, reach_first)
+    path, values = _channel_values_into(pb, channels, lean.bases, reach_first)
+    frames = first + np.arange(len(lean.bases), dtype=float)
+    write_channel(channels, f'pose.bones["{lean.bone}"].{path}', values, frames, lean.bone)
+    if last > reach_first and lean.bone not in result.bones:
+        write_channel(channels, f'pose.bones["{lean.bone}"].{path}', values[[-1, -1]],
+                      np.array([reach_first, last], float), lean.bone)
+    context.view_layer.update()
+    result.frames = (first, last)
+    return result
+
+
+def _channel_values_into(pb, channels, bases, frame):
+    """The lean bone's channel values for ``bases`` (:func:`.bone_matrices.channel_values`),
+    continuous with what the action holds on ``frame`` (the last of them), where it keys
+    the bone: walked from the last back, from the bone set to that value."""
+    path = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(
+        pb.rotation_mode, "rotation_euler")
+    full = f'pose.bones["{pb.name}"].{path}'
+    held = [channels.bag.fcurves.find(full, index=i) for i in range(4 if path != "rotation_euler" else 3)]
+    if all(fc is not None and len(fc.keyframe_points) for fc in held):
+        setattr(pb, path, [fc.evaluate(frame) for fc in held])
+    path, values = channel_values(pb, bases[::-1])
+    return path, values[::-1]
+
+
+def _hold(channels, bones, lean_bone, frame_from, frame_to) -> None:
+    """Every curve of ``bones`` (but the lean bone's) keyed on ``frame_to`` holds that value
+    on the frames from ``frame_from`` up to it."""
+    frames = np.arange(frame_from, frame_to, dtype=float)
+    if not len(frames):
+        return
+    curves: dict = {}
+    for fc in channels.bag.fcurves:
+        for name in bones - {lean_bone}:
+            if fc.data_path.startswith(f'pose.bones["{name}"]'):
+                curves.setdefault((fc.data_path, name), []).append(fc)
+    for (path, name), fcs in curves.items():
+        fcs = sorted(fcs, key=lambda fc: fc.array_index)
+        values = np.array([[fc.evaluate(frame_to) for fc in fcs]] * len(frames))
+        write_channel(channels, path, values, frames, name)
+
+
+def report(results, lean: RigLean | None, length: float) -> None:
+    """Put the lean into the reach's result (:class:`.results.TaskResult`), in place: its
+    ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone`` and ``lean_com_margin``
+    (arm lengths, at the full lean, the arm at its start), its message says so, and its
+    frames start with the lean's."""
+    if lean is None:
+        return
+    for r in results:
+        r.frame_start = lean.frame_start
+        r.stats.update(lean_deg=round(float(lean.phase.lean.angle), 2),
+                       lean_frames=lean.phase.frames, lean_bone=lean.bone,
+                       lean_com_margin=round(lean.margin / length, 4))
+        r.message += f", leaning the trunk {lean.phase.lean.angle:.0f}° at the hips first"

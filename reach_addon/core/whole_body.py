@@ -1,0 +1,128 @@
+"""The whole-body reach: what the body does where the arm alone cannot reach the target.
+
+Stage 1 of the plan in ``docs/design/core.md`` (*balance.py*): **a lean, then the reach.**
+Where a reach fails as ``needs_lean`` and ``Settings.lean`` is on, the trunk leans at the
+hips toward the target, feet planted: the chest turns as the paper's Table 1 has it, and
+the lean brings the target within ``Settings.lean_reach`` arm lengths of the shoulder
+(:func:`~.lean.choose_lean`); failing that, the least lean with the chest turned as far as
+the planner may (a smaller lean, a larger twist). The arm
+holds its start pose on the leaning trunk (a minimum-jerk phase of its own,
+:func:`~.lean.lean_frames`); then the paper's planner plans the reach unchanged, for the
+same arm in the leaned trunk's frame (:func:`~.lean.leaned_arm`). Every instant of the
+lean is checked, the arm (hand included) and the chest's and head's capsules
+(:func:`~.lean.lean_hit`), and the chest's and head's capsules on every pose of the reach.
+
+What this stage leaves to later ones, and refuses meanwhile: the lean is not phased with
+the reach (lean first, then reach, as a person does where a blend would touch); the hips
+do not move back, so the Blender layer refuses a lean whose centre of mass leaves the
+feet; only a single reach leans (a sequence, a guided reach and a chase still refuse as
+``needs_lean``); and a start in contact does not lean.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .arm import ArmModel
+from .errors import NEEDS_LEAN
+from .lean import Lean, chest_turns, choose_lean, lean_frames, lean_hit, leaned_arm
+from .torso import body_rotation_deg, rotate_about_spine
+
+
+@dataclass(frozen=True)
+class LeanPhase:
+    """A planned lean: the ``lean``, its ``fractions`` (one a frame, 0 on the first, 1 on
+    the last: :func:`~.lean.lean_frames`) and the ``arm`` on the leaned trunk that the
+    reach after it was planned for."""
+
+    lean: Lean
+    fractions: np.ndarray
+    arm: ArmModel
+
+    @property
+    def frames(self) -> int:
+        """Frames the lean takes before the reach's first (its last is the reach's start)."""
+        return len(self.fractions) - 1
+
+
+def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None):
+    """Plan ``task`` (a reach) with a lean, where ``failed`` (``planner``'s plan of it)
+    was refused as ``needs_lean``: returns (:class:`LeanPhase`, the reach's plan on the
+    leaned trunk), or (None, why not: a sentence) where no lean is planned; (None, None)
+    where none was asked for. ``pivot_c``: the hips' pivot (canonical frame of
+    ``planner.arm``); ``make_planner(arm)``: a :class:`~.planner.Planner` for an arm among
+    the same obstacles and settings; ``acceptable(lean)``: why a lean may not be taken
+    (the Blender layer's balance), or None.
+
+    Recruitment, as the issue orders it: the chest turns as the paper's Table 1 has it at
+    the target, and the lean takes the rest (:func:`~.lean.choose_lean`); where that lean
+    is not acceptable or finds no way, the least lean with the chest turned as far as the
+    planner may turn it (:func:`~.lean.chest_turns`: a smaller lean, a larger twist)."""
+    s, arm = planner.settings, planner.arm
+    if not s.lean or task.kind != "reach" or failed.reason != NEEDS_LEAN:
+        return None, None
+    target_c = arm.to_canonical_points(np.asarray(task.targets[0], dtype=float))
+    table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
+    leans = [choose_lean(arm, target_c, pivot_c, s, (table1,)),
+             choose_lean(arm, target_c, pivot_c, s, chest_turns(s))]
+    if leans[1] is None:
+        return None, f"no lean up to {s.lean_max:.0f}° at the hips brings it within reach"
+    if leans[0] is None or leans[0].angle <= leans[1].angle + 0.5:
+        leans = leans[1:]
+    whys = []
+    for lean in leans:
+        why = acceptable(lean) if acceptable is not None else None
+        phase = None
+        if why is None:
+            phase, why = _lean_and_reach(planner, task, lean, make_planner)
+        if phase is not None:
+            return phase, why
+        whys.append(why)
+    return None, "; ".join(whys)
+
+
+def _lean_and_reach(planner, task, lean, make_planner):
+    """(:class:`LeanPhase`, the reach's plan) for one ``lean``, or (None, why not)."""
+    s, arm = planner.settings, planner.arm
+    start = planner.generator.config_pose(task.start, task.start_hand)
+    fractions = lean_frames(arm, start.joints, lean, s, task.fps)
+    hit = lean_hit(arm, start.joints, lean, fractions, planner.generator.checker)
+    if hit is not None:
+        fraction, part, obstacle = hit
+        return None, (f"leaning {lean.angle * fraction:.0f}° of the {lean.angle:.0f}° it "
+                      f"needs would bring the {part} against '{obstacle}'")
+    leaned = leaned_arm(arm, lean)
+    reach = make_planner(leaned).plan(task)
+    if not reach.success:
+        return None, f"leaning {lean.angle:.0f}°, the arm still finds no way: {reach.message}"
+    hit = body_hit(leaned, reach.poses, planner.generator.checker)
+    if hit is not None:
+        frame, part, obstacle = hit
+        return None, (f"leaning {lean.angle:.0f}°, the {part} would touch '{obstacle}' on "
+                      f"the reach's frame {frame}")
+    return LeanPhase(lean, fractions, leaned), reach
+
+
+def body_hit(arm, poses, checker):
+    """The first pose whose chest or head capsule (turned with the chest, on the trunk of
+    ``arm``) touches an obstacle: (pose index, capsule name, obstacle name), else None.
+    A capsule touching on the first pose is not held to it (:func:`~.lean.lean_hit`)."""
+    m = arm.to_world
+    body = [c for c in arm.body_capsules if c.turns_with_chest]
+
+    def ends(c, angle):
+        pts = rotate_about_spine(np.array([c.a, c.b], dtype=float), angle)
+        return pts @ m[:3, :3].T + m[:3, 3]
+
+    angle0 = poses[0].config.body_rotation
+    held = [c for c in body if checker.capsule_clear(*ends(c, angle0), c.radius)]
+    for k, pose in enumerate(poses):
+        for c in held:
+            a, b = ends(c, pose.config.body_rotation)
+            if not checker.capsule_clear(a, b, c.radius):
+                near = checker.obstacles.nearest(0.5 * (a + b), math.inf)
+                return k, c.name, checker.obstacles.owner(near[2] if near else None)
+    return None

@@ -1,0 +1,210 @@
+"""A lean, then the reach, on every rig with legs (issue "Reach past the arm", stage 1).
+
+Each rig of ``test_every_rig`` gets a target straight ahead of its reaching shoulder, 0.3
+arm lengths below it, :data:`BEYOND` arm lengths beyond the farthest such point the arm
+reaches without a lean (found by bisection with *Lean* off, the chest turning as it
+may), over a table whose top is 0.75 arm lengths below the shoulder; it is baked as a
+user's Bake is, with *Lean* on.
+Measured on what Blender evaluates, with code that shares nothing with the planner:
+
+- the wrist (the hand bone's head) ends on the target, within the goal tolerance;
+- the legs stay put: every bone whose head starts in the lowest 30 % of the figure's height
+  moves less than 0.0005 arm lengths, at every frame and three instants between;
+- the reaching arm keeps the clearance the planner promises at every frame and three
+  instants between (``clearance.Arm``: its capsules, from the evaluated bones);
+- the rest of the character's skin (every mesh the armature deforms or carries, less the
+  reaching arm's, whose capsules the line above checks) stays out of the table at those
+  instants (signed distance to the box; the metarig has no skin);
+- the lean bone turns by the reported lean (±1°) by the reach's first frame, and the
+  report gives the lean and the centre of mass's margin, never below 0 nor below the
+  rig's own as it stands (two synthetic rigs and the metarig stand past their feet).
+
+Without *Lean* the same target is refused as ``needs_lean``, with a hint to turn it on.
+"""
+
+from __future__ import annotations
+
+import bpy
+import everyday
+import numpy as np
+import pytest
+import clearance
+from test_every_rig import KINDS, obstacle_triangles, rig_file  # noqa: F401  (the fixture)
+
+#: The instants measured in a frame (the frame itself and three between).
+INSTANTS = 4
+#: How far beyond the arm's reach the target stands (arm lengths).
+BEYOND = 0.03
+#: The target's height under the shoulder (arm lengths).
+BELOW = 0.3
+
+
+def scene(armature, info, ahead):
+    """The target ``ahead`` arm lengths in front of the shoulder and :data:`BELOW` under it,
+    and a table: its top 0.75 under the shoulder, its near face 0.1 beyond the hand's skin
+    and the arm's capsules (:func:`everyday.near`) and beyond the body's skin at the
+    table's height (room for what the lean carries forward), at least 0.45 ahead."""
+    target = everyday.at(info, ahead, 0.0, -BELOW)
+    ob = bpy.data.objects.new("Far Cup", None)
+    ob.location = tuple(target)
+    bpy.context.scene.collection.objects.link(ob)
+    within = ((-0.6, 0.6), (-1.1, -0.75))
+    shoulder, forward, outward, up, length = everyday.body_axes(info)
+    rel = (skin_vertices(armature, set()) - shoulder) / length
+    at_table = (np.abs(rel @ outward) <= 0.64) & (rel @ up >= -1.14) & (rel @ up <= -0.71)
+    body = float((rel[at_table] @ forward).max()) if at_table.any() else -np.inf
+    f0 = max(everyday.near(armature, info, 0.45, within), body + 0.04) + 0.1
+    table = everyday.box(info, "Table", (f0, -0.6, -1.1), (f0 + 1.2, 0.6, -0.75))
+    return ob, table
+
+
+def open_rig(rig_file, kind):  # noqa: F811
+    path, name = rig_file(kind)
+    bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
+    return bpy.data.objects[name]
+
+
+def run(addon, armature, info, ahead, lean, bake):
+    target, table = scene(armature, info, ahead)
+    pipeline = addon.blender.pipeline
+    settings = addon.core.Settings().replace(lean=lean)
+    request = pipeline.Request(armature.name, [target.name], task="reach", side="right",
+                               frame_start=1, draw=False, settings=settings)
+    return target, table, pipeline.run(bpy.context, request, bake=bake)
+
+
+def reach_edge(addon, rig_file, kind, steps=7):  # noqa: F811
+    """The farthest point ahead (arm lengths from the shoulder) the arm reaches without a
+    lean, within 1/128 of the bracket 0.9 .. 1.8."""
+    lo, hi = 0.9, 1.8
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        armature = open_rig(rig_file, kind)
+        info = addon.blender.rig.build(armature, "right")
+        ok = run(addon, armature, info, mid, False, False)[2].results[0].success
+        lo, hi = (mid, hi) if ok else (lo, mid)
+    return hi
+
+
+def skin_vertices(armature, skip, leave_out=frozenset()):
+    """World positions of every vertex of the meshes the armature deforms or carries, as
+    Blender evaluates them now; ``leave_out``: bones whose skin is left out (a vertex whose
+    heaviest group is one of them, a part parented to one)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    out = []
+    for ob in bpy.context.scene.objects:
+        if ob.type != "MESH" or ob.name in skip:
+            continue
+        deformed = any(m.type == "ARMATURE" and m.object == armature for m in ob.modifiers)
+        if not deformed and ob.parent != armature:
+            continue
+        if not deformed and ob.parent_type == "BONE" and ob.parent_bone in leave_out:
+            continue
+        ev = ob.evaluated_get(depsgraph)
+        co = np.empty(len(ev.data.vertices) * 3)
+        ev.data.vertices.foreach_get("co", co)
+        co = co.reshape(-1, 3)
+        if deformed and leave_out and len(ev.data.vertices) == len(ob.data.vertices):
+            names = {vg.index: vg.name for vg in ob.vertex_groups}
+            keep = [not v.groups or names.get(max(v.groups, key=lambda g: g.weight).group)
+                    not in leave_out for v in ob.data.vertices]
+            co = co[np.array(keep, bool)]
+        mw = np.array(ev.matrix_world)
+        out.append(co @ mw[:3, :3].T + mw[:3, 3])
+    return np.concatenate(out) if out else np.zeros((0, 3))
+
+
+def box_signed_distance(points, box):
+    """Signed distance of world ``points`` to the box object (a unit cube scaled): positive
+    outside, exact outside and in the faces' directions inside."""
+    m = np.array(box.matrix_world)
+    axes = m[:3, :3]
+    half = 0.5 * np.linalg.norm(axes, axis=0)
+    local = (points - m[:3, 3]) @ (axes / np.linalg.norm(axes, axis=0))
+    q = np.abs(local) - half
+    outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+    return outside + np.minimum(q.max(axis=1), 0.0)
+
+
+def bone_heads(armature):
+    mw = np.array(armature.matrix_world)
+    return {pb.name: mw[:3, :3] @ np.array(pb.head) + mw[:3, 3] for pb in armature.pose.bones}
+
+
+def bake(addon, rig_file, kind, ahead, lean):  # noqa: F811
+    armature = open_rig(rig_file, kind)
+    info = addon.blender.rig.build(armature, "right")
+    return (armature, info) + run(addon, armature, info, ahead, lean, True)
+
+
+#: Rigs whose lean this stage refuses although their skin would pass, with what was measured.
+XFAIL = {
+    "alien": "the chest's capsule (its radius 0.52 arm lengths, from the shoulder width) "
+             "stands in front of the skin at the table's height (0.46 ahead), and touches "
+             "'Table' as a 2° lean begins, whose near face stands 0.14 arm lengths beyond "
+             "the skin at its height: the trunk's capsules are proportional guesses, not "
+             "the skin",
+}
+
+
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.xfail(strict=True, reason=XFAIL[k]))
+                                  if k in XFAIL else k for k in KINDS])
+def test_a_target_past_the_arm_is_reached_by_leaning_the_trunk(addon, rig_file, kind):  # noqa: F811
+    ahead = reach_edge(addon, rig_file, kind) + BEYOND
+    armature, info, target, table, outcome = bake(addon, rig_file, kind, ahead, lean=True)
+    result = outcome.results[0]
+    assert result.success, result.message
+    assert result.stats['lean_deg'] > 0.0 and result.stats['lean_frames'] > 0, result.to_dict()
+    assert "leaning the trunk" in result.message
+    length = info.arm.arm_length
+    scene_ = bpy.context.scene
+    frames = range(result.frame_start, result.frame_end + 1)
+    scene_.frame_set(result.frame_start)
+    start = bone_heads(armature)
+    heights = {n: float(p @ info.frame.up) for n, p in start.items()}
+    low, high = min(heights.values()), max(heights.values())
+    feet = [n for n, h in heights.items() if h <= low + 0.3 * (high - low)]
+    assert feet
+    worst_feet, worst_skin = 0.0, np.inf
+    a = info.bones.arms["right"]
+    arm_bones = {a.upper_arm, a.forearm, a.hand} | {
+        c.name for c in armature.pose.bones[a.forearm].children_recursive}
+    arm = clearance.Arm(armature, info)
+    tris = obstacle_triangles(addon, armature)
+    for f in frames:
+        for k in range(INSTANTS if f < result.frame_end else 1):
+            scene_.frame_set(f, subframe=k / INSTANTS)
+            now = bone_heads(armature)
+            worst_feet = max(worst_feet, max(float(np.linalg.norm(now[n] - start[n]))
+                                             for n in feet))
+            arm.check(tris, f"{kind} frame {f} + {k}/{INSTANTS}")
+            skin = skin_vertices(armature, {table.name}, arm_bones)
+            if len(skin):                  # the metarig, a template, has none
+                worst_skin = min(worst_skin, float(box_signed_distance(skin, table).min()))
+    movers = sorted(((float(np.linalg.norm(now[n] - start[n])), n) for n in feet), reverse=True)
+    assert worst_feet <= 5e-4 * length, (kind, worst_feet / length, movers[:5])
+    assert worst_skin > 0.0, (kind, worst_skin / length)
+    # on the target
+    scene_.frame_set(result.frame_end)
+    wrist = bone_heads(armature)[info.bones.arms["right"].hand]
+    tolerance = outcome.request.settings.goal_tolerance * length
+    assert np.linalg.norm(wrist - np.array(target.location)) <= tolerance + 1e-4 * length
+    # the lean bone turned by the lean by the reach's first frame
+    bone = armature.pose.bones[result.stats['lean_bone']]
+    scene_.frame_set(result.frame_start)
+    r0 = np.array(bone.matrix)[:3, :3]
+    scene_.frame_set(result.frame_start + result.stats['lean_frames'])
+    r1 = np.array(bone.matrix)[:3, :3]
+    turn = np.degrees(np.arccos(np.clip((np.trace(r1 @ np.linalg.inv(r0)) - 1.0) / 2.0, -1, 1)))
+    assert turn == pytest.approx(result.stats['lean_deg'], abs=1.0)
+    stats = result.stats
+    assert stats["lean_com_margin"] >= min(0.0, stats["com_margin_start"]) - 1e-4, stats
+
+
+def test_without_lean_the_same_target_is_refused_with_a_hint(addon, rig_file):  # noqa: F811
+    ahead = reach_edge(addon, rig_file, "quaternius") + BEYOND
+    _armature, _info, _target, _table, outcome = bake(addon, rig_file, "quaternius", ahead,
+                                                      lean=False)
+    result = outcome.results[0]
+    assert not result.success and result.reason == "needs_lean", result.message
+    assert "turn on Lean" in result.message

@@ -1,0 +1,111 @@
+"""A lean, then the reach (``core.whole_body``, ``core.lean``): a target beyond the arm is
+reached by leaning the trunk at the hips where ``Settings.lean`` is on; every instant of the
+lean and every pose after it is measured clear by the independent oracle
+(``verification.clearance``), arm and trunk; a lean that would put the head into a shelf is
+refused, naming it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from geometry import HANGING, arm_penetration, obstacles, segment_clearance, standard_arm
+
+from reach_addon.core import NEEDS_LEAN, Planner, Settings, Task
+from reach_addon.core.lean import lean_axis, leaned_arm, least_lean
+from reach_addon.core.whole_body import lean_then_reach
+from reach_addon.samples import triangle_soup
+
+#: A low table in front of the figure, its top 0.45 below the shoulder (metres, world).
+TABLE = {"Table": [((-0.70, -1.20, 0.40), (0.40, -0.30, 0.75))]}
+
+
+def tris_of(scene):
+    verts, tris, _owners, _names = triangle_soup(scene)
+    return verts[tris]
+
+
+def ahead(arm, arm_lengths, down=0.0):
+    """The world point ``arm_lengths`` ahead of the shoulder (the figure faces -Y), ``down``
+    metres lower."""
+    shoulder = arm.to_world_points(arm.shoulder)
+    return shoulder + np.array([0.0, -arm_lengths * arm.arm_length, -down])
+
+
+def plan_with_lean(arm, scene, target, settings):
+    obst = obstacles(scene)
+    planner = Planner(arm, obst, settings)
+    task = Task("reach", target[None], HANGING, names=("Cup",))
+    failed = planner.plan(task)
+    phase, reach = lean_then_reach(planner, task, failed, arm.waist,
+                                   lambda a: Planner(a, obst, settings))
+    return failed, phase, reach
+
+
+def test_a_target_beyond_the_arm_is_reached_by_a_lean_clear_at_every_instant():
+    arm = standard_arm()
+    settings = Settings().replace(lean=True)
+    target = ahead(arm, 1.35, down=0.10)
+    failed, phase, reach = plan_with_lean(arm, TABLE, target, settings)
+    assert failed.reason == NEEDS_LEAN, failed.message
+    assert phase is not None, reach
+    assert reach.success, reach.message
+    # the lean: at most the least that brings the target within lean_reach of the
+    # shoulder without a chest turn (a turn may take some of it)
+    plain = least_lean(arm.shoulder, arm.waist, arm.to_canonical_points(target),
+                       settings.lean_reach * arm.arm_length, settings.lean_max)
+    assert 2.0 < phase.lean.angle <= plain + 1e-6
+    assert phase.fractions[0] == 0.0 and phase.fractions[-1] == pytest.approx(1.0)
+    assert np.all(np.diff(phase.fractions) >= 0.0)
+    # the wrist ends on the target
+    wrist = reach.world_joints()[-1, 3]
+    assert np.linalg.norm(wrist - target) <= settings.goal_tolerance * arm.arm_length + 1e-9
+    # every instant of the lean (the arm held on the trunk) and every pose of the reach:
+    # clear of the table by the oracle, the arm's capsules and the chest's and head's
+    tris = tris_of(TABLE)
+    start = Planner(arm, None).generator.config_pose(HANGING).joints
+    margin = settings.clearance * arm.arm_length
+    for f in np.linspace(0.0, 1.0, 41):
+        lean_m = arm.to_world @ phase.lean.matrix(f)
+        world = start @ lean_m[:3, :3].T + lean_m[:3, 3]
+        assert arm_penetration(arm, world, tris) >= margin - 2e-3, f
+        for c in arm.body_capsules:
+            if c.turns_with_chest:
+                a, b = (lean_m[:3, :3] @ np.asarray(p) + lean_m[:3, 3] for p in (c.a, c.b))
+                assert segment_clearance(a, b, tris) >= c.radius - 2e-3, (f, c.name)
+    for joints in reach.world_joints():
+        assert arm_penetration(arm, joints, tris) >= margin - 2e-3
+
+
+def test_the_lean_is_off_unless_asked_for():
+    arm = standard_arm()
+    failed, phase, why = plan_with_lean(arm, {}, ahead(arm, 1.35), Settings())
+    assert failed.reason == NEEDS_LEAN and phase is None and why is None
+
+
+def test_a_lean_that_would_put_the_head_into_a_shelf_is_refused_naming_it():
+    arm = standard_arm()
+    target = ahead(arm, 1.35)
+    head = arm.to_world_points(np.array([0.0, 0.02, 0.30]))
+    # a shelf board just in front of the head, above the arm's way
+    shelf = {"Shelf": [((head[0] - 0.3, head[1] - 0.30, head[2] - 0.02),
+                        (head[0] + 0.3, head[1] - 0.16, head[2] + 0.02))]}
+    failed, phase, why = plan_with_lean(arm, shelf, target, Settings().replace(lean=True))
+    assert failed.reason == NEEDS_LEAN and phase is None
+    assert "'Shelf'" in why and "head" in why, why
+
+
+def test_a_leaned_arm_carries_the_chest_and_head_and_leaves_the_pelvis():
+    arm = standard_arm()
+    target = arm.to_canonical_points(ahead(arm, 1.2))
+    from reach_addon.core.lean import Lean
+    lean = Lean(arm.waist, lean_axis(arm.waist, target), 20.0)
+    leaned = leaned_arm(arm, lean)
+    for before, after in zip(arm.body_capsules, leaned.body_capsules):
+        w0 = arm.to_world_points(np.array([before.a, before.b]))
+        w1 = leaned.to_world_points(np.array([after.a, after.b]))
+        if before.turns_with_chest:
+            assert not np.allclose(w0, w1), before.name
+            # leaned toward the target (forward, -Y) about the waist
+            assert w1[1, 1] < w0[1, 1]
+        else:
+            assert np.allclose(w0, w1), before.name
