@@ -4,7 +4,8 @@
 [--timeout S] [--cross-check-budget S] [--quick] [--standard-rigs] [--resume DIR]`` runs
 seeds ``S`` … ``S + N - 1`` on ``J`` worker processes
 (:func:`verification.fuzz.campaign.run_campaign`), prints its progress and writes their
-summary (:func:`verification.fuzz.summary.summarize`) to ``--out`` (``bench/fuzz.json``);
+summary (:func:`verification.fuzz.summary.summarize`) to ``--out`` (``out/fuzz.json``;
+``make fuzz`` gives ``bench/fuzz.json``, so a run of a few seeds leaves that file alone);
 exit status 0 when every scene passed, else 1. With ``--resume DIR`` (``make fuzz`` gives
 ``out/fuzz-runs``) the results are kept in a folder of ``DIR`` named for the code and the
 settings (:func:`campaign_folder`), so a campaign stopped part way (Ctrl+C, a closed
@@ -41,7 +42,9 @@ def main(argv=None) -> int:
     parser.add_argument("--seed0", type=int, default=0, help="first seed (default 0)")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                         help="worker processes (default: the number of cores)")
-    parser.add_argument("--out", default=str(ROOT / "bench" / "fuzz.json"), help="results file")
+    parser.add_argument("--out", default=str(ROOT / "out" / "fuzz.json"),
+                        help="results file (default out/fuzz.json; make fuzz writes the "
+                             "committed bench/fuzz.json)")
     parser.add_argument("--subframes", type=int, default=SUBFRAMES,
                         help=f"instants checked between two frames (default {SUBFRAMES})")
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds per scene at most")
