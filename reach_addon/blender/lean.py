@@ -23,11 +23,13 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+import bpy
 import numpy as np
 
 from ..core import NEEDS_LEAN, Planner
+from ..core.lean import TrunkSkin
 from ..core.whole_body import LeanPhase, lean_then_reach
-from . import balance
+from . import balance, skin
 from . import bake as bake_mod
 from .bake import KeyedPlan
 from .bone_matrices import channel_values
@@ -163,7 +165,8 @@ def plan(context, armature, info, planner, keyed):
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
         check = BalanceCheck(context, armature, info, legs, bone)
-        phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check)
+        phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
+                                              trunk_skin(armature, info, bone))
         if phase is not None:
             bases = lean_basis(armature, bone, world_rotations(info, phase))
             first = keyed.first_frame
@@ -174,6 +177,50 @@ def plan(context, armature, info, planner, keyed):
         if seg.reason == NEEDS_LEAN:
             seg.message += f"; with Lean on: {why}"
     return None, keyed
+
+
+def trunk_skin(armature, info, bone) -> TrunkSkin | None:
+    """The trunk as skinned, as Blender evaluates it now (:class:`~..core.lean.TrunkSkin`,
+    canonical frame of ``info``'s arm): every vertex whose heaviest group is a bone the lean
+    ``bone`` carries (it included), less the reaching arm's (the upper arm and below: the
+    search checks the arm as it models it), and every vertex of a rigid part parented to
+    such a bone; ``turns`` marks those the keyed chest carries. None where there is none
+    (a rig without skin: the chest's and head's capsules stand in)."""
+    bones = armature.data.bones
+    a = info.bones.arms[info.side]
+    arm = {a.upper_arm} | {b.name for b in bones[a.upper_arm].children_recursive}
+    leaned = ({bone} | {b.name for b in bones[bone].children_recursive}) - arm
+    chest = {info.bones.keyed_chest} | {b.name for b in bones[info.bones.keyed_chest].children_recursive}
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    points, turns = [], []
+    for ob in skin.scene_objects(armature):
+        if ob.type != "MESH":
+            continue
+        rigid = skin.rigid_part(ob, armature)
+        if rigid is None and not skin.deformed_by(ob, armature):
+            continue
+        ev = ob.evaluated_get(depsgraph)
+        if len(ev.data.vertices) != len(ob.data.vertices) or not len(ob.data.vertices):
+            continue
+        if rigid is not None:
+            if rigid not in leaned:
+                continue
+            owners = [rigid] * len(ob.data.vertices)
+        else:
+            names = {vg.index: vg.name for vg in ob.vertex_groups}
+            owners = [names.get(max(v.groups, key=lambda g: g.weight).group) if v.groups else None
+                      for v in ob.data.vertices]
+        keep = np.array([o in leaned for o in owners], bool)
+        if not keep.any():
+            continue
+        co = np.empty(len(ev.data.vertices) * 3)
+        ev.data.vertices.foreach_get("co", co)
+        mw = np.array(ev.matrix_world)
+        points.append(co.reshape(-1, 3)[keep] @ mw[:3, :3].T + mw[:3, 3])
+        turns.append(np.array([o in chest for o, k in zip(owners, keep) if k], bool))
+    if not points:
+        return None
+    return TrunkSkin(info.arm.to_canonical_points(np.concatenate(points)), np.concatenate(turns))
 
 
 class BalanceCheck:

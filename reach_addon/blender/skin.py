@@ -32,7 +32,7 @@ def skin_bones(armature) -> set:
     Armature modifier uses this armature, and bones that carry rigid parts (meshes
     parented to them)."""
     out = set()
-    for ob in _scene_objects(armature):
+    for ob in scene_objects(armature):
         bone = rigid_part(ob, armature)
         if bone is not None and len(ob.data.vertices):
             out.add(bone)
@@ -55,7 +55,7 @@ def skin_points(armature, bone_names, weight: float = 0.5) -> np.ndarray:
     where these bones move no skin."""
     out = []
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    for ob in _scene_objects(armature):
+    for ob in scene_objects(armature):
         rigid = rigid_part(ob, armature)
         if rigid is None and not deformed_by(ob, armature):
             continue
@@ -85,7 +85,7 @@ def skin_points(armature, bone_names, weight: float = 0.5) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros((0, 3))
 
 
-def _scene_objects(armature):
+def scene_objects(armature):
     scenes = armature.users_scene
     return scenes[0].objects if scenes else [armature]
 

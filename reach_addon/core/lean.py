@@ -240,16 +240,71 @@ def lean_frames(arm, joints_c, lean: Lean, settings, fps: float) -> np.ndarray:
 LEAN_SUBSTEPS = 4
 
 
-def lean_hit(arm, joints_c, lean: Lean, fractions, checker):
+@dataclass(frozen=True)
+class TrunkSkin:
+    """The trunk as skinned, for the lean's obstacle test (canonical frame of the upright
+    arm): ``points`` (n, 3), the skin the lean carries less the reaching arm's, and
+    ``turns`` (n,), which of them the chest's turn carries too."""
+
+    points: np.ndarray
+    turns: np.ndarray
+
+
+def carried(points_c, transforms) -> np.ndarray:
+    """``points_c`` (canonical (n, 3)) carried by the 4×4 ``transforms`` (canonical →
+    world, one an instant): world (T, n, 3)."""
+    pts = np.asarray(points_c, dtype=float)
+    return np.array([pts @ m[:3, :3].T + m[:3, 3] for m in transforms])
+
+
+def skin_hit(world, checker):
+    """The first instant at which a point of the skin, at ``world`` (T, n, 3) on the
+    instants in turn, comes within the clearance (``checker.margin``) of an obstacle:
+    (instant index, obstacle name), or None.
+
+    Exact about crossing: the distance to a surface is 1-lipschitz, so a point at least
+    the margin from every surface at two instants, having moved less than twice the margin
+    between them, was clear in between; instants are added where a point moves more. Only
+    the points that come within their own travel of an obstacle are measured after the
+    first instant. A point already within the margin at the first instant is not held to
+    it (a figure may stand against a table; the points round it are)."""
+    world = np.asarray(world, dtype=float)
+    if not world.shape[1] or checker.obstacles.tree is None:
+        return None
+    travel = np.linalg.norm(world - world[0], axis=2).max(axis=0)
+    margin = checker.margin
+    first = np.array([checker.obstacles.distance(p, t + margin) for p, t in zip(world[0], travel)])
+    near = (first < travel + margin) & (first >= margin)
+    if not near.any():
+        return None
+    for k in range(1, len(world)):
+        prev, now = world[k - 1][near], world[k][near]
+        step = float(np.linalg.norm(now - prev, axis=1).max())
+        splits = max(1, int(math.ceil(step / (1.5 * max(margin, 1e-12)))))
+        for j in range(1, splits + 1):
+            at = prev + (now - prev) * (j / splits)
+            for p in at:
+                if checker.obstacles.distance(p, margin) < margin:
+                    return k, _owner(checker, p)
+    return None
+
+
+def _owner(checker, point) -> str:
+    hit = checker.obstacles.nearest(point, math.inf)
+    return checker.obstacles.owner(hit[2] if hit else None)
+
+
+def lean_hit(arm, joints_c, lean: Lean, fractions, checker, trunk: TrunkSkin | None = None):
     """The first part that touches an obstacle as the trunk leans: (fraction, part name,
     obstacle name), or ``None`` where the lean is clear. The arm holds its start pose
     (``joints_c``, canonical (5, 3)) on the leaning trunk; the arm's capsules (hand
-    included, as ``checker`` tests them) and the chest's and head's capsules are tested on
-    every frame of ``fractions`` and :data:`LEAN_SUBSTEPS` instants between two. A body
-    capsule already touching at the start (fraction 0) is not held to it: the body's
-    capsules are proportional guesses, and a rig may stand close to a table."""
+    included, as ``checker`` tests them) are tested on every frame of ``fractions`` and
+    :data:`LEAN_SUBSTEPS` instants between two, and so is the trunk: its skin where the
+    rig gives it (``trunk``, :func:`skin_hit`: part "trunk"), else the chest's and head's
+    capsules. A capsule already touching at the start (fraction 0) is not held to it: the
+    body's capsules are proportional guesses, and a rig may stand close to a table."""
     joints_c = np.asarray(joints_c, dtype=float)
-    body = [c for c in arm.body_capsules if c.turns_with_chest]
+    body = [c for c in arm.body_capsules if c.turns_with_chest] if trunk is None else []
     upright = arm.to_world
     clear_at_start = [c for c in body if checker.capsule_clear(
         *(upright[:3, :3] @ np.asarray(p, dtype=float) + upright[:3, 3] for p in (c.a, c.b)),
@@ -266,6 +321,10 @@ def lean_hit(arm, joints_c, lean: Lean, fractions, checker):
         for c in clear_at_start:
             a, b = (m[:3, :3] @ np.asarray(p, dtype=float) + m[:3, 3] for p in (c.a, c.b))
             if not checker.capsule_clear(a, b, c.radius):
-                near = checker.obstacles.nearest(0.5 * (a + b), math.inf)
-                return float(fraction), c.name, checker.obstacles.owner(near[2] if near else None)
+                return float(fraction), c.name, _owner(checker, 0.5 * (a + b))
+    if trunk is not None:
+        hit = skin_hit(carried(trunk.points, [upright @ lean.matrix(float(x)) for x in instants]),
+                       checker)
+        if hit is not None:
+            return float(instants[hit[0]]), "trunk", hit[1]
     return None

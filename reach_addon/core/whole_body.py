@@ -9,8 +9,10 @@ the planner may (a smaller lean, a larger twist). The arm
 holds its start pose on the leaning trunk (a minimum-jerk phase of its own,
 :func:`~.lean.lean_frames`); then the paper's planner plans the reach unchanged, for the
 same arm in the leaned trunk's frame (:func:`~.lean.leaned_arm`). Every instant of the
-lean is checked, the arm (hand included) and the chest's and head's capsules
-(:func:`~.lean.lean_hit`), and the chest's and head's capsules on every pose of the reach.
+lean is checked, the arm (hand included) and the trunk (:func:`~.lean.lean_hit`), and the
+trunk again on every pose of the reach, as the chest turns (:func:`body_hit`): the trunk
+as skinned where the rig gives it (:class:`~.lean.TrunkSkin`), else the chest's and head's
+capsules.
 
 What this stage leaves to later ones, and refuses meanwhile: the lean is not phased with
 the reach (lean first, then reach, as a person does where a blend would touch); the hips
@@ -28,7 +30,8 @@ import numpy as np
 
 from .arm import ArmModel
 from .errors import NEEDS_LEAN
-from .lean import Lean, chest_turns, choose_lean, lean_frames, lean_hit, leaned_arm
+from .lean import (Lean, TrunkSkin, chest_turns, choose_lean, lean_frames, lean_hit, leaned_arm,
+                   skin_hit)
 from .torso import body_rotation_deg, rotate_about_spine
 
 
@@ -48,14 +51,17 @@ class LeanPhase:
         return len(self.fractions) - 1
 
 
-def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None):
+def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None,
+                    trunk: TrunkSkin | None = None):
     """Plan ``task`` (a reach) with a lean, where ``failed`` (``planner``'s plan of it)
     was refused as ``needs_lean``: returns (:class:`LeanPhase`, the reach's plan on the
     leaned trunk), or (None, why not: a sentence) where no lean is planned; (None, None)
     where none was asked for. ``pivot_c``: the hips' pivot (canonical frame of
     ``planner.arm``); ``make_planner(arm)``: a :class:`~.planner.Planner` for an arm among
     the same obstacles and settings; ``acceptable(lean)``: why a lean may not be taken
-    (the Blender layer's balance), or None.
+    (the Blender layer's balance), or None; ``trunk``: the trunk as skinned
+    (:class:`~.lean.TrunkSkin`, canonical frame of ``planner.arm``), which the lean's
+    obstacle tests use instead of the chest's and head's capsules where given.
 
     Recruitment, as the issue orders it: the chest turns as the paper's Table 1 has it at
     the target, and the lean takes the rest (:func:`~.lean.choose_lean`); where that lean
@@ -77,19 +83,19 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
         why = acceptable(lean) if acceptable is not None else None
         phase = None
         if why is None:
-            phase, why = _lean_and_reach(planner, task, lean, make_planner)
+            phase, why = _lean_and_reach(planner, task, lean, make_planner, trunk)
         if phase is not None:
             return phase, why
         whys.append(why)
     return None, "; ".join(whys)
 
 
-def _lean_and_reach(planner, task, lean, make_planner):
+def _lean_and_reach(planner, task, lean, make_planner, trunk=None):
     """(:class:`LeanPhase`, the reach's plan) for one ``lean``, or (None, why not)."""
     s, arm = planner.settings, planner.arm
     start = planner.generator.config_pose(task.start, task.start_hand)
     fractions = lean_frames(arm, start.joints, lean, s, task.fps)
-    hit = lean_hit(arm, start.joints, lean, fractions, planner.generator.checker)
+    hit = lean_hit(arm, start.joints, lean, fractions, planner.generator.checker, trunk)
     if hit is not None:
         fraction, part, obstacle = hit
         return None, (f"leaning {lean.angle * fraction:.0f}° of the {lean.angle:.0f}° it "
@@ -98,7 +104,7 @@ def _lean_and_reach(planner, task, lean, make_planner):
     reach = make_planner(leaned).plan(task)
     if not reach.success:
         return None, f"leaning {lean.angle:.0f}°, the arm still finds no way: {reach.message}"
-    hit = body_hit(leaned, reach.poses, planner.generator.checker)
+    hit = body_hit(leaned, reach.poses, planner.generator.checker, trunk)
     if hit is not None:
         frame, part, obstacle = hit
         return None, (f"leaning {lean.angle:.0f}°, the {part} would touch '{obstacle}' on "
@@ -106,11 +112,22 @@ def _lean_and_reach(planner, task, lean, make_planner):
     return LeanPhase(lean, fractions, leaned), reach
 
 
-def body_hit(arm, poses, checker):
-    """The first pose whose chest or head capsule (turned with the chest, on the trunk of
-    ``arm``) touches an obstacle: (pose index, capsule name, obstacle name), else None.
-    A capsule touching on the first pose is not held to it (:func:`~.lean.lean_hit`)."""
+def body_hit(arm, poses, checker, trunk: TrunkSkin | None = None):
+    """The first pose whose trunk touches an obstacle, on the trunk of ``arm`` (leaned),
+    turned with the chest: (pose index, part name, obstacle name), else None. The trunk is
+    its skin where given (``trunk``: its ``turns`` points turned with the chest,
+    :func:`~.lean.skin_hit`, part "trunk"), else the chest's and head's capsules; a capsule
+    touching on the first pose is not held to it (:func:`~.lean.lean_hit`)."""
     m = arm.to_world
+    if trunk is not None:
+        def at(pose):
+            pts = np.array(trunk.points, dtype=float)
+            pts[trunk.turns] = rotate_about_spine(pts[trunk.turns], pose.config.body_rotation)
+            return pts
+
+        world = np.array([at(p) @ m[:3, :3].T + m[:3, 3] for p in poses])
+        hit = skin_hit(world, checker)
+        return None if hit is None else (hit[0], "trunk", hit[1])
     body = [c for c in arm.body_capsules if c.turns_with_chest]
 
     def ends(c, angle):

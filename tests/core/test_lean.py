@@ -82,3 +82,22 @@ def test_the_ranges_are_the_aaos_averages():
     r = lean.TRUNK_RANGE_DEG
     assert (r["thoracolumbar_flexion"], r["thoracolumbar_lateral_bend"], r["hip_flexion"]) == \
         (80.0, 35.0, 120.0)
+
+
+def test_the_skin_check_finds_a_thin_board_a_coarse_step_would_jump():
+    """A point moved 1 m in two instants past a board 2 mm thick: the instants between are
+    added (it moves at most 1.5 clearances between two), so the board is found; a point
+    that starts within the clearance is not held to it."""
+    from reach_addon.core import Settings
+    from reach_addon.core.collision import CollisionChecker
+    from reach_addon.samples import obstacles, standard_arm
+
+    arm = standard_arm()
+    board = obstacles({"Board": [((0.499, -1.0, -1.0), (0.501, 1.0, 1.0))]})
+    checker = CollisionChecker(arm, board, Settings())
+    path = np.array([[[0.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]]])
+    assert lean.skin_hit(path, checker) == (1, "Board")
+    assert lean.skin_hit(path[:, :, :] * [0.45, 1, 1], checker) is None
+    touching = np.array([[[0.505, 0.0, 0.0]], [[0.52, 0.0, 0.0]]])      # starts 4 mm away
+    assert checker.margin > 0.004 and lean.skin_hit(touching, checker) is None
+    assert lean.skin_hit(np.concatenate([path, touching], axis=1), checker) == (1, "Board")
