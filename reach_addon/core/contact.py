@@ -10,8 +10,10 @@ it touches, never one that decreases it (where none increases it, the one that t
 wrist farthest, keeping the clearance while it touches and never touching again once out),
 until the real arm is clear with the whole margin, at most ``max_steps`` steps. Where
 that greedy way is stuck or runs out of steps, a best-first search over the same steps,
-under the same rule, with chest turns from every pose (:func:`_search`). The escape's
-poses lead the motion; the hand pass checks their frames with the thinner arm.
+under the same rule, with chest turns from every pose (:func:`_search`); and where that
+finds none, straight lines in joint space toward clear poses at the target, under the
+same rule (:func:`_straight`). The escape's poses lead the motion; the hand pass checks
+their frames with the thinner arm.
 """
 
 from __future__ import annotations
@@ -22,10 +24,12 @@ import math
 
 import numpy as np
 
-from .arm import Pose
+from .arm import ArmConfig, Pose
+from .body_capsules import self_collision
 from .collision import CLEARANCE_TOLERANCE
 from .generator import ConfigurationGenerator
 from .search import sphere_directions
+from .torso import body_rotation_deg
 
 
 @dataclasses.dataclass
@@ -61,11 +65,12 @@ def thinner(generator: ConfigurationGenerator, by: float) -> ConfigurationGenera
 
 
 def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
-           max_steps: int = 40, max_expansions: int = 30) -> Escape | None:
+           max_steps: int = 40, max_expansions: int = 30, target=None) -> Escape | None:
     """Move out of contact (see the module docstring): the greedy way first
     (:func:`_greedy`, at most ``max_steps`` steps), and where it is stuck or runs out of
     steps, a best-first search (:func:`_search`, at most ``max_expansions`` poses
-    expanded). None if neither gets the real arm clear."""
+    expanded), and where that finds none, straight lines in joint space toward the target
+    (``target``, canonical; :func:`_straight`). None if none gets the real arm clear."""
     arm, margin = generator.arm, generator.checker.margin
     c0 = start_clearance(generator, start)
     by = margin - min(c0, margin) + 1e-3 * arm.arm_length
@@ -74,7 +79,75 @@ def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
     if poses is None:
         loose = _passing(generator, start, by)
         poses = _search(loose, generator, start, c0, max_expansions)
+    if poses is None and target is not None:
+        poses = _straight(loose, generator, start, c0, _goals(loose, start, target))
     return None if poses is None else Escape(poses, loose, c0, obstacle)
+
+
+#: The most a joint turns (degrees) between two poses of :func:`_straight`'s lines.
+LINE_ANGLE_STEP = 2.0
+
+
+#: The most goal poses :func:`_straight` heads for.
+LINE_GOALS = 64
+
+
+def _goals(loose, start: Pose, target) -> list:
+    """Poses at ``target`` (canonical) for :func:`_straight` to head for: every swivel
+    whose arm is legal and clear there (:meth:`~.generator.ConfigurationGenerator.
+    clear_swivels`), with the chest as Table 1 turns it there, as it starts and at either
+    end of its range (fuzz seed 6288, whose cross-check's OMPL left with the chest at 60°), the
+    start's hand held; the nearest the start in joint space first, at most
+    :data:`LINE_GOALS`."""
+    target = np.asarray(target, dtype=float)
+    arm = loose.arm
+    table1 = float(body_rotation_deg(target, arm.arm_length, arm.hand_length, loose.settings))
+    out = []
+    bodies = [table1, start.config.body_rotation]
+    if loose.settings.chest_rotation:
+        bodies += [-loose.settings.chest_rotation_max, loose.settings.chest_rotation_max]
+    for body in dict.fromkeys(round(float(b), 9) for b in bodies):
+        sol, ks, _joints = loose.clear_swivels(target, float(body), start)
+        out += [sol.pose(0, k, hand=start.hand) for k in ks]
+    a = start.config.as_array()
+    out.sort(key=lambda p: float(np.abs(p.config.as_array() - a).max()))
+    return out[:LINE_GOALS]
+
+
+def _straight(loose, generator, start: Pose, c0: float, goals) -> list | None:
+    """Where the wrist's steps find no way out (the IK picks the strongest swivel at each
+    wrist, and an upper arm against a box may leave only by a swivel and twist the
+    strength order never reaches: fuzz seeds 863 and 2588, whose cross-check's OMPL left by
+    a straight line in joint space): the straight line in joint space (the chest, the
+    shoulder's three angles, the elbow and the wrist's two) from ``start`` toward each of
+    ``goals`` in turn, at most a search step of the wrist and :data:`LINE_ANGLE_STEP` of a
+    joint apart, each pose clear of the body and under the escape's rule on the real arm
+    (never deeper than the least depth it has reached while it touches, never back in once
+    out): the poses up to the first the real arm's test calls clear, or None. (No thinner
+    arm's test: a start whose thinnest arm still touches leaves by that rule alone, as the
+    cross-check's search does.)"""
+    arm = generator.arm
+    noise = _noise(generator)
+    a = np.append(start.config.as_array(), start.hand)
+    for goal in goals:
+        b = np.append(goal.config.as_array(), goal.hand)
+        travel = math.dist(start.wrist.tolist(), goal.wrist.tolist())
+        n = max(2, int(math.ceil(travel / generator.step_length)),
+                int(math.ceil(float(np.abs(b - a).max()) / LINE_ANGLE_STEP)))
+        poses, clearance = [start], c0
+        for k in range(1, n + 1):
+            q = a + (b - a) * (k / n)
+            pose = generator.config_pose(ArmConfig.from_array(q[:5]), (float(q[5]), float(q[6])))
+            if self_collision(arm, pose.config.body_rotation, pose.joints[None])[0]:
+                break
+            c = start_clearance(generator, pose)
+            if c < min(clearance, 0.0) - noise:
+                break
+            clearance = max(clearance, c)
+            poses.append(pose)
+            if not generator.checker.collides(arm.to_world_points(pose.joints)):
+                return poses
+    return None
 
 
 def _offsets(generator: ConfigurationGenerator, prev: Pose) -> np.ndarray:

@@ -253,7 +253,8 @@ class Planner:
         if depth > limit:
             return None, self._start_failure(task, start, problem,
                                              depth_message(obstacle, part, depth, limit, how))
-        way_out = escape(gen, start, obstacle)
+        way_out = escape(gen, start, obstacle,
+                         target=self.arm.to_canonical_points(np.asarray(task.targets[0], float)))
         if way_out is None:
             if depth <= 0.0:
                 # nearer than the clearance, not touching: what holds the arm, not a contact

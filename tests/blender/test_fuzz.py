@@ -187,10 +187,16 @@ def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
       obstacles (384; now planned again among every place they take,
       ``obstacle_union.union``); a start in contact whose escape's own transitions were held
       against the way ahead (5239);
+    - 863, 2588, 6288 and 7608 ``start_held`` from the campaign at 41157e1: an upper arm
+      or clavicle in contact whose wrist's steps found no way out (the IK takes the
+      strongest swivel at each wrist) where a straight line in joint space leaves it,
+      never deeper; the escape now tries such lines toward the clear swivels at the
+      target, the chest as Table 1, the start and either limit turn it
+      (``contact._straight``);
     - :data:`CAMPAIGN_FALSE_REFUSALS`, still false refusals (the list stays true: a seed
       that stops being one fails this test too)."""
-    seeds = [209, 213, 384, 783, 5045, 5103, 5170, 5196, 5221, 5235, 5239, 5257, 5278, 5310,
-             5413, 6024, 6356, 6397, 7074, 7408]
+    seeds = [209, 213, 384, 783, 863, 2588, 5045, 5103, 5170, 5196, 5221, 5235, 5239, 5257,
+             5278, 5310, 5413, 6024, 6288, 6356, 6397, 7074, 7408, 7608]
     results = campaign.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
     false = {r["seed"]: _false_reason(r) for r in results if r["category"] == "false_refusal"}
     assert false == CAMPAIGN_FALSE_REFUSALS
