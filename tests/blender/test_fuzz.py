@@ -193,9 +193,14 @@ def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
       never deeper; the escape now tries such lines toward the clear swivels at the
       target, the chest as Table 1, the start and either limit turn it
       (``contact._straight``);
+    - 1286 ``no_path`` from that campaign: the sampling planner's goal region held only
+      this reach's chest and the start's, and its chest range only what lies between them;
+      OMPL went straight to a goal with the chest at -30°. A straight line in joint space
+      to the goal poses over the whole chest range is now tried first
+      (``sampling._straight_to_goal``);
     - :data:`CAMPAIGN_FALSE_REFUSALS`, still false refusals (the list stays true: a seed
       that stops being one fails this test too)."""
-    seeds = [209, 213, 384, 783, 863, 2588, 5045, 5103, 5170, 5196, 5221, 5235, 5239, 5257,
+    seeds = [209, 213, 384, 783, 863, 1286, 2588, 5045, 5103, 5170, 5196, 5221, 5235, 5239, 5257,
              5278, 5310, 5413, 6024, 6288, 6356, 6397, 7074, 7408, 7608]
     results = campaign.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
     false = {r["seed"]: _false_reason(r) for r in results if r["category"] == "false_refusal"}
