@@ -28,6 +28,7 @@ from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
 from .motion_check import escape_contact, motion_stats, pose_clearances
 from .results import Plan, Segment, Stats
+from .sampling import straight_poses
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
 from .tasks import Task
@@ -310,10 +311,16 @@ class _Chase:
         plan = planner.plan(Task("reach", np.asarray(self.task.targets)[-1:], start.config,
                                  fps=self.task.fps, names=(self.task.name(0),),
                                  start_hand=start.hand))
-        if not plan.success:
-            return None
-        way = self._at_chase_speed(planner.generator, [start] + list(plan.poses[1:]),
-                                   n - 1 - first)
+        way = None if not plan.success else self._at_chase_speed(
+            planner.generator, [start] + list(plan.poses[1:]), n - 1 - first)
+        if way is None:
+            # the search's way is longer than the frames allow: a straight line in joint
+            # space to a goal pose, if one is clear (fuzz seed 2482: OMPL's straight line
+            # fitted the frames exactly)
+            line = straight_poses(planner.generator, start, self.arm.to_canonical_points(
+                np.asarray(self.task.targets, dtype=float)[-1]))
+            way = None if line is None else self._at_chase_speed(planner.generator, line,
+                                                                 n - 1 - first)
         if way is None:
             return None
         way += [replace(way[-1]) for _ in range(n - first - len(way))]   # waiting there

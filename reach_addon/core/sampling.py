@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from . import ik
+from .straight import straight_to_goal
 from .arm import ArmConfig, Pose, forward_kinematics, hand_direction_floats
 from .body_capsules import body_capsules_at, segment_hits_body
 from .diagnosis import fit_within_tolerance
@@ -512,41 +513,20 @@ def _goals_elsewhere(generator, target, start: Pose, validity: StateValidity) ->
     return goal_configurations(fine, point, start, validity, (chest,))
 
 
-#: The chest rotations (degrees apart) whose goal poses :func:`_straight_to_goal` tries.
-STRAIGHT_CHEST_STEP = 10.0
-
-
-def _straight_to_goal(generator, target, start_row, validity: StateValidity, space):
-    """A straight line in joint space from ``start_row`` to a goal pose at ``target``, every
-    state a step of the metric apart valid, or None: tried before the sampling planner,
-    toward the goal poses at the chest rotations every :data:`STRAIGHT_CHEST_STEP` degrees
-    over its range, the nearest in the metric first. The sampling planner's goal region
-    holds only this reach's chest and the start's, and its chest range only what lies
-    between them: fuzz seeds 1286 and 7624 failed after 200,000 states where the
-    cross-check's OMPL, over the whole chest range, went straight to a goal with the chest
-    at -30°."""
-    s = generator.settings
-    limit = float(s.chest_rotation_max) if s.chest_rotation else 0.0
-    n = int(math.floor(limit / STRAIGHT_CHEST_STEP))
-    chests = [k * STRAIGHT_CHEST_STEP for k in range(-n, n + 1)]
-    hands = sorted(generator.hand_samples, key=lambda h: generator._relax[h])
-    rows = []
-    for body in chests:
-        sol = ik.solve(generator.arm, np.asarray(target, dtype=float)[None], s, None, body)
-        for k in sol.ranked(0, s.elbow_side):
-            config = sol.config(0, k).as_array()
-            for hand in hands:
-                q = np.concatenate([config, hand])
-                if validity.valid(q):
-                    rows.append(q)
-                    break
-    rows.sort(key=lambda q: space.distance(start_row, q))
-    for goal in rows:
-        steps = max(1, int(math.ceil(space.distance(start_row, goal) / s.step)))
-        if all(validity.valid(start_row + (goal - start_row) * (k / steps))
-               for k in range(1, steps + 1)):
-            return [start_row, goal]
-    return None
+def straight_poses(generator, start: Pose, target) -> list | None:
+    """A straight line in joint space from ``start`` to a goal pose at ``target``
+    (canonical; :func:`~.straight.straight_to_goal`) as dense poses (``start`` first, each a step of
+    the wrist and of the joints apart, :func:`densify_rows`), or None."""
+    s, arm = generator.settings, generator.arm
+    start_row = pose_row(start)
+    space = JointSpace(arm, s, start_row)
+    validity = StateValidity(arm, s, generator.checker, space)
+    path = straight_to_goal(generator, target, start_row, validity, space)
+    if path is None:
+        return None
+    rows = densify_rows(arm, path, generator.step_length, s.max_joint_step, s.hand_step_turn)
+    return [start] + [generator.config_pose(ArmConfig.from_array(q[:5]),
+                                            (float(q[5]), float(q[6]))) for q in rows[1:]]
 
 
 def sampling_steps(generator, start: Pose, target, chunk: int = 0, seed=(),
@@ -576,7 +556,7 @@ def sampling_steps(generator, start: Pose, target, chunk: int = 0, seed=(),
     goals = goal_configurations(generator, target, start, validity)
     if not goals:
         goals = _goals_elsewhere(generator, target, start, validity)
-    path = _straight_to_goal(generator, target, start_row, validity, space)
+    path = straight_to_goal(generator, target, start_row, validity, space)
     if path is None and goals:
         bodies = [start_row[0]] + [g[0] for g in goals]
         lo, hi = space.lo.copy(), space.hi.copy()
