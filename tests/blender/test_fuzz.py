@@ -110,8 +110,30 @@ def test_a_start_in_contact_never_touches_again_once_clear():
 
 
 #: False refusals of full campaigns that the planner still makes (seed: the reason), of the
-#: seeds of :func:`test_the_campaigns_refusals_are_checked_as_they_are_claimed`: none.
-CAMPAIGN_FALSE_REFUSALS: dict = {}
+#: seeds of :func:`test_the_campaigns_refusals_are_checked_as_they_are_claimed`: 15 of the
+#: 34 of the campaign at 41157e1 (``bench/fuzz.json``). A way the search found that the arm
+#: or hand cannot follow clear (2533, 3441, 3779, 7593: "found a path ... but the arm
+#: cannot follow it clear"); chases that did not catch the target where OMPL's way fits
+#: the frames (2402, 2959, 3327, 5804); starts in or near contact whose way out leads nowhere
+#: (4148, 7624, 9192); a way among a moving mesh (3665); a target refused as inside an
+#: obstacle or the body that OMPL reaches (4940, 7738); a clavicle held by a linked box (8331).
+CAMPAIGN_FALSE_REFUSALS: dict = {
+    2402: "no_path",
+    2533: "no_path",
+    2959: "no_path",
+    3327: "no_path",
+    3441: "no_path",
+    3665: "no_path",
+    3779: "no_path",
+    4148: "no_path",
+    4940: "target_in_obstacle",
+    5804: "no_path",
+    7593: "no_path",
+    7624: "no_path",
+    7738: "target_in_obstacle",
+    8331: "start_held",
+    9192: "no_path",
+}
 
 
 def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
@@ -199,11 +221,15 @@ def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
       to the goal poses over the whole chest range is now tried first
       (``straight.straight_to_goal``); 2482, a chase ``no_path``: its plan ahead's
       search found a way too long for its 22 frames, where OMPL's straight line fitted
-      them exactly; the plan ahead now tries that line too (``sampling.straight_poses``);
+      them exactly; the plan ahead now tries that line too (``sampling.straight_poses``).
+      Of the campaign's 34, these three changes let 18 pass (863, 869, 1286, 2482, 2588,
+      2829, 3123, 3373, 3821, 4723, 4787, 4997, 6288, 7608, 8420, 8844, 9060, 9346);
     - :data:`CAMPAIGN_FALSE_REFUSALS`, still false refusals (the list stays true: a seed
       that stops being one fails this test too)."""
-    seeds = [209, 213, 384, 783, 863, 1286, 2482, 2588, 5045, 5103, 5170, 5196, 5221, 5235, 5239, 5257,
-             5278, 5310, 5413, 6024, 6288, 6356, 6397, 7074, 7408, 7608]
+    seeds = [209, 213, 384, 783, 863, 869, 1286, 2402, 2482, 2533, 2588, 2829, 2959, 3123,
+             3327, 3373, 3441, 3665, 3779, 3821, 4148, 4723, 4787, 4940, 4997, 5045, 5103,
+             5170, 5196, 5221, 5235, 5239, 5257, 5278, 5310, 5413, 5804, 6024, 6288, 6356,
+             6397, 7074, 7408, 7593, 7608, 7624, 7738, 8331, 8420, 8844, 9060, 9192, 9346]
     results = campaign.run_campaign(seeds, jobs=2, subframes=3, timeout_s=300)
     false = {r["seed"]: _false_reason(r) for r in results if r["category"] == "false_refusal"}
     assert false == CAMPAIGN_FALSE_REFUSALS
