@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from . import ik
-from .straight import straight_to_goal
+from .straight import goal_rows, straight_to_goal
 from .arm import ArmConfig, Pose, forward_kinematics, hand_direction_floats
 from .body_capsules import body_capsules_at, segment_hits_body
 from .diagnosis import fit_within_tolerance
@@ -206,7 +206,7 @@ def goal_configurations(generator, target, start: Pose, validity: StateValidity,
     the most relaxed hand sample that is clear. Taken round-robin over the chest rotations
     and, within one, spread over the swivel circle (every other ranked solution first) so
     that the region is not one narrow cluster."""
-    s, arm = generator.settings, generator.arm
+    s = generator.settings
     target = np.asarray(target, dtype=float)
     bodies = [start.config.body_rotation, *map(float, chests)]
     if generator.chest is not None:
@@ -215,21 +215,7 @@ def goal_configurations(generator, target, start: Pose, validity: StateValidity,
         bodies = list(dict.fromkeys(round(b, 9) for b in bodies))
     else:
         bodies = [0.0]
-    hands = sorted(generator.hand_samples, key=lambda h: generator._relax[h])
-    per_body = []
-    for body in bodies:
-        sol = ik.solve(arm, target[None], s, None, body)
-        ranked = sol.ranked(0, s.elbow_side)
-        spread = ranked[::2] + ranked[1::2]
-        rows = []
-        for k in spread:
-            config = sol.config(0, k).as_array()
-            for hand in hands:
-                q = np.concatenate([config, hand])
-                if validity.valid(q):
-                    rows.append(q)
-                    break
-        per_body.append(rows)
+    per_body = [goal_rows(generator, target, body, validity, spread=True) for body in bodies]
     out = []
     while any(per_body) and len(out) < s.sampling_goals:
         for rows in per_body:

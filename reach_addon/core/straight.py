@@ -32,18 +32,8 @@ def straight_to_goal(generator, target, start_row, validity, space):
     s = generator.settings
     limit = float(s.chest_rotation_max) if s.chest_rotation else 0.0
     n = int(math.floor(limit / STRAIGHT_CHEST_STEP))
-    chests = [k * STRAIGHT_CHEST_STEP for k in range(-n, n + 1)]
-    hands = sorted(generator.hand_samples, key=lambda h: generator._relax[h])
-    rows = []
-    for body in chests:
-        sol = ik.solve(generator.arm, np.asarray(target, dtype=float)[None], s, None, body)
-        for k in sol.ranked(0, s.elbow_side):
-            config = sol.config(0, k).as_array()
-            for hand in hands:
-                q = np.concatenate([config, hand])
-                if validity.valid(q):
-                    rows.append(q)
-                    break
+    rows = [q for k in range(-n, n + 1)
+            for q in goal_rows(generator, target, k * STRAIGHT_CHEST_STEP, validity)]
     rows.sort(key=lambda q: space.distance(start_row, q))
     for goal in rows:
         steps = max(1, int(math.ceil(space.distance(start_row, goal) / s.step)))
@@ -51,3 +41,25 @@ def straight_to_goal(generator, target, start_row, validity, space):
                for k in range(1, steps + 1)):
             return [start_row, goal]
     return None
+
+
+def goal_rows(generator, target, body: float, validity, spread: bool = False) -> list:
+    """The IK's legal swivel solutions with the wrist on ``target`` (canonical) and the chest
+    at ``body`` degrees, each with the most relaxed hand sample ``validity`` accepts
+    (configuration rows (7,)), strongest first; ``spread``: every other ranked solution
+    first, so that the first few are not one narrow cluster."""
+    s = generator.settings
+    hands = sorted(generator.hand_samples, key=lambda h: generator._relax[h])
+    sol = ik.solve(generator.arm, np.asarray(target, dtype=float)[None], s, None, body)
+    ranked = sol.ranked(0, s.elbow_side)
+    if spread:
+        ranked = ranked[::2] + ranked[1::2]
+    rows = []
+    for k in ranked:
+        config = sol.config(0, k).as_array()
+        for hand in hands:
+            q = np.concatenate([config, hand])
+            if validity.valid(q):
+                rows.append(q)
+                break
+    return rows
