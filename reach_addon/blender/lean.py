@@ -77,12 +77,12 @@ def lean_basis(armature, bone: str, rotations_world) -> np.ndarray:
     return np.array(out)
 
 
-def world_rotations(info, phase) -> np.ndarray:
-    """The trunk's world rotations (F, 3, 3) on the lean's frames: the canonical lean
-    (:meth:`~..core.lean.Lean.matrix`) carried into the world, ``M R M⁻¹`` with ``M`` the
-    arm's canonical-to-world rotation (a mirror for a left arm)."""
+def world_rotations(info, lean, fractions) -> np.ndarray:
+    """The trunk's world rotations (F, 3, 3) at ``fractions`` of ``lean``: the canonical
+    lean (:meth:`~..core.lean.Lean.matrix`) carried into the world, ``M R M⁻¹`` with ``M``
+    the arm's canonical-to-world rotation (a mirror for a left arm)."""
     m = np.asarray(info.arm.to_world, dtype=float)[:3, :3]
-    return np.array([m @ phase.lean.matrix(f)[:3, :3] @ m.T for f in phase.fractions])
+    return np.array([m @ lean.matrix(f)[:3, :3] @ m.T for f in fractions])
 
 
 def pose_lean(context, armature, bone: str, basis) -> None:
@@ -115,15 +115,6 @@ def animated(armature, bone: str) -> bool:
     prefix = f'pose.bones["{bone}"].rotation'
     bag = Channels(armature, action).bag
     return any(fc.data_path.startswith(prefix) for fc in bag.fcurves)
-
-
-def key_lean(armature, bone: str, bases, frames, new_action: bool = False) -> None:
-    """Key the lean bone's rotation to ``bases`` (F, 4, 4) on ``frames`` (F,)."""
-    pb = armature.pose.bones[bone]
-    path, values = channel_values(pb, bases)
-    action = ensure_action(armature, new_action)
-    write_channel(Channels(armature, action), f'pose.bones["{bone}"].{path}', values,
-                  np.asarray(frames, dtype=float), bone)
 
 
 @dataclass
@@ -168,7 +159,7 @@ def plan(context, armature, info, planner, keyed):
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
                                               trunk_skin(armature, info, bone))
         if phase is not None:
-            bases = lean_basis(armature, bone, world_rotations(info, phase))
+            bases = lean_basis(armature, bone, world_rotations(info, phase.lean, phase.fractions))
             first = keyed.first_frame
             return RigLean(phase, bone, bases, first, check.margins[-1]), KeyedPlan(
                 reach_or_why, first + phase.frames, (made[-1].generator.checker,), True)
@@ -237,8 +228,7 @@ class BalanceCheck:
         self.margins = []
 
     def __call__(self, lean):
-        m = np.asarray(self.info.arm.to_world, dtype=float)[:3, :3]
-        basis = lean_basis(self.armature, self.bone, [m @ lean.matrix()[:3, :3] @ m.T])[0]
+        basis = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, [1.0]))[0]
         margin = margin_leaned(self.context, self.armature, self.info, self.legs, self.bone,
                                basis)
         self.margins.append(margin)

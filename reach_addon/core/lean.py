@@ -22,17 +22,11 @@ for the shoulder ``s``, the pivot ``p``, the target ``t`` and the reach ``r``: i
 form, the leans that reach are one window of angles (a lean past the target's height takes
 the shoulder away again), and the least is its lower end.
 
-**Cost** (:func:`reba_trunk_score`): REBA's trunk score (Hignett & McAtamney 2000,
-*Rapid Entire Body Assessment*, Applied Ergonomics 31: 201-205): 1 upright; 2 for a
-flexion of 0-20° or an extension of 0-20°; 3 for a flexion of 20-60° or an extension
-beyond 20°; 4 for a flexion beyond 60°; +1 where the trunk is also twisted or bent to
-the side. A whole-body reach ranks its stages (arm and chest, lean, squat, step) by it.
-
-**Ranges** (:data:`TRUNK_RANGE_DEG`): the American Academy of Orthopaedic Surgeons'
-average ranges of motion (*Joint Motion: Method of Measuring and Recording*, 1965):
-thoracolumbar flexion 80°, extension 25°, lateral bend 35°, rotation 45°; hip flexion
-120° (knee bent), extension 30°. A young adult's lean with the feet fixed reaches about
-37-42 cm past the arm (Duncan et al. 1990, *Functional reach*, J Gerontol 45: M192).
+The limit (``Settings.lean_max``, 45°) lies well within the American Academy of
+Orthopaedic Surgeons' average ranges (*Joint Motion: Method of Measuring and Recording*,
+1965): thoracolumbar flexion 80°, hip flexion 120°. A young adult's lean with the feet
+fixed reaches about 37-42 cm past the arm (Duncan et al. 1990, *Functional reach*,
+J Gerontol 45: M192).
 """
 
 from __future__ import annotations
@@ -44,17 +38,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .torso import rotate_about_spine
-
-#: The AAOS (1965) average ranges of motion the lean keeps within (degrees); see the
-#: module docstring.
-TRUNK_RANGE_DEG = {
-    "thoracolumbar_flexion": 80.0,
-    "thoracolumbar_extension": 25.0,
-    "thoracolumbar_lateral_bend": 35.0,
-    "thoracolumbar_rotation": 45.0,
-    "hip_flexion": 120.0,
-    "hip_extension": 30.0,
-}
 
 #: The canonical frame's up axis (the arm frame: x outward, y forward, z up).
 UP = np.array([0.0, 0.0, 1.0])
@@ -94,12 +77,6 @@ def lean_rotation(pivot, axis, angle_deg) -> np.ndarray:
     return m
 
 
-def shoulder_after_lean(shoulder, pivot, target, angle_deg) -> np.ndarray:
-    """Where the shoulder is after leaning ``angle_deg`` toward ``target`` about ``pivot``
-    (:func:`lean_axis`, :func:`rotate_about`)."""
-    return rotate_about(shoulder, pivot, lean_axis(pivot, target), angle_deg)
-
-
 def least_lean(shoulder, pivot, target, reach, lean_max_deg):
     """The least lean (degrees) toward ``target`` that brings it within ``reach`` of the
     shoulder: 0 where it already is, ``None`` where no lean up to ``lean_max_deg`` does.
@@ -133,29 +110,6 @@ def least_lean(shoulder, pivot, target, reach, lean_max_deg):
         return 0.0
     lowest = (phi - half) % 360.0
     return lowest if lowest <= float(lean_max_deg) else None
-
-
-def reba_trunk_score(flexion_deg: float, twisted_or_side_bent: bool = False) -> int:
-    """REBA's trunk score for a trunk flexed ``flexion_deg`` from upright (negative:
-    extension), +1 where it is also twisted or bent to the side (Hignett & McAtamney
-    2000):
-
-    ======================================  =====
-    upright (0°)                            1
-    flexion or extension of 0-20°           2
-    flexion of 20-60°, extension beyond 20° 3
-    flexion beyond 60°                      4
-    ======================================  ====="""
-    f = float(flexion_deg)
-    if abs(f) < 1e-9:
-        score = 1
-    elif -20.0 <= f <= 20.0:
-        score = 2
-    elif f < -20.0 or f <= 60.0:
-        score = 3
-    else:
-        score = 4
-    return score + (1 if twisted_or_side_bent else 0)
 
 
 @dataclass(frozen=True)
@@ -285,13 +239,30 @@ def skin_hit(world, checker):
             at = prev + (now - prev) * (j / splits)
             for p in at:
                 if checker.obstacles.distance(p, margin) < margin:
-                    return k, _owner(checker, p)
+                    return k, owner_near(checker, p)
     return None
 
 
-def _owner(checker, point) -> str:
+def owner_near(checker, point) -> str:
+    """The name of the obstacle nearest ``point`` (world)."""
     hit = checker.obstacles.nearest(point, math.inf)
     return checker.obstacles.owner(hit[2] if hit else None)
+
+
+def capsules_hit(ends, capsules, checker):
+    """The first instant at which one of ``capsules`` (their radii and names), at ``ends``
+    (T, C, 2, 3): each capsule's two ends, world, on the instants in turn) touches an
+    obstacle with the clearance: (instant index, capsule name, obstacle name), or None. A
+    capsule already touching at the first instant is not held to it: the body's capsules
+    are proportional guesses, and a figure may stand close to a table."""
+    ends = np.asarray(ends, dtype=float)
+    held = [i for i, c in enumerate(capsules) if checker.capsule_clear(*ends[0, i], c.radius)]
+    for k in range(len(ends)):
+        for i in held:
+            a, b = ends[k, i]
+            if not checker.capsule_clear(a, b, capsules[i].radius):
+                return k, capsules[i].name, owner_near(checker, 0.5 * (a + b))
+    return None
 
 
 def lean_hit(arm, joints_c, lean: Lean, fractions, checker, trunk: TrunkSkin | None = None):
@@ -299,32 +270,24 @@ def lean_hit(arm, joints_c, lean: Lean, fractions, checker, trunk: TrunkSkin | N
     obstacle name), or ``None`` where the lean is clear. The arm holds its start pose
     (``joints_c``, canonical (5, 3)) on the leaning trunk; the arm's capsules (hand
     included, as ``checker`` tests them) are tested on every frame of ``fractions`` and
-    :data:`LEAN_SUBSTEPS` instants between two, and so is the trunk: its skin where the
-    rig gives it (``trunk``, :func:`skin_hit`: part "trunk"), else the chest's and head's
-    capsules. A capsule already touching at the start (fraction 0) is not held to it: the
-    body's capsules are proportional guesses, and a rig may stand close to a table."""
+    :data:`LEAN_SUBSTEPS` instants between two, and then the trunk on them: its skin where
+    the rig gives it (``trunk``, :func:`skin_hit`: part "trunk"), else the chest's and
+    head's capsules (:func:`capsules_hit`)."""
     joints_c = np.asarray(joints_c, dtype=float)
-    body = [c for c in arm.body_capsules if c.turns_with_chest] if trunk is None else []
-    upright = arm.to_world
-    clear_at_start = [c for c in body if checker.capsule_clear(
-        *(upright[:3, :3] @ np.asarray(p, dtype=float) + upright[:3, 3] for p in (c.a, c.b)),
-        c.radius)]
     f = np.asarray(fractions, dtype=float)
     steps = np.linspace(0.0, 1.0, LEAN_SUBSTEPS + 2)[1:]
     instants = np.concatenate([[f[0]]] + [a + (b - a) * steps for a, b in zip(f[:-1], f[1:])])
-    for fraction in instants:
-        m = upright @ lean.matrix(float(fraction))
-        world = joints_c @ m[:3, :3].T + m[:3, 3]
-        hit = checker.first_hit(world)
+    transforms = [arm.to_world @ lean.matrix(float(x)) for x in instants]
+    for fraction, m in zip(instants, transforms):
+        hit = checker.first_hit(joints_c @ m[:3, :3].T + m[:3, 3])
         if hit is not None:
             return float(fraction), hit[0], hit[1]
-        for c in clear_at_start:
-            a, b = (m[:3, :3] @ np.asarray(p, dtype=float) + m[:3, 3] for p in (c.a, c.b))
-            if not checker.capsule_clear(a, b, c.radius):
-                return float(fraction), c.name, _owner(checker, 0.5 * (a + b))
     if trunk is not None:
-        hit = skin_hit(carried(trunk.points, [upright @ lean.matrix(float(x)) for x in instants]),
-                       checker)
-        if hit is not None:
-            return float(instants[hit[0]]), "trunk", hit[1]
-    return None
+        hit = skin_hit(carried(trunk.points, transforms), checker)
+        part = None if hit is None else "trunk"
+    else:
+        body = [c for c in arm.body_capsules if c.turns_with_chest]
+        hit = capsules_hit(np.stack([carried([c.a, c.b], transforms) for c in body], axis=1)
+                           if body else np.zeros((len(transforms), 0, 2, 3)), body, checker)
+        part = None if hit is None else hit[1]
+    return None if hit is None else (float(instants[hit[0]]), part, hit[-1])

@@ -23,15 +23,14 @@ feet; only a single reach leans (a sequence, a guided reach and a chase still re
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .arm import ArmModel
 from .errors import NEEDS_LEAN
-from .lean import (Lean, TrunkSkin, chest_turns, choose_lean, lean_frames, lean_hit, leaned_arm,
-                   skin_hit)
+from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean_frames, lean_hit,
+                   leaned_arm, skin_hit)
 from .torso import body_rotation_deg, rotate_about_spine
 
 
@@ -116,8 +115,8 @@ def body_hit(arm, poses, checker, trunk: TrunkSkin | None = None):
     """The first pose whose trunk touches an obstacle, on the trunk of ``arm`` (leaned),
     turned with the chest: (pose index, part name, obstacle name), else None. The trunk is
     its skin where given (``trunk``: its ``turns`` points turned with the chest,
-    :func:`~.lean.skin_hit`, part "trunk"), else the chest's and head's capsules; a capsule
-    touching on the first pose is not held to it (:func:`~.lean.lean_hit`)."""
+    :func:`~.lean.skin_hit`, part "trunk"), else the chest's and head's capsules
+    (:func:`~.lean.capsules_hit`)."""
     m = arm.to_world
     if trunk is not None:
         def at(pose):
@@ -129,17 +128,7 @@ def body_hit(arm, poses, checker, trunk: TrunkSkin | None = None):
         hit = skin_hit(world, checker)
         return None if hit is None else (hit[0], "trunk", hit[1])
     body = [c for c in arm.body_capsules if c.turns_with_chest]
-
-    def ends(c, angle):
-        pts = rotate_about_spine(np.array([c.a, c.b], dtype=float), angle)
-        return pts @ m[:3, :3].T + m[:3, 3]
-
-    angle0 = poses[0].config.body_rotation
-    held = [c for c in body if checker.capsule_clear(*ends(c, angle0), c.radius)]
-    for k, pose in enumerate(poses):
-        for c in held:
-            a, b = ends(c, pose.config.body_rotation)
-            if not checker.capsule_clear(a, b, c.radius):
-                near = checker.obstacles.nearest(0.5 * (a + b), math.inf)
-                return k, c.name, checker.obstacles.owner(near[2] if near else None)
-    return None
+    ends = np.array([[rotate_about_spine(np.array([c.a, c.b], dtype=float),
+                                         p.config.body_rotation) @ m[:3, :3].T + m[:3, 3]
+                      for c in body] for p in poses]).reshape(len(poses), len(body), 2, 3)
+    return capsules_hit(ends, body, checker)
