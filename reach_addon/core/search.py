@@ -33,9 +33,9 @@ from .torso import rotate_about_spine
 #: Before a search refuses, positions this share of ``goal_tolerance`` from the target are
 #: tried from the closest position (:func:`last_tries`).
 GOAL_BALL = 0.9
-#: ... and this share, toward the shoulder only: a target beyond the arm by more than
-#: :data:`GOAL_BALL` of the tolerance is still within it. Short of 1 by the slack a baked
-#: rig's own residual needs to stay within the tolerance.
+#: ... and this share, toward the shoulder and then all round: a target beyond the arm
+#: by more than :data:`GOAL_BALL` of the tolerance is still within it. Short of 1 by the
+#: slack a baked rig's own residual needs to stay within the tolerance.
 GOAL_BALL_FAR = 0.97
 #: The swivel step (degrees) of the last try before a refusal.
 FINE_SWIVEL_STEP = 1.0
@@ -63,7 +63,12 @@ def last_tries(generator, target) -> list:
     beyond reach by nearly all of it. Then the target, the rim's first three and that
     point with the swivel circle sampled every :data:`FINE_SWIVEL_STEP` degrees
     (:meth:`~reach_addon.core.generator.ConfigurationGenerator.finer`: a clear swivel
-    window narrower than the search's step, as an elbow folded to its limit has). The
+    window narrower than the search's step, as an elbow folded to its limit has). Last,
+    the rim's even directions at :data:`GOAL_BALL_FAR` with the fine swivel: a pose may fit
+    only in the thin shell between the two, on the side away from the body, in a narrow
+    swivel window (fuzz seeds 4940, an elbow folded near its limit, clear only 0.95 of the
+    tolerance forward; 7738, a hand across the body with the chest at its limit, clear
+    only above the target at a swivel between the 5° samples). The
     search's last try (:meth:`BestFirstSearch._last_try`) and the diagnosis of a refusal
     (:func:`~reach_addon.core.diagnosis.fit_within_tolerance`) use these same positions,
     so a target is refused only where neither finds a pose."""
@@ -74,9 +79,14 @@ def last_tries(generator, target) -> list:
                     (turned, shoulder, 2.0 * target - shoulder))
     # the rim's first point, toward the turned shoulder, pushed out to GOAL_BALL_FAR
     far = target + (rim[0] - target) * (GOAL_BALL_FAR / GOAL_BALL)
+    # the whole rim again at GOAL_BALL_FAR: a clear pose may exist only in the thin shell
+    # between GOAL_BALL and the tolerance, on whichever side the body or a limit leaves
+    shell = target + (rim[len(rim) - int(generator.settings.directions):] - target) * \
+        (GOAL_BALL_FAR / GOAL_BALL)
     fine = generator.finer(FINE_SWIVEL_STEP)
     return [(generator, p) for p in rim] + [(generator, far)] + \
-        [(fine, p) for p in (target, rim[0], rim[1], rim[2], far)]
+        [(fine, p) for p in (target, rim[0], rim[1], rim[2], far)] + \
+        [(fine, p) for p in shell]
 
 
 def nearest_shoulder(generator, target) -> np.ndarray:
