@@ -209,7 +209,9 @@ class Settings:
         "closed obstacle is refused whatever this is", "collision", 0.0, 0.5, "arm lengths")
 
     # --- collisions -------------------------------------------------------------------------
-    clearance: float = _f(0.02, "Clearance", "Margin kept between arm and obstacles",
+    clearance: float = _f(0.02, "Clearance", "Margin kept between arm and obstacles "
+                          "(at least 0.001 arm lengths, whatever is set: the instants "
+                          "between keys as Blender shows them need that hair)",
                           "collision", 0.0, 0.5, "arm lengths")
     check_hand: bool = _f(True, "Check the hand", "Test the hand (wrist to its far end) "
                           "against obstacles and the body too, turning it at the wrist to "
