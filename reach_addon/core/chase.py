@@ -21,6 +21,7 @@ import numpy as np
 
 from . import obstacle_union
 from .arm import ArmConfig, Pose, frame_turn
+from .contact import line_escape
 from .diagnosis import diagnose_target
 from .elbow import relax_elbow
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
@@ -216,6 +217,16 @@ def chase_steps(planners, task: Task, chunk: int = 1):
         return failed
     chase = _Chase(planners, task, start, way_out)
     hand = yield from chase.run(chunk)
+    if way_out is not None and not chase._caught(hand.poses):
+        # a start in contact whose way out led nowhere: straight lines out toward where
+        # the target ends, over the chest's range (contact.line_escape; fuzz seed 2959)
+        other = line_escape(first.generator, start, way_out.obstacle,
+                            first.arm.to_canonical_points(np.asarray(task.targets[-1], float)))
+        if other is not None:
+            again = _Chase(planners, task, start, other)
+            again_hand = yield from again.run(chunk)
+            if again._caught(again_hand.poses):
+                chase, hand = again, again_hand
     plan = chase.plan(hand)
     plan.stats.planning_time_s = time.perf_counter() - t0
     return plan

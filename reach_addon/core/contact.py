@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import heapq
+import itertools
 import math
 
 import numpy as np
@@ -73,15 +74,64 @@ def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
     (``target``, canonical; :func:`_straight`). None if none gets the real arm clear."""
     arm, margin = generator.arm, generator.checker.margin
     c0 = start_clearance(generator, start)
-    by = margin - min(c0, margin) + 1e-3 * arm.arm_length
-    loose = thinner(generator, by)
+    # an arm thin enough that its own test passes the start: the hand pass checks the
+    # escape's frames with it, and a start its test refuses would fail the first frames
+    # the timing holds there (fuzz seed 3441: an upper arm 0.0137 arm lengths from a box)
+    loose = _passing(generator, start, margin - min(c0, margin) + 1e-3 * arm.arm_length)
     poses = _greedy(loose, generator, start, c0, max_steps)
     if poses is None:
-        loose = _passing(generator, start, by)
         poses = _search(loose, generator, start, c0, max_expansions)
     if poses is None and target is not None:
         poses = _straight(loose, generator, start, c0, _goals(loose, start, target))
     return None if poses is None else Escape(poses, loose, c0, obstacle)
+
+
+def line_escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
+                target) -> Escape | None:
+    """A second way out, for a reach that failed from :func:`escape`'s: straight lines in
+    joint space (:func:`_straight`) toward clear poses at ``target`` (canonical) with the
+    chest every :data:`LINE_CHEST_STEP` degrees over its range (:func:`_line_goals`). The
+    greedy escape takes whatever way gets clear soonest, which may turn the chest away from
+    the only way in (fuzz seed 7624: a clavicle in a mesh, left by turning the chest 40°
+    one way where the target is reached only with it turned 30° the other, as the
+    cross-check's OMPL went, straight and never deeper; 2959, a chase). None if no line
+    gets the real arm clear."""
+    arm, margin = generator.arm, generator.checker.margin
+    c0 = start_clearance(generator, start)
+    loose = _passing(generator, start, margin - min(c0, margin) + 1e-3 * arm.arm_length)
+    poses = _straight(loose, generator, start, c0, _line_goals(loose, start, target))
+    return None if poses is None else Escape(poses, loose, c0, obstacle)
+
+
+#: The chest rotations (degrees apart) of :func:`line_escape`'s goal poses.
+LINE_CHEST_STEP = 10.0
+
+
+def _line_goals(loose, start: Pose, target) -> list:
+    """Clear poses at ``target`` (canonical) with the chest every :data:`LINE_CHEST_STEP`
+    degrees over its range (kept still without chest rotation), the start's hand held: the
+    first swivel sample of each chest in turn (the chest nearest the start's first), then
+    the next of each, at most :data:`LINE_ESCAPE_GOALS`."""
+    s = loose.settings
+    limit = float(s.chest_rotation_max) if s.chest_rotation else 0.0
+    n = int(math.floor(limit / LINE_CHEST_STEP))
+    bodies = [k * LINE_CHEST_STEP for k in range(-n, n + 1)] if n else \
+        [start.config.body_rotation]
+    bodies.sort(key=lambda b: abs(b - start.config.body_rotation))
+    per_body = []
+    for body in bodies:
+        sol, ks, _joints = loose.clear_swivels(np.asarray(target, dtype=float), float(body),
+                                               start)
+        per_body.append([sol.pose(0, k, hand=start.hand) for k in ks])
+    # one of each chest's in turn: which lines stay out of contact is not told by how far
+    # they go (seed 7624: the 46 of 258 that do lie 98th to 203rd by any joint distance,
+    # all with the chest at -30° or beyond), but by the chest they turn to
+    out = [p for rank in itertools.zip_longest(*per_body) for p in rank if p is not None]
+    return out[:LINE_ESCAPE_GOALS]
+
+
+#: The most goal poses :func:`line_escape` heads for.
+LINE_ESCAPE_GOALS = 128
 
 
 #: The most a joint turns (degrees) between two poses of :func:`_straight`'s lines.
@@ -97,8 +147,9 @@ def _goals(loose, start: Pose, target) -> list:
     whose arm is legal and clear there (:meth:`~.generator.ConfigurationGenerator.
     clear_swivels`), with the chest as Table 1 turns it there, as it starts and at either
     end of its range (fuzz seed 6288, whose cross-check's OMPL left with the chest at 60°), the
-    start's hand held; the nearest the start in joint space first, at most
-    :data:`LINE_GOALS`."""
+    start's hand held; and the start's own arm with the chest at either end of its range
+    (a line that need not reach the target: it ends at its first clear pose). The nearest
+    the start in joint space first, at most :data:`LINE_GOALS`."""
     target = np.asarray(target, dtype=float)
     arm = loose.arm
     table1 = float(body_rotation_deg(target, arm.arm_length, arm.hand_length, loose.settings))
@@ -110,6 +161,14 @@ def _goals(loose, start: Pose, target) -> list:
         sol, ks, _joints = loose.clear_swivels(target, float(body), start)
         out += [sol.pose(0, k, hand=start.hand) for k in ks]
     a = start.config.as_array()
+    if loose.settings.chest_rotation:
+        # the arm as it starts, carried by the chest turned to either end of its range: a
+        # clavicle in a box leaves as the trunk turns, whatever the arm does (fuzz seed
+        # 8331, clear by a turn of 40° that never goes deeper)
+        for end in (-1.0, 1.0):
+            turned = a.copy()
+            turned[0] = end * float(loose.settings.chest_rotation_max)
+            out.append(loose.config_pose(ArmConfig.from_array(turned), start.hand))
     out.sort(key=lambda p: float(np.abs(p.config.as_array() - a).max()))
     return out[:LINE_GOALS]
 
@@ -257,8 +316,9 @@ def _search(loose, generator, start: Pose, c0: float, max_expansions: int) -> li
 def _passing(generator: ConfigurationGenerator, start: Pose, by: float,
              grow: float = 1.5) -> ConfigurationGenerator:
     """The :func:`thinner` generator, less by ``by`` and then by ``grow`` times as much
-    again until its own test passes ``start`` (the wrist where it is, the chest as it is),
-    or, where none does before every radius is at its floor, the thinnest (a hand sunk
+    again until its own test passes ``start`` (the start pose itself, and a solve with the
+    wrist where it is, the chest as it is), or, where none does before every radius is
+    at its floor, the thinnest (a hand sunk
     into a table leaves by turning, which the start's own hand cannot). The generator's
     capsule test is conservative (a short piece of a capsule is settled by a sphere up to
     ~12 % wider than its radius), so an arm thinned by exactly what the start lacks may
@@ -266,10 +326,12 @@ def _passing(generator: ConfigurationGenerator, start: Pose, by: float,
     into a mesh, which the wrist's steps never move). Only the solve uses the thinner arm;
     every step is measured on the real one."""
     arm = generator.arm
+    world = arm.to_world_points(start.joints)
     while True:
         loose = thinner(generator, by)
-        if loose.solve(start.wrist, start, body_rotation=start.config.body_rotation,
-                       hand_scale=1.0) is not None or all(
+        if (not loose.checker.collides(world) and loose.solve(
+                start.wrist, start, body_rotation=start.config.body_rotation,
+                hand_scale=1.0) is not None) or all(
                 getattr(loose.arm, k) <= 0.1 * getattr(arm, k) * (1 + 1e-9)
                 for k in ("upper_arm_radius", "forearm_radius", "hand_radius")):
             return loose

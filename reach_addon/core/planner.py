@@ -23,7 +23,7 @@ import numpy as np
 from .arm import ArmModel, Pose
 from .chase import chase_steps
 from .collision import Obstacles
-from .contact import bone_touches, depth_message, escape, start_clearance
+from .contact import bone_touches, depth_message, escape, line_escape, start_clearance
 from .diagnosis import diagnose_target
 from .elbow import relax_elbow
 from .errors import NO_PATH, START_HELD, START_IN_COLLISION, require_finite
@@ -286,6 +286,17 @@ class Planner:
                                         frame_start=len(poses) - 1, chunk=chunk,
                                         way_out=way_out if i == 0 else None, goal=goals[i])
             seg, seg_poses = yield from _progress(steps, i, n, task.name(i))
+            if i == 0 and way_out is not None and not seg.success:
+                # a start in contact whose way out led nowhere: straight lines out
+                # toward the target, over the chest's range (contact.line_escape)
+                other = line_escape(self.generator, start, way_out.obstacle,
+                                    self.arm.to_canonical_points(np.asarray(target, float)))
+                if other is not None:
+                    steps = self._reach_segment(task, i, start, target, guided, frame_start=0,
+                                                chunk=chunk, way_out=other, goal=goals[i])
+                    again, again_poses = yield from _progress(steps, i, n, task.name(i))
+                    if again.success:
+                        seg, seg_poses = again, again_poses
             poses += seg_poses[1:]
             segments.append(seg)
             total.add(seg.stats)
