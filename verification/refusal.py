@@ -406,7 +406,8 @@ def _leaves_as_reach_does(held: HeldValidity, path):
 
 def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: str = NO_PATH,
                      budget_s: float = OMPL_BUDGET_S, max_states: int | None = None,
-                     seed: int = 0, search: bool = True, frames=None) -> Verdict:
+                     seed: int = 0, search: bool = True, frames=None,
+                     moving: bool = False) -> Verdict:
     """Cross-check the refusal "no clear path from ``start_row`` to ``target_c``".
 
     ``planner``: a :class:`reach_addon.core.Planner` holding the problem (arm model,
@@ -417,7 +418,13 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
     start the caller does not know) — confirmed if it is empty, else unchecked. ``frames``:
     for a chase, (frames the chase had, frames per second): a path found is a false refusal
     only where the chase could follow it in those frames at its limits
-    (:func:`chase_frames`), else inconclusive. Returns a
+    (:func:`chase_frames`), else inconclusive. ``moving``: the planner's obstacles hold
+    every place an animated obstacle takes; a path found from a start in contact is then
+    inconclusive: the promise is that the arm, once out of contact, is never touched again
+    by an obstacle where it is on that frame, and a way that stays in contact with some
+    place the obstacle takes meets it or not by when it passes, which a search without
+    time cannot tell (fuzz seed 9192: a box the start touches that moves off the upper arm
+    and back onto it while the arm is on its way out). Returns a
     :class:`Verdict` (see the module docstring for the method)."""
     t0 = time.perf_counter()
     arm, s = planner.arm, planner.settings
@@ -492,6 +499,10 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
                              f"{frames[0]} were had")
                 if need > frames[0]:
                     v.status = INCONCLUSIVE
+            if moving and share is not None and share < 0.0:
+                notes.append("a start in contact among moving obstacles: whether the way out "
+                             "is touched again depends on when it passes, not decided")
+                v.status = INCONCLUSIVE
             v.detail = (f"OMPL RRTConnect found a clear path{keep} in "
                         f"{time.perf_counter() - t0:.1f} s ({tested} states tested, {len(path)} "
                         f"waypoints, {length:.2f} long in the joint metric): the wrist travels "
@@ -1110,7 +1121,7 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
                                         arm.to_canonical_points(point), target=name,
                                         reason=reason, budget_s=budget_s,
                                         max_states=max_states, seed=seed, search=not later,
-                                        frames=timing))
+                                        frames=timing, moving=bool(problem.moving)))
         else:
             out.append(Verdict(name, str(reason), UNCHECKED, "not a reason this module checks"))
     return out
