@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 from mathutils import Quaternion
 
+from ..core.collision import MIN_CLEARANCE
 from .settle import driven
 
 
@@ -159,7 +160,8 @@ def _straighten_plans(plans, keys, carried, local, turned, chest_head) -> tuple:
         n = max(2, int(settings.instants_per_frame))
         joints = plan.world_joints()
         length = plan.arm.arm_length
-        margin = 0.5 * settings.clearance * length     # the planner's, between keys
+        # the planner's, between keys (half the clearance, at least MIN_CLEARANCE)
+        margin = max(0.5 * settings.clearance, MIN_CLEARANCE) * length
         ends = [None] * len(joints)                     # each key's clearance, once
         before = None
         # keys farther than this need no exact clearance: the bound of _span_touches

@@ -71,10 +71,11 @@ class ConfigurationGenerator:
         self._target_chests: dict = {}
 
     def between_keys(self) -> ConfigurationGenerator:
-        """This generator with half the clearance, for the instants between two keyed
-        poses: the keys keep the whole margin, the arm and hand as the keys interpolate
-        may use up to half of it (a pose planned right at the margin dips into it by a
-        hair when interpolated toward its neighbour). Made once and kept."""
+        """This generator with half the clearance (the checker keeps at least
+        :data:`~.collision.MIN_CLEARANCE`), for the instants between two keyed poses: the
+        keys keep the whole margin, the arm and hand as the keys interpolate may use up to
+        half of it (a pose planned right at the margin dips into it by a hair when
+        interpolated toward its neighbour). Made once and kept."""
         loose = getattr(self, "_between_keys", None)
         if loose is None:
             loose = ConfigurationGenerator(
