@@ -217,7 +217,8 @@ def chase_steps(planners, task: Task, chunk: int = 1):
         return failed
     chase = _Chase(planners, task, start, way_out)
     hand = yield from chase.run(chunk)
-    if way_out is not None and not chase._caught(hand.poses):
+    if way_out is not None and not chase._caught(hand.poses) and \
+            not any(contact for _r, contact in chase.frames):
         # a start in contact whose way out led nowhere: straight lines out toward where
         # the target ends, over the chest's range (contact.line_escape; fuzz seed 2959)
         other = line_escape(first.generator, start, way_out.obstacle,
@@ -226,6 +227,9 @@ def chase_steps(planners, task: Task, chunk: int = 1):
             again = _Chase(planners, task, start, other)
             again_hand = yield from again.run(chunk)
             if again._caught(again_hand.poses):
+                if again.frames:             # the first try's nodes count too
+                    again.frames[0][0].nodes_searched += sum(r.nodes_searched
+                                                             for r, _c in chase.frames)
                 chase, hand = again, again_hand
     plan = chase.plan(hand)
     plan.stats.planning_time_s = time.perf_counter() - t0

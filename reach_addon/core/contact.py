@@ -109,14 +109,15 @@ LINE_CHEST_STEP = 10.0
 
 def _line_goals(loose, start: Pose, target) -> list:
     """Clear poses at ``target`` (canonical) with the chest every :data:`LINE_CHEST_STEP`
-    degrees over its range (kept still without chest rotation), the start's hand held: the
-    first swivel sample of each chest in turn (the chest nearest the start's first), then
-    the next of each, at most :data:`LINE_ESCAPE_GOALS`."""
+    degrees over its range, at its ends and as it starts (kept still without chest
+    rotation), the start's hand held: the first swivel sample of each chest in turn (the
+    chest nearest the start's first), then the next of each, at most
+    :data:`LINE_ESCAPE_GOALS`."""
     s = loose.settings
     limit = float(s.chest_rotation_max) if s.chest_rotation else 0.0
     n = int(math.floor(limit / LINE_CHEST_STEP))
-    bodies = [k * LINE_CHEST_STEP for k in range(-n, n + 1)] if n else \
-        [start.config.body_rotation]
+    bodies = list(dict.fromkeys([k * LINE_CHEST_STEP for k in range(-n, n + 1)]
+                                + [-limit, limit, start.config.body_rotation]))
     bodies.sort(key=lambda b: abs(b - start.config.body_rotation))
     per_body = []
     for body in bodies:

@@ -262,7 +262,7 @@ class Planner:
                 return None, self._start_failure(task, start, problem, (
                     f"the arm cannot move from its start pose: its {part} is {cm:.1f} cm "
                     f"({-depth:.3f} arm lengths) from '{obstacle}', nearer than the clearance "
-                    f"({self.settings.clearance:g} arm lengths), and no step takes it farther "
+                    f"({gen.checker.margin / length:g} arm lengths), and no step takes it farther "
                     f"from '{obstacle}'; move the arm or '{obstacle}' apart, or lower the "
                     "clearance"), START_HELD)
             return None, self._start_failure(task, start, problem)
@@ -286,7 +286,7 @@ class Planner:
                                         frame_start=len(poses) - 1, chunk=chunk,
                                         way_out=way_out if i == 0 else None, goal=goals[i])
             seg, seg_poses = yield from _progress(steps, i, n, task.name(i))
-            if i == 0 and way_out is not None and not seg.success:
+            if i == 0 and way_out is not None and seg.reason == NO_PATH:
                 # a start in contact whose way out led nowhere: straight lines out
                 # toward the target, over the chest's range (contact.line_escape)
                 other = line_escape(self.generator, start, way_out.obstacle,
@@ -296,6 +296,7 @@ class Planner:
                                                 chunk=chunk, way_out=other, goal=goals[i])
                     again, again_poses = yield from _progress(steps, i, n, task.name(i))
                     if again.success:
+                        _count_search(again.stats, seg.stats)   # the first try's too
                         seg, seg_poses = again, again_poses
             poses += seg_poses[1:]
             segments.append(seg)
@@ -494,6 +495,12 @@ def _better(result: SearchResult, retry: SearchResult, margin: float = 0.0) -> S
         return retry
     result.nodes_searched, result.search_time_s = retry.nodes_searched, retry.search_time_s
     return result
+
+
+def _count_search(stats: Stats, tried: Stats) -> None:
+    """Add to ``stats`` the search effort of an attempt ``tried`` that was not kept."""
+    for name in ("nodes_searched", "search_time_s", "sampling_states", "preprocess_time_s"):
+        setattr(stats, name, getattr(stats, name) + getattr(tried, name))
 
 
 def _progress(steps, index: int, count: int, name: str):
