@@ -257,13 +257,26 @@ def _wrist_goal_class():
 
 
 
+#: OMPL's simplifier is run this many times on a path found where a score rates the
+#: result (a chase's frames), each seeded its own way, and the best kept (:func:`ompl_search`;
+#: once where none does): it shortens the path in the metric, not in a chase's frames, and
+#: fuzz seed 5804's way needed 25 to 30 frames by the seed (25 first at the 16th) ...
+SIMPLIFY_TRIES = 16
+#: ... each for at most this many state tests: a count, not a time, so that the path does
+#: not depend on how busy the machine is.
+SIMPLIFY_STATES = 20000
+
+
 def ompl_search(validity: StateValidity, start_row, target_c, goals, *, budget_s: float,
-                max_states: int | None = None, seed: int = 0):
+                max_states: int | None = None, seed: int = 0, score=None):
     """RRTConnect from ``start_row`` (degrees) to the :class:`WristGoal` region of
     ``target_c`` sampled by ``goals`` (N, 7) in ``validity``'s space, for at most
     ``budget_s`` seconds (and ``max_states`` validity tests, if given); a path found is
-    then shortened by OMPL's simplifier until no pass shortens it (``simplifyMax``, its
-    random choices seeded: the same path whatever the machine's load). Returns
+    then shortened by OMPL's simplifier, seeded and stopped after :data:`SIMPLIFY_STATES`
+    state tests (the same paths whatever the machine's load; fuzz seed 5804's chase needed
+    25 frames in one run and 30 in another when the simplifier ran for a second); with
+    ``score`` (angles (K, 7) → a number), :data:`SIMPLIFY_TRIES` times, each seeded its
+    own way, and the one it rates lowest is kept. Returns
     (path (K, 7) in degrees or None, its length in the metric, states tested by the
     search)."""
     from ompl import base as ob
@@ -302,14 +315,20 @@ def ompl_search(validity: StateValidity, start_row, target_c, goals, *, budget_s
     tested = validity.calls - calls0
     if not setup.haveExactSolutionPath():
         return None, None, tested
-    path = setup.getSolutionPath()
-    # until no pass improves it, not for a time: a verdict that depends on the path's
-    # length (a chase's frames) must not depend on how busy the machine is (fuzz seed
-    # 5804 needed 25 frames in one run and 30 in another, under load)
-    og.PathSimplifier(si, goal).simplifyMax(path)
-    states = path.getStates()
-    coords = np.array([[s[i] for i in range(len(JOINT_NAMES))] for s in states])
-    return space.angles(coords), float(path.length()), tested
+    raw = setup.getSolutionPath()
+    best = None
+    for k in range(SIMPLIFY_TRIES if score is not None else 1):
+        seed_ompl(seed + 1 + k)
+        path = og.PathGeometric(raw)
+        c0 = validity.calls
+        og.PathSimplifier(si, goal).simplify(path, ob.PlannerTerminationCondition(
+            lambda c0=c0: validity.calls - c0 >= SIMPLIFY_STATES))
+        coords = np.array([[s[i] for i in range(len(JOINT_NAMES))] for s in path.getStates()])
+        angles = space.angles(coords)
+        value = float(path.length()) if score is None else float(score(angles))
+        if best is None or value < best[0]:
+            best = (value, angles, float(path.length()))
+    return best[1], best[2], tested
 
 
 def wrist_travel(arm, path, step: float) -> float:
@@ -355,6 +374,23 @@ def chase_frames(planner, path, fps: float, share: float = 0.25) -> int:
                      float(np.abs(rb[:5] - ra[:5]).max()) / joint_bound,
                      frame_turn(a, b) / hand_bound)
     return int(math.ceil(total - 1e-9))
+
+
+def _touches_along(planner, obstacles, path) -> bool:
+    """Does the arm and hand, at every state of ``path`` (K, 7, degrees) and between them
+    a step of the metric apart, touch ``obstacles`` (no margin) anywhere?"""
+    from reach_addon.core.collision import CollisionChecker
+
+    arm, s = planner.arm, planner.settings
+    checker = CollisionChecker(arm, obstacles, s.replace(clearance=0.0))
+    space = JointSpace(arm, _NO_LIMITS)
+    for qa, qb in zip(path[:-1], path[1:]):
+        n = max(1, int(math.ceil(space.distance(qa, qb) / s.step)))
+        for k in range(n + 1):
+            q = [float(x) for x in qa + (qb - qa) * (k / n)]
+            if checker.first_hit(arm.to_world_points(np.asarray(joints_of_one(arm, q)))):
+                return True
+    return False
 
 
 def _path_valid(validity: StateValidity, path) -> bool:
@@ -407,7 +443,7 @@ def _leaves_as_reach_does(held: HeldValidity, path):
 def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: str = NO_PATH,
                      budget_s: float = OMPL_BUDGET_S, max_states: int | None = None,
                      seed: int = 0, search: bool = True, frames=None,
-                     moving: bool = False) -> Verdict:
+                     moving=None) -> Verdict:
     """Cross-check the refusal "no clear path from ``start_row`` to ``target_c``".
 
     ``planner``: a :class:`reach_addon.core.Planner` holding the problem (arm model,
@@ -418,13 +454,15 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
     start the caller does not know) — confirmed if it is empty, else unchecked. ``frames``:
     for a chase, (frames the chase had, frames per second): a path found is a false refusal
     only where the chase could follow it in those frames at its limits
-    (:func:`chase_frames`), else inconclusive. ``moving``: the planner's obstacles hold
-    every place an animated obstacle takes; a path found from a start in contact is then
-    inconclusive: the promise is that the arm, once out of contact, is never touched again
-    by an obstacle where it is on that frame, and a way that stays in contact with some
-    place the obstacle takes meets it or not by when it passes, which a search without
-    time cannot tell (fuzz seed 9192: a box the start touches that moves off the upper arm
-    and back onto it while the arm is on its way out). Returns a
+    (:func:`chase_frames`), else inconclusive. ``moving``: where obstacles move (the
+    planner's obstacles then hold every place they take), those places alone (a
+    :class:`reach_addon.core.Obstacles`); a path found from a start in contact that touches
+    any of them on its way is inconclusive: the promise is that the arm, once out of
+    contact, is never touched again by an obstacle where it is on that frame, and a way
+    in contact with some place the obstacle takes meets it or not by when it passes,
+    which a search without time cannot tell (fuzz seed 9192: a box the start touches
+    that moves off the upper arm and back onto it while the arm is on its way out).
+    Returns a
     :class:`Verdict` (see the module docstring for the method)."""
     t0 = time.perf_counter()
     arm, s = planner.arm, planner.settings
@@ -465,8 +503,12 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
             if share >= 0.0 else
             f" never deeper in than Reach's model of the arm starts ({-share:.4f} arm lengths)")
         v.method = "ompl"
+        score = None if frames is None else (   # a chase: the fewest frames, then shortest
+            lambda q: chase_frames(planner, q, frames[1])
+            + 1e-3 * sum(space.distance(a, b) for a, b in zip(q[:-1], q[1:])))
         path, length, tested = ompl_search(searcher, start_row, target_c, region.rows,
-                                           budget_s=budget_s, max_states=max_states, seed=seed)
+                                           budget_s=budget_s, max_states=max_states, seed=seed,
+                                           score=score)
         budget = f"{budget_s:g} s" + (f" / {max_states} states" if max_states else "")
         if path is None:
             v.detail = (f"OMPL RRTConnect found no path in {budget} ({tested} states tested)"
@@ -499,9 +541,11 @@ def check_path_claim(planner, start_row, target_c, *, target: str = "", reason: 
                              f"{frames[0]} were had")
                 if need > frames[0]:
                     v.status = INCONCLUSIVE
-            if moving and share is not None and share < 0.0:
-                notes.append("a start in contact among moving obstacles: whether the way out "
-                             "is touched again depends on when it passes, not decided")
+            if moving is not None and share is not None and share < 0.0 and \
+                    _touches_along(planner, moving, path):
+                notes.append("a way out of contact that touches where an obstacle moves: "
+                             "whether it is touched again depends on when it passes, not "
+                             "decided")
                 v.status = INCONCLUSIVE
             v.detail = (f"OMPL RRTConnect found a clear path{keep} in "
                         f"{time.perf_counter() - t0:.1f} s ({tested} states tested, {len(path)} "
@@ -985,6 +1029,16 @@ LATER_START = ("a later target's start is where the one before it ended, at its 
                "which only the planner knows: not checked")
 
 
+def _moving_places(problem):
+    """Every place the moving obstacles of ``problem`` take (its pieces of them), as
+    :class:`reach_addon.core.Obstacles`; None where nothing moves."""
+    from reach_addon.core.sweep import obstacles_from_pieces
+
+    mine = [p for p in problem.pieces if p[0] in problem.moving
+            or p[0].split("/")[0] in problem.moving]
+    return obstacles_from_pieces(mine) if mine else None
+
+
 def check_deep_start(problem, *, target: str = "", spacing: float = 0.01) -> Verdict:
     """Cross-check ``start_held`` for a start whose model stands deeper in an obstacle
     than a start may touch (the message holds ``reach_addon.blender.results.DEEP_START``):
@@ -1121,7 +1175,7 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
                                         arm.to_canonical_points(point), target=name,
                                         reason=reason, budget_s=budget_s,
                                         max_states=max_states, seed=seed, search=not later,
-                                        frames=timing, moving=bool(problem.moving)))
+                                        frames=timing, moving=_moving_places(problem)))
         else:
             out.append(Verdict(name, str(reason), UNCHECKED, "not a reason this module checks"))
     return out
