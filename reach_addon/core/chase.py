@@ -20,7 +20,8 @@ from dataclasses import replace
 import numpy as np
 
 from . import obstacle_union
-from .arm import ArmConfig, Pose, frame_turn
+from .arm import Pose, frame_turn
+from .chase_timing import at_chase_speed, blend, chase_rate, shortcut_for, span_cost
 from .contact import line_escape
 from .diagnosis import diagnose_target
 from .elbow import relax_elbow
@@ -29,27 +30,16 @@ from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
 from .motion_check import escape_contact, motion_stats, pose_clearances
 from .results import Plan, Segment, Stats
-from .sampling import straight_poses
+from .sampling import sampling_steps, straight_poses
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
+from .steps import drain
 from .tasks import Task
 
 
 #: Degrees a turn may exceed its bound by round-off alone (the search's own hand-turn
 #: bound leaves poses right at it).
 TURN_ROUND_OFF = 0.01
-
-
-def blend(generator: ConfigurationGenerator, a: Pose, b: Pose, t: float) -> Pose:
-    """The pose ``t`` of the way from ``a`` to ``b``: their angles blended (the twist the
-    short way), the wrist's two angles and the palm's roll too."""
-    qa, qb = a.config.as_array(), b.config.as_array()
-    delta = qb - qa
-    delta[3] = (delta[3] + 180.0) % 360.0 - 180.0            # the twist the short way
-    ha, hb = np.asarray(a.hand, dtype=float), np.asarray(b.hand, dtype=float)
-    config = ArmConfig.from_array(qa + t * delta)
-    pose = generator.config_pose(config, tuple((ha + t * (hb - ha)).tolist()))
-    return replace(pose, roll=a.roll + t * (b.roll - a.roll))
 
 
 def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
@@ -182,15 +172,6 @@ def _commit(view: ConfigurationGenerator, previous: Pose, result: SearchResult, 
 def chase_steps_per_frame(settings: Settings, fps: float) -> int:
     """Search steps the wrist may take in one frame: ``chase_max_speed / fps / step``."""
     return max(1, int(settings.chase_max_speed / fps / settings.step + 1e-9))
-
-
-def chase_rate(settings: Settings, fps: float) -> float:
-    """The chase's limits a frame, in search steps: ``chase_max_speed / fps / step``. The
-    wrist moves at most that many step lengths a frame (``Settings.chase_max_speed``) and
-    each arm angle at most that many times ``Settings.max_joint_step`` (the search's
-    bound a step). :func:`chase_steps_per_frame` is its whole part, what the pursuit's
-    search takes."""
-    return settings.chase_max_speed / fps / settings.step
 
 
 def chase_steps(planners, task: Task, chunk: int = 1):
@@ -331,14 +312,16 @@ class _Chase:
                                  start_hand=start.hand))
         way = None if not plan.success else self._at_chase_speed(
             planner.generator, [start] + list(plan.poses[1:]), n - 1 - first)
+        target = self.arm.to_canonical_points(np.asarray(self.task.targets, dtype=float)[-1])
         if way is None:
             # the search's way is longer than the frames allow: a straight line in joint
             # space to a goal pose, if one is clear (fuzz seed 2482: OMPL's straight line
             # fitted the frames exactly)
-            line = straight_poses(planner.generator, start, self.arm.to_canonical_points(
-                np.asarray(self.task.targets, dtype=float)[-1]))
+            line = straight_poses(planner.generator, start, target)
             way = None if line is None else self._at_chase_speed(planner.generator, line,
                                                                  n - 1 - first)
+        if way is None and plan.success:
+            way = self._shortened(planner, [start] + list(plan.poses[1:]), target, n - 1 - first)
         if way is None:
             return None
         way += [replace(way[-1]) for _ in range(n - first - len(way))]   # waiting there
@@ -364,46 +347,25 @@ class _Chase:
         self.poses[:], self.frames = kept
         return None
 
+    def _shortened(self, planner, poses: list, target, frames: int):
+        """Where neither the search's way nor a straight line fits ``frames``: the search's
+        way, then the sampling planner's, shortened in the chase's own cost
+        (:func:`~.chase_timing.shortcut_for`), timed at its limits; None if neither fits
+        (fuzz seeds 5804 and 3327, whose OMPL ways fit their frames exactly)."""
+        gen, s = planner.generator, self.settings
+        cost = span_cost(gen, s, self.task.fps)
+        way = self._at_chase_speed(gen, shortcut_for(gen, poses, cost, seed=s.sampling_seed),
+                                   frames)
+        if way is None and s.sampling_fallback:
+            sampled = drain(sampling_steps(gen.for_reach(poses[0], target), poses[0], target))
+            if sampled.success:
+                way = self._at_chase_speed(gen, shortcut_for(gen, sampled.path, cost,
+                                                             seed=s.sampling_seed), frames)
+        return way
+
     def _at_chase_speed(self, gen: ConfigurationGenerator, poses: list, frames: int):
-        """``poses`` (a planned motion, one a frame at the reach's own speed) retimed as
-        fast as the chase may go, in at most ``frames`` frames: each span between two of
-        them costs the frames its tightest limit asks (the wrist at most the chase's steps
-        a frame, each arm angle at most ``Settings.max_joint_step`` a step, the hand's
-        whole turn at most its bound a frame), and the keys are laid at equal shares of the
-        whole cost, blended within a span (:func:`blend`); the fewest frames whose keys
-        all keep those limits and are clear as they interpolate. None if no count up to
-        ``frames`` does. The limits are the settings' own (:func:`chase_rate`), not the
-        pursuit's whole steps a frame: at 24 fps the default speed is 2.78 steps a frame,
-        which the pursuit takes as 2, and a reach retimed at 2 missed by 0.16 of a frame
-        a way OMPL's path showed fits at the limit (fuzz seed 213)."""
-        s = self.settings
-        rate = chase_rate(s, self.task.fps)
-        reach = rate * gen.step_length
-        joints = rate * s.max_joint_step
-        turn = s.hand_space_turn_speed / self.task.fps
-
-        def cost(a: Pose, b: Pose) -> float:
-            return max(math.dist(a.wrist.tolist(), b.wrist.tolist()) / reach,
-                       float(np.abs(b.config.as_array() - a.config.as_array()).max()) / joints,
-                       frame_turn(a, b) / turn)
-
-        def within(a: Pose, b: Pose) -> bool:
-            return cost(a, b) <= 1.0 + 1e-6 and gen.transition_problem(a, b) is None
-
-        costs = np.array([cost(a, b) for a, b in zip(poses[:-1], poses[1:])])
-        at = np.concatenate([[0.0], np.cumsum(costs)])
-        total = float(at[-1])
-        for n in range(max(1, int(math.ceil(total - 1e-9))), frames + 1):
-            keys = [poses[0]]
-            for k in range(1, n):
-                c = total * k / n
-                i = min(int(np.searchsorted(at, c, side="right")) - 1, len(costs) - 1)
-                t = 0.0 if costs[i] <= 0.0 else (c - at[i]) / costs[i]
-                keys.append(blend(gen, poses[i], poses[i + 1], min(max(t, 0.0), 1.0)))
-            keys.append(poses[-1])
-            if all(within(a, b) for a, b in zip(keys[:-1], keys[1:])):
-                return keys
-        return None
+        """:func:`~.chase_timing.at_chase_speed` with this chase's settings and frame rate."""
+        return at_chase_speed(gen, poses, frames, self.settings, self.task.fps)
 
     def _pursue(self, chunk: int):
         """Chase every frame, then hand the frames to the hand pass; where it could not keep
