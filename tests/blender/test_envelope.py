@@ -27,7 +27,10 @@ import pytest
 import rigs
 
 ROOT = Path(__file__).resolve().parents[2]
-RESOLUTION, EXTENT = 5, 0.9
+#: EXTENT is exact in 32 bits (the panel's float properties) as in 64 (the study's TOML), and
+#: so is every grid coordinate (multiples of 0.4375): the panel's grid is the study's. (The
+#: study's targets are still Empties, 32-bit in world space: :func:`reclassified`.)
+RESOLUTION, EXTENT = 5, 0.875
 OUT_REASONS = {"out_of_reach", "needs_lean", "needs_step"}
 BLOCKED_REASONS = {"target_in_obstacle", "arm_does_not_fit"}
 STUDY = f"""
@@ -77,6 +80,18 @@ def stronger_at_fine_swivel(addon, generator, point, f_r) -> bool:
     return pose is not None and pose.f_r <= f_r
 
 
+def reclassified(addon, outcome, point):
+    """(canonical point, class, f_R) of the grid's ``point`` as a batch study's target
+    reads it: its world position in 32 bits (an Empty's location), back in the canonical
+    frame, classed by the envelope's own generator. The point moves by rounding alone."""
+    arm = outcome.generator.arm
+    world = np.asarray(arm.to_world_points(np.asarray(point)[None]), dtype=np.float32)
+    moved = arm.to_canonical_points(world.astype(float))[0]
+    assert np.linalg.norm(moved - point) < 1e-6 * arm.arm_length
+    code, f_r = addon.core.envelope.classify_point(outcome.generator, moved)
+    return moved, code, f_r
+
+
 def compute(addon, scene):
     assert bpy.ops.reach.envelope("INVOKE_DEFAULT") == {"FINISHED"}
     return addon.blender.envelope.last(scene)
@@ -94,11 +109,18 @@ def test_envelope_agrees_with_a_batch_study_point_for_point(addon, plate):
     outcome = compute(addon, scene)
     env = outcome.envelope
     classes = addon.core.envelope.CLASSES
-    by_point = {tuple(np.round(t["point"], 6)): t for t in tasks}   # (the panel keeps
-    # its settings in 32-bit floats)
-    agreed, within = 0, []
+    by_point = {tuple(np.round(t["point"], 6)): t for t in tasks}
+    agreed, within, rounded, used = 0, [], [], []
     for coords, point, code, f_r in zip(outcome.shoulder, env.points, env.classes, env.f_r):
         task = by_point[tuple(np.round(coords, 6))]
+        if task["envelope_class"] != classes[int(code)]:
+            # the study's target is an Empty, its location 32-bit: a point where a swivel
+            # sample falls on the end of a legal window is another class 3e-8 away (the
+            # point (0, 0.4375, 0.4375) with the chest at 0°: 2 legal samples, 1 so moved).
+            # Then the study's class must be the envelope's of the point as it read it.
+            point, code, f_r = reclassified(addon, outcome, point)
+            rounded.append(coords)
+        used.append(classes[int(code)])
         name = classes[int(code)]
         where = f"point {coords} ({name}): {task['reason']} {task['message']}"
         assert task["envelope_class"] == name, where
@@ -122,8 +144,9 @@ def test_envelope_agrees_with_a_batch_study_point_for_point(addon, plate):
             assert task["reason"] in BLOCKED_REASONS, where
         else:
             assert task["reason"] in OUT_REASONS, where
-    counts = env.counts()
+    counts = {c: used.count(c) for c in classes}
     assert counts == {c: sum(t["envelope_class"] == c for t in tasks) for c in classes}
+    assert len(rounded) <= 2, rounded          # an edge case, not a habit
     reachable = sum(counts[c] for c in classes[:4])
     # every kind of point is on this grid, and most reaches end in the strongest posture
     assert reachable >= 15 and counts["blocked"] >= 1 and counts["out"] >= 30
