@@ -1,6 +1,7 @@
 """The collision checker's distance formula against a brute-force minimum."""
 
 import numpy as np
+import pytest
 
 from reach_addon.core.collision import (fan_segment_distances, point_segment_distance,
                                         segment_distance_float)
@@ -132,3 +133,27 @@ def test_the_least_clearance_sees_an_edge_the_row_of_points_misses():
     least = checker.least_clearance(world, arm.arm_length)
     assert exact - CLEARANCE_TOLERANCE * arm.arm_length - 1e-3 <= least <= exact + 1e-6
     assert checker.least_clearance(world + [0.0, 0.0, 10.0], arm.arm_length) == float("inf")
+
+
+def test_no_clearance_still_keeps_the_least_margin():
+    """With the clearance set to 0 (or below twice the least margin), the keys and the
+    instants between them keep :data:`~reach_addon.core.collision.MIN_CLEARANCE` (arm
+    lengths): Blender's evaluated bones between two keys stood 1e-4 arm lengths off the
+    model's (fuzz seed 4880, a chase with the clearance 0 that touched a box by that much
+    at frame 17.5). The default clearance is kept as it is, half of it between keys."""
+    from geometry import obstacles, standard_arm
+
+    from reach_addon.core import Planner
+    from reach_addon.core.collision import MIN_CLEARANCE, CollisionChecker
+    from reach_addon.core.settings import Settings
+
+    arm = standard_arm()
+    length = arm.arm_length
+    for clearance, keys, between in ((0.0, MIN_CLEARANCE, MIN_CLEARANCE),
+                                     (0.0015, 0.0015, MIN_CLEARANCE),
+                                     (0.02, 0.02, 0.01)):
+        s = Settings().replace(clearance=clearance)
+        assert CollisionChecker(arm, obstacles({}), s).margin == pytest.approx(keys * length)
+        gen = Planner(arm, obstacles({}), s).generator
+        assert gen.checker.margin == pytest.approx(keys * length)
+        assert gen.between_keys().checker.margin == pytest.approx(between * length)
