@@ -145,16 +145,18 @@ def _commit(view: ConfigurationGenerator, previous: Pose, result: SearchResult, 
     ``previous`` is clear, or (``strict``) no part of the way to a too fast first pose is
     clear, the arm holds and ``result.held`` is set. The pose is never ``previous`` itself
     (the frames' caches are kept by the poses' identities)."""
-    k = min(steps, len(result.path) - 1)
-    while k > 1 and view.transition_problem(previous, result.path[k]) is not None:
-        k -= 1
+    def clear_back(k: int) -> int:         # the nearest k or less clear between the keys
+        while k > 1 and view.transition_problem(previous, result.path[k]) is not None:
+            k -= 1
+        return k
+
+    k = clear_back(min(steps, len(result.path) - 1))
     on_target = result.success and k == len(result.path) - 1
     if not on_target or strict:
         # a pose nearer, for the hand's turn, must be clear between the keys too (fuzz
         # seed 4880: one two steps along touched where the third, too fast, did not)
-        while k > 1 and (frame_turn(previous, result.path[k]) > turn or
-                         view.transition_problem(previous, result.path[k]) is not None):
-            k -= 1
+        while k > 1 and frame_turn(previous, result.path[k]) > turn:
+            k = clear_back(k - 1)
     if k == 1 and view.transition_problem(previous, result.path[1]) is not None and \
             view.key_clear(previous):
         k = 0                                  # the arm holds for the frame

@@ -72,12 +72,7 @@ def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
     steps, a best-first search (:func:`_search`, at most ``max_expansions`` poses
     expanded), and where that finds none, straight lines in joint space toward the target
     (``target``, canonical; :func:`_straight`). None if none gets the real arm clear."""
-    arm, margin = generator.arm, generator.checker.margin
-    c0 = start_clearance(generator, start)
-    # an arm thin enough that its own test passes the start: the hand pass checks the
-    # escape's frames with it, and a start its test refuses would fail the first frames
-    # the timing holds there (fuzz seed 3441: an upper arm 0.0137 arm lengths from a box)
-    loose = _passing(generator, start, margin - min(c0, margin) + 1e-3 * arm.arm_length)
+    c0, loose = _loose_start(generator, start)
     poses = _greedy(loose, generator, start, c0, max_steps)
     if poses is None:
         poses = _search(loose, generator, start, c0, max_expansions)
@@ -96,11 +91,28 @@ def line_escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
     one way where the target is reached only with it turned 30° the other, as the
     cross-check's OMPL went, straight and never deeper; 2959, a chase). None if no line
     gets the real arm clear."""
-    arm, margin = generator.arm, generator.checker.margin
-    c0 = start_clearance(generator, start)
-    loose = _passing(generator, start, margin - min(c0, margin) + 1e-3 * arm.arm_length)
+    c0, loose = _loose_start(generator, start)
     poses = _straight(loose, generator, start, c0, _line_goals(loose, start, target))
     return None if poses is None else Escape(poses, loose, c0, obstacle)
+
+
+def _loose_start(generator: ConfigurationGenerator, start: Pose) -> tuple:
+    """(the start's clearance, the escape's arm): an arm thinner by what the start lacks
+    of the margin, and thinner still until its own test passes the start (:func:`_passing`):
+    the hand pass checks the escape's frames with it, and a start its test refuses would
+    fail the first frames the timing holds there (fuzz seed 3441: an upper arm 0.0137 arm
+    lengths from a box)."""
+    margin = generator.checker.margin
+    c0 = start_clearance(generator, start)
+    return c0, _passing(generator, start,
+                        margin - min(c0, margin) + 1e-3 * generator.arm.arm_length)
+
+
+def _clear_poses(loose, target, body: float, start: Pose) -> list:
+    """Every clear swivel pose at ``target`` (canonical) with the chest at ``body``
+    (:meth:`~.generator.ConfigurationGenerator.clear_swivels`), the start's hand held."""
+    sol, ks, _joints = loose.clear_swivels(np.asarray(target, dtype=float), float(body), start)
+    return [sol.pose(0, k, hand=start.hand) for k in ks]
 
 
 #: The chest rotations (degrees apart) of :func:`line_escape`'s goal poses.
@@ -119,11 +131,7 @@ def _line_goals(loose, start: Pose, target) -> list:
     bodies = list(dict.fromkeys([k * LINE_CHEST_STEP for k in range(-n, n + 1)]
                                 + [-limit, limit, start.config.body_rotation]))
     bodies.sort(key=lambda b: abs(b - start.config.body_rotation))
-    per_body = []
-    for body in bodies:
-        sol, ks, _joints = loose.clear_swivels(np.asarray(target, dtype=float), float(body),
-                                               start)
-        per_body.append([sol.pose(0, k, hand=start.hand) for k in ks])
+    per_body = [_clear_poses(loose, target, body, start) for body in bodies]
     # one of each chest's in turn: which lines stay out of contact is not told by how far
     # they go (seed 7624: the 46 of 258 that do lie 98th to 203rd by any joint distance,
     # all with the chest at -30° or beyond), but by the chest they turn to
@@ -159,8 +167,7 @@ def _goals(loose, start: Pose, target) -> list:
     if loose.settings.chest_rotation:
         bodies += [-loose.settings.chest_rotation_max, loose.settings.chest_rotation_max]
     for body in dict.fromkeys(round(float(b), 9) for b in bodies):
-        sol, ks, _joints = loose.clear_swivels(target, float(body), start)
-        out += [sol.pose(0, k, hand=start.hand) for k in ks]
+        out += _clear_poses(loose, target, body, start)
     a = start.config.as_array()
     if loose.settings.chest_rotation:
         # the arm as it starts, carried by the chest turned to either end of its range: a

@@ -13,7 +13,6 @@ import numpy as np
 
 from .arm import ArmModel, Pose
 from .body_capsules import body_capsules_at, body_hit
-from .collision import MIN_CLEARANCE
 from .diagnosis import what_holds
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH, START_HELD,
                      START_IN_COLLISION, TARGET_IN_OBSTACLE)
@@ -86,8 +85,8 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
             f"the {d.part} does not fit at target '{name}' (the target is in free space): "
             f"its best pose there lacks {size(d.missing)} of room against '{d.obstacle}' "
             f"(the {d.part}'s radius is {size(radius)}, the clearance "
-            f"{size(max(settings.clearance, MIN_CLEARANCE) * length)}); widen the gap, move the "
-            "target or lower the clearance")
+            f"{size(generator.checker.margin)}); widen the gap, move the target or lower the "
+            "clearance")
     return TARGET_IN_OBSTACLE, (
         f"target '{name}' is inside obstacle '{d.obstacle}': no pose puts the wrist there "
         f"({closest}); move the target out of it")
