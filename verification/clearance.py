@@ -21,13 +21,18 @@ import numpy as np
 from .geometry import point_triangle_distance, segment_triangle_distance
 
 
-def _segments(arm, include_hand: bool) -> list:
+def _segments(arm, include_hand: bool, rows: int = 5) -> list:
     """(first joint, second joint, radius) of each capsule checked: the clavicle, upper arm
     and forearm, and with ``include_hand`` the hand (a sphere at the wrist where it has no
-    length)."""
+    length): the capsules of the arm's hand shape where it has one and the poses carry
+    their ends (``rows``, the rows of a pose: 5 + 2K, in the order
+    ``reach_addon.core.hand_shape.with_shape`` gives them), else its axis capsule."""
     segs = [(0, 1, arm.upper_arm_radius), (1, 2, arm.upper_arm_radius),
             (2, 3, arm.forearm_radius)]
-    if include_hand:
+    shape = getattr(arm, "hand_shape", ())
+    if include_hand and shape and rows >= 5 + 2 * len(shape):
+        segs += [(5 + 2 * i, 6 + 2 * i, r) for i, (_a, _b, r) in enumerate(shape)]
+    elif include_hand:
         segs.append((3, 4, arm.hand_radius))
     return segs
 
@@ -44,7 +49,7 @@ def independent_check(arm, world_joints, tris, include_hand=True, horizon=math.i
     with ``include_hand`` where the arm has one."""
     joints = np.asarray(world_joints, dtype=float)
     tris = np.asarray(tris, dtype=float).reshape(-1, 3, 3)
-    segs = _segments(arm, include_hand and arm.hand_length > 0)
+    segs = _segments(arm, include_hand and arm.hand_length > 0, joints.shape[1] if joints.ndim == 3 else 5)
     if len(joints) == 0 or len(tris) == 0:
         return 0, 0, horizon
     box_lo, box_hi = tris.min(axis=1), tris.max(axis=1)
@@ -90,4 +95,4 @@ def arm_penetration(arm, world_joints, tris, include_hand=True) -> float:
     """For one pose (5, 3), the worst clearance over the arm's capsules, sampled by
     :func:`segment_clearance` (2 mm): negative where a capsule passes into an obstacle."""
     return min(segment_clearance(world_joints[a], world_joints[b], tris) - r
-               for a, b, r in _segments(arm, include_hand))
+               for a, b, r in _segments(arm, include_hand, len(world_joints)))

@@ -111,7 +111,7 @@ class PathMeasure:
         arm, st = self.space.arm, self.space.settings
         length = arm.arm_length
         dense = densify(self.space, path, DENSE_SPACING * length)
-        joints = joints_of(arm, dense)
+        joints = joints_of(arm, dense, shaped=True)
         wrists = joints[:, 3]
         travel = float(np.linalg.norm(np.diff(wrists, axis=0), axis=1).sum()) if len(dense) > 1 else 0.0
         levels = strength_category(dense[:, 1], dense[:, 2], st)
@@ -136,7 +136,8 @@ def path_contacts(space: JointSpace, tris, path, include_hand: bool) -> dict:
     :data:`CLEARANCE_HORIZON`) and ``samples``."""
     arm = space.arm
     dense = densify(space, path, DENSE_SPACING * arm.arm_length)
-    return _contacts(arm, np.asarray(tris, dtype=float).reshape(-1, 3, 3), joints_of(arm, dense),
+    return _contacts(arm, np.asarray(tris, dtype=float).reshape(-1, 3, 3),
+                     joints_of(arm, dense, shaped=True),
                      include_hand)
 
 

@@ -58,7 +58,8 @@ from reach_addon.core import ik
 from reach_addon.core.errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH,
                                      OUT_OF_REACH, START_HELD, START_IN_COLLISION,
                                      TARGET_IN_OBSTACLE)
-from reach_addon.core.sampling import JOINT_NAMES, JointSpace, StateValidity, joints_of, joints_of_one
+from reach_addon.core.sampling import (JOINT_NAMES, JointSpace, StateValidity, checked_joints_of_one,
+                                       joints_of, joints_of_one)
 from reach_addon.core.settings import Settings
 
 from . import geometry
@@ -214,7 +215,7 @@ def why_invalid(validity: StateValidity, q) -> str:
     if math.hypot(q[1], q[2]) > validity.elevation_max:
         return "the elevation limit"
     joints = joints_of_one(arm, q)
-    hit = validity.checker.first_hit(arm.to_world_points(np.array(joints)))
+    hit = validity.checker.first_hit(arm.to_world_points(checked_joints_of_one(arm, q, joints)))
     if hit is not None:
         return f"the {hit[0]} touches '{hit[1]}' (within the clearance)"
     if arm.body_capsules:
@@ -388,7 +389,7 @@ def _touches_along(planner, obstacles, path) -> bool:
         n = max(1, int(math.ceil(space.distance(qa, qb) / s.step)))
         for k in range(n + 1):
             q = [float(x) for x in qa + (qb - qa) * (k / n)]
-            if checker.first_hit(arm.to_world_points(np.asarray(joints_of_one(arm, q)))):
+            if checker.first_hit(arm.to_world_points(checked_joints_of_one(arm, q))):
                 return True
     return False
 
@@ -431,7 +432,7 @@ def _leaves_as_reach_does(held: HeldValidity, path):
         n = max(1, int(math.ceil(d / step)))
         for k in range(n + 1):
             q = qa + (qb - qa) * (k / n)
-            world = arm.to_world_points(np.asarray(joints_of_one(arm, [float(x) for x in q])))
+            world = arm.to_world_points(checked_joints_of_one(arm, [float(x) for x in q]))
             c = held.checker.least_clearance(world, length)
             if best > -math.inf and c < min(best, 0.0) - tolerance:
                 return (done + d * k / n) / total, c / length, best / length
@@ -620,7 +621,7 @@ def _held_validity(planner, space, start_row):
     arm, s = planner.arm, planner.settings
     length = arm.arm_length
     checker = planner.generator.checker
-    world = arm.to_world_points(np.asarray(joints_of_one(arm, [float(x) for x in start_row])))
+    world = arm.to_world_points(checked_joints_of_one(arm, [float(x) for x in start_row]))
     c = checker.least_clearance(world, length)
     if not -s.start_contact_depth * length <= c < s.clearance * length or \
             (c < 0.0 and bone_touches(checker, world)):
@@ -721,11 +722,12 @@ def arm_bones(armature, info) -> set:
     return out
 
 
-def _arm_skin(context, armature, bones: set):
+def arm_skin(context, armature, bones: set, every_vertex: bool = False):
     """(arm triangles (T, 3, 3), meshes that have some) of the character's meshes at the
     current frame (see the module docstring): a vertex counts as the arm's where its
     weights on bone vertex groups are at least half the arm's, a triangle where one of its
-    vertices does; a mesh bone-parented (itself or an ancestor) to an arm bone is the arm's
+    vertices does (all three with ``every_vertex``); a mesh bone-parented (itself or an
+    ancestor) to an arm bone is the arm's
     whole. A mesh whose evaluated vertices do not match its own (a modifier that adds
     geometry) is read by its nearest bone: a triangle whose centre lies nearer an arm bone
     than any other bone counts."""
@@ -772,7 +774,7 @@ def _arm_skin(context, armature, bones: set):
                         if name in bones:
                             share += g.weight
                 arm_v[v.index] = total > 0 and share >= 0.5 * total
-            pick = arm_v[tris].any(axis=1)
+            pick = arm_v[tris].all(axis=1) if every_vertex else arm_v[tris].any(axis=1)
         else:
             centres = verts[tris].mean(axis=1)
             best = np.full(len(centres), np.inf)
@@ -822,7 +824,7 @@ def check_start(context, armature, info, exclude, collection=None, *, target: st
     obstacles = scene_obstacles(context, exclude, collection)
     if ENCLOSED in message:
         return _check_enclosed(v, info, obstacles, message, t0)
-    skin, meshes = _arm_skin(context, armature, bones)
+    skin, meshes = arm_skin(context, armature, bones)
     mw = np.array(armature.matrix_world)
     segs = [(n, mw[:3, :3] @ np.array(armature.pose.bones[n].head) + mw[:3, 3],
              mw[:3, :3] @ np.array(armature.pose.bones[n].tail) + mw[:3, 3]) for n in sorted(bones)]
@@ -1054,12 +1056,11 @@ def check_deep_start(problem, *, target: str = "", spacing: float = 0.01) -> Ver
     arm, s = problem.info.arm, problem.settings
     length = arm.arm_length
     v = Verdict(target, START_HELD, FALSE_REFUSAL, "", "model")
-    world = arm.to_world_points(np.asarray(joints_of_one(
-        arm, [float(x) for x in problem.start_row])))
+    world = arm.to_world_points(checked_joints_of_one(
+        arm, [float(x) for x in problem.start_row]))
     obstacles = [(label, np.asarray(v, float)[np.asarray(t)], None)
                  for label, v, t in problem.pieces]
-    caps = [(name, world[a], world[b], r) for name, (a, b, r) in zip(
-        ("clavicle", "upper arm", "forearm", "hand"), _model_capsules(arm))]
+    caps = [(name, world[a], world[b], r) for name, a, b, r in _model_capsules(arm)]
     touch = length * 1e-4
     deepest, where = -math.inf, ""
     for label, tris, shut in obstacles:
@@ -1098,11 +1099,16 @@ def check_deep_start(problem, *, target: str = "", spacing: float = 0.01) -> Ver
 
 
 def _model_capsules(arm) -> list:
-    """(first joint, second joint, radius) of Reach's model of the arm, as the README
+    """(name, first joint, second joint, radius) of Reach's model of the arm, as the README
     describes it: the clavicle at the upper arm's radius, the upper arm, the forearm and
-    the hand."""
-    return [(0, 1, arm.upper_arm_radius), (1, 2, arm.upper_arm_radius),
-            (2, 3, arm.forearm_radius), (3, 4, arm.hand_radius)]
+    the hand: its shape's capsules where it has one (their ends the rows after the five
+    joints, ``reach_addon.core.hand_shape.with_shape``), else its axis capsule."""
+    caps = [("clavicle", 0, 1, arm.upper_arm_radius), ("upper arm", 1, 2, arm.upper_arm_radius),
+            ("forearm", 2, 3, arm.forearm_radius)]
+    if arm.hand_shape:
+        return caps + [("hand", 5 + 2 * i, 6 + 2 * i, r)
+                       for i, (_a, _b, r) in enumerate(arm.hand_shape)]
+    return caps + [("hand", 3, 4, arm.hand_radius)]
 
 
 def check_report(context, report: dict, task: str = "reach", obstacles: str | None = None, *,

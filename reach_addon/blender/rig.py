@@ -18,11 +18,12 @@ import numpy as np
 
 from ..core import ArmConfig, ArmModel, Capsule, ReachError, config_from_joints
 from ..core.arm import forward_kinematics, hand_angles
-from ..core.collision import segment_distance_float
+from ..core.distances import segment_distance_float
+from ..core.hand_shape import fit_hand_shape, hand_frames
 from .body_frame import BodyFrame, body_frame, pose_heads
 from .hand_reading import finger_axis, hand_group, hand_shape, palm_normal
 from .rig_detect import SIDES, BoneMap, detect_bones
-from .skin import skin_radius
+from .skin import skin_points, skin_radius, skin_triangles, surface_samples
 
 
 @dataclass
@@ -41,6 +42,9 @@ class RigInfo:
     start_palm: np.ndarray | None = None   # the palm's normal at the start (canonical; palm_normal)
     palm_source: str = "rest pose"         # what the palm was read from (palm_normal)
     start_fingers: np.ndarray | None = None  # the fingers' direction (canonical; finger_axis)
+    # the hand bone's world rotation (3×3, scale divided out) at the start: the hand shape
+    # (ArmModel.hand_shape) is placed on the start pose and turns with it from there
+    start_hand_rotation: np.ndarray | None = None
 
 
 #: Room (arm lengths) left between the arm in its start pose and a body capsule that had to
@@ -129,11 +133,46 @@ def build(armature, side="auto", overrides=None, target=None) -> RigInfo:
     arm = dataclasses.replace(arm, hand_rest=hand_angles(
         joints[2] - joints[1], bend, joints[3] - joints[2],
         inv[:3, :3] @ rest_hand_axis(armature, arm_bones, hand_axis)))
+    arm = dataclasses.replace(arm, hand_shape=skinned_hand(
+        armature, hands, joints, bend, inv[:3, :3] @ hand_axis, canon))
     palm, palm_source = palm_normal(armature, hands, hand_axis, frame.up, inv[:3, :3])
     fingers = inv[:3, :3] @ finger_axis(armature, hands, hand_axis)
+    hand_rotation = np.array(armature.matrix_world)[:3, :3] @ \
+        np.array(armature.pose.bones[arm_bones.hand].matrix)[:3, :3]
     return RigInfo(armature.name, bmap, frame, arm, side, start,
                    {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}, start_hand, hands,
-                   palm, palm_source, fingers)
+                   palm, palm_source, fingers, hand_rotation / np.linalg.norm(hand_rotation, axis=0))
+
+
+#: Arm lengths between the points of the hand's skin triangles that its shape is fitted to
+#: (:func:`skinned_hand`), besides their corners.
+SKIN_SAMPLE_SPACING = 0.02
+
+
+def skinned_hand(armature, hands, joints, bend, direction, canon) -> tuple:
+    """The hand as skinned (:mod:`reach_addon.core.hand_shape`): capsules in the hand's
+    frame holding the skin that the hand's bones ``hands`` and every bone below them move
+    (:func:`.skin.skin_points`: at least half of a vertex's weight on them, or the parts
+    parented to them) as Blender shows it now: its vertices and points on its triangles at most
+    :data:`SKIN_SAMPLE_SPACING` arm lengths apart. ``joints``, ``bend``: the start pose (canonical,
+    :func:`~reach_addon.core.arm.forward_kinematics`); ``direction``: the hand's direction
+    (canonical, unit); ``canon``: world point → canonical. Empty where the hand moves no
+    skin (the axis capsule then stands for it)."""
+    names = set(hands)
+    for n in hands:
+        names |= {b.name for b in armature.pose.bones[n].children_recursive}
+    points = skin_points(armature, names, share=True)
+    if not len(points):
+        return ()
+    # the skin's surface, not its vertices only: a low-poly hand's triangles span the
+    # capsules of a plate and bulge out between them (CesiumMan's, 0.18 arm lengths long)
+    spacing = SKIN_SAMPLE_SPACING * float(np.linalg.norm(joints[3] - joints[1]))
+    points = np.vstack([points, surface_samples(skin_triangles(armature, names, share=True),
+                                                spacing)])
+    u = joints[2] - joints[1]
+    frame = hand_frames(direction, np.cross(u / np.linalg.norm(u), bend))
+    local = (np.array([canon(p) for p in points]) - joints[3]) @ frame
+    return fit_hand_shape(local)
 
 
 def _rotation(m) -> np.ndarray:

@@ -48,41 +48,93 @@ def skin_bones(armature) -> set:
     return out
 
 
-def skin_points(armature, bone_names, weight: float = 0.5) -> np.ndarray:
-    """World positions (n, 3) of the skin that ``bone_names`` move, as Blender evaluates it
-    now: the vertices weighted at least ``weight`` to their vertex groups in the meshes the
-    armature deforms, and every vertex of the rigid parts parented to them. Empty (0, 3)
-    where these bones move no skin."""
-    out = []
+def _chosen(ob, armature, bone_names, weight: float, share: bool) -> np.ndarray:
+    """Which vertices of ``ob`` (a mesh the armature deforms) ``bone_names`` move: weighted
+    at least ``weight`` to one of their vertex groups, or with ``share`` whose weights on
+    those groups add up to at least ``weight`` of their weights on all the armature's bones
+    (a vertex shared by a hand's bones and its fingers, 0.3 and 0.3, is the hand's)."""
+    idx = {vg.index for vg in ob.vertex_groups if vg.name in bone_names}
+    out = np.zeros(len(ob.data.vertices), dtype=bool)
+    if not idx:
+        return out
+    bones = {vg.index for vg in ob.vertex_groups if vg.name in armature.data.bones}
+    for v in ob.data.vertices:
+        if share:
+            total = sum(g.weight for g in v.groups if g.group in bones)
+            mine = sum(g.weight for g in v.groups if g.group in idx)
+            out[v.index] = total > 0.0 and mine >= weight * total
+        else:
+            out[v.index] = any(g.group in idx and g.weight >= weight for g in v.groups)
+    return out
+
+
+def _skin_meshes(armature, bone_names, weight: float, share: bool):
+    """(evaluated mesh, its world vertices (V, 3), which of them ``bone_names`` move (a
+    boolean mask; all of a rigid part's)) of each mesh that moves with those bones
+    (:func:`skin_points`' choice), as Blender evaluates it now. A mesh whose evaluated
+    vertices do not match its own (a modifier that adds geometry) is left out."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
     for ob in scene_objects(armature):
         rigid = rigid_part(ob, armature)
         if rigid is None and not deformed_by(ob, armature):
             continue
-        if rigid is not None:
-            if rigid not in bone_names:
-                continue
-            chosen = None
-        else:
-            idx = {vg.index for vg in ob.vertex_groups if vg.name in bone_names}
-            if not idx:
-                continue
-            chosen = [v.index for v in ob.data.vertices
-                      if any(g.group in idx and g.weight >= weight for g in v.groups)]
-            if not chosen:
-                continue
+        if rigid is not None and rigid not in bone_names:
+            continue
         ev = ob.evaluated_get(depsgraph)
         mesh = ev.data
         if len(mesh.vertices) != len(ob.data.vertices) or not len(mesh.vertices):
             continue
+        mine = np.ones(len(mesh.vertices), dtype=bool) if rigid is not None else \
+            _chosen(ob, armature, bone_names, weight, share)
+        if not mine.any():
+            continue
         co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
         mesh.vertices.foreach_get("co", co)
-        co = co.reshape(-1, 3).astype(float)
-        if chosen is not None:
-            co = co[chosen]
         mw = np.array(ev.matrix_world)
-        out.append(co @ mw[:3, :3].T + mw[:3, 3])
+        yield mesh, co.reshape(-1, 3).astype(float) @ mw[:3, :3].T + mw[:3, 3], mine
+
+
+def skin_points(armature, bone_names, weight: float = 0.5, share: bool = False) -> np.ndarray:
+    """World positions (n, 3) of the skin that ``bone_names`` move, as Blender evaluates it
+    now: the vertices weighted at least ``weight`` to their vertex groups (``share``: by the
+    share of their weights, :func:`_chosen`) in the meshes the armature deforms, and every
+    vertex of the rigid parts parented to them. Empty (0, 3) where these bones move no
+    skin."""
+    out = [co[mine] for _mesh, co, mine in _skin_meshes(armature, bone_names, weight, share)]
     return np.concatenate(out) if out else np.zeros((0, 3))
+
+
+def skin_triangles(armature, bone_names, weight: float = 0.5, share: bool = False) -> np.ndarray:
+    """World triangles (T, 3, 3) of the skin that ``bone_names`` move, as Blender evaluates
+    it now: the triangles of the meshes the armature deforms whose three vertices are all
+    chosen as :func:`skin_points` chooses them, and every triangle of the rigid parts
+    parented to them. Empty (0, 3, 3) where there are none."""
+    out = []
+    for mesh, co, mine in _skin_meshes(armature, bone_names, weight, share):
+        mesh.calc_loop_triangles()
+        tri = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int64)
+        mesh.loop_triangles.foreach_get("vertices", tri)
+        tri = tri.reshape(-1, 3)
+        out.append(co[tri[mine[tri].all(axis=1)]])
+    return np.concatenate(out) if out else np.zeros((0, 3, 3))
+
+
+def surface_samples(triangles, spacing: float) -> np.ndarray:
+    """Points (N, 3) on triangles (T, 3, 3): each one's corners and a barycentric grid
+    fine enough that no two neighbours are more than ``spacing`` apart along an edge."""
+    tris = np.asarray(triangles, dtype=float).reshape(-1, 3, 3)
+    if not len(tris):
+        return np.zeros((0, 3))
+    edges = np.linalg.norm(tris - np.roll(tris, 1, axis=1), axis=2).max(axis=1)
+    out = [tris.reshape(-1, 3)]
+    for n in np.unique(np.ceil(edges / max(spacing, 1e-12)).astype(int)):
+        if n < 2:
+            continue
+        grid = np.array([(i, j, n - i - j) for i in range(n + 1) for j in range(n + 1 - i)],
+                        dtype=float) / n                                  # barycentric
+        pick = tris[np.ceil(edges / max(spacing, 1e-12)).astype(int) == n]
+        out.append(np.einsum("gk,tkx->tgx", grid, pick).reshape(-1, 3))
+    return np.concatenate(out)
 
 
 def scene_objects(armature):

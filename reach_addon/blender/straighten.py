@@ -14,9 +14,12 @@ from .settle import driven
 
 def _carriers(info, reference) -> tuple:
     """The bone that carries each of the arm's five joints (sternum, shoulder, elbow,
-    wrist, hand end): the chest, upper arm, forearm, hand, hand (reference bones)."""
+    wrist, hand end) and the ends of its hand shape's capsules (``Plan.world_joints``'
+    rows after them): the chest, upper arm, forearm, hand, hand, and the hand for each
+    end (reference bones)."""
     return (info.bones.keyed_chest, reference["upper_arm"], reference["forearm"],
-            reference["hand"], reference["hand"])
+            reference["hand"], reference["hand"]) + (reference["hand"],) * (
+                2 * len(info.arm.hand_shape))
 
 
 def straighten(context, armature, info, plans, curves, reference) -> tuple:

@@ -85,6 +85,11 @@ class ArmModel:
     #: that order decides which clear hand the path carries; the hand pass then chooses
     #: the hand keyed.)
     hand_rest: tuple = (0.0, 0.0)
+    #: The hand as skinned (:mod:`.hand_shape`): capsules ((a, b, r), …) in the hand's frame
+    #: (d, g, d × g), the wrist at the origin, canonical units, that the collision checker
+    #: tests in place of the axis capsule (wrist → far end, ``hand_radius``). Empty: that
+    #: capsule (a hand without skin, or an arm built by hand).
+    hand_shape: tuple = ()
 
     def __post_init__(self):
         label = f"arm '{self.name}'"
@@ -118,6 +123,15 @@ class ArmModel:
         if len(rest) != 2:
             raise ReachError(f"{label} hand rest must be two angles, got {len(rest)}")
         object.__setattr__(self, "hand_rest", rest)
+        shape = []
+        for a, b, r in self.hand_shape:
+            a, b = (require_finite(f"{label} hand shape", v) for v in (a, b))
+            r = float(require_finite(f"{label} hand shape radius", r))
+            if a.shape != (3,) or b.shape != (3,) or r < 0.0:
+                raise ReachError(f"{label} hand shape: each capsule is two 3-vectors and a "
+                                 "radius of 0 or more")
+            shape.append((tuple(a.tolist()), tuple(b.tolist()), r))
+        object.__setattr__(self, "hand_shape", tuple(shape))
         object.__setattr__(self, "rest_coefficients", hand_coefficients(*rest))
         if self.side not in ("right", "left"):
             raise ReachError(f"{label}: side must be 'right' or 'left', got {self.side!r}")
@@ -229,7 +243,9 @@ def reach_sphere(arm: ArmModel, slack: float = REACH_SLACK) -> tuple:
     .. math:: r_0 = \\max\\left(ρ_s,\\; ρ_t + |t_z - s_z|\\right),\\quad ρ = \\sqrt{x^2 + y^2}
 
     of :math:`c = (0, 0, s_z)`; the wrist within :math:`L_1 + L_2` of the shoulder, the
-    hand's end within :math:`L_h` of the wrist, and each segment's skin within its radius:
+    hand's end within :math:`L_h` of the wrist, and each segment's skin within its radius
+    (a hand's shape, :attr:`ArmModel.hand_shape`, within its own reach of the wrist, where
+    that is farther):
 
     .. math:: R = r_0 + L_1 + L_2 + L_h + \\max(r_1, r_2, r_h) + \\text{slack}\\,(L_1 + L_2)
 
@@ -237,8 +253,11 @@ def reach_sphere(arm: ArmModel, slack: float = REACH_SLACK) -> tuple:
     out of the BVH)."""
     s, t = arm.shoulder, arm.sternum
     r0 = max(math.hypot(s[0], s[1]), math.hypot(t[0], t[1]) + abs(t[2] - s[2]))
-    radius = (r0 + arm.arm_length + arm.hand_length
-              + max(arm.upper_arm_radius, arm.forearm_radius, arm.hand_radius)
+    shape = max((max(math.hypot(*a), math.hypot(*b)) + r for a, b, r in arm.hand_shape),
+                default=0.0)          # the hand as skinned (:mod:`.hand_shape`)
+    radius = (r0 + arm.arm_length
+              + max(arm.hand_length + max(arm.upper_arm_radius, arm.forearm_radius,
+                                          arm.hand_radius), shape)
               + slack * arm.arm_length)
     return arm.to_world_points(np.array([0.0, 0.0, s[2]])), float(radius)
 

@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from .arm import ArmModel
-from .collision import segment_distance_float
+from .distances import segment_distance_float
 from .torso import turn_about_spine
 
 

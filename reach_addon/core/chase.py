@@ -28,6 +28,7 @@ from .elbow import relax_elbow
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
+from .hand_shape import world_pose
 from .motion_check import escape_contact, motion_stats, pose_clearances
 from .results import Plan, Segment, Stats
 from .sampling import sampling_steps, straight_poses
@@ -406,7 +407,7 @@ class _Chase:
             nxt, res = chase_step(gen, poses[-1], self.trajectory[f], self.steps, task.fps,
                                   strict=f >= strict_from)
             poses.append(nxt)
-            contact = gen.checker.first_hit(arm.to_world_points(nxt.joints)) \
+            contact = gen.checker.first_hit(world_pose(arm, nxt)) \
                 if planners[f] is not planners[f - 1] else None
             self.frames.append((res, contact))
 

@@ -1,4 +1,4 @@
-"""Collisions: the arm's capsules against the world-space obstacle BVH, and geometry helpers.
+"""Collisions: the arm's capsules against the world-space obstacle BVH.
 
 Obstacles are **in world space**: one :class:`mathutils.bvhtree.BVHTree` built by the
 caller (the Blender layer from the evaluated depsgraph; tests with
@@ -37,99 +37,6 @@ class ArmSegment(NamedTuple):
 
 _AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
          (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
-
-
-def point_segment_distance(p, a, b) -> float:
-    """Distance from point ``p`` to the segment a-b (float 3-sequences)."""
-    abx, aby, abz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    apx, apy, apz = p[0] - a[0], p[1] - a[1], p[2] - a[2]
-    den = abx * abx + aby * aby + abz * abz
-    t = (apx * abx + apy * aby + apz * abz) / den if den > 1e-18 else 0.0
-    t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
-    dx, dy, dz = apx - t * abx, apy - t * aby, apz - t * abz
-    return math.sqrt(dx * dx + dy * dy + dz * dz)
-
-
-def segment_distance_float(p1, q1, p2, q2) -> float:
-    """Shortest distance between segments p1-q1 and p2-q2 (float 3-sequences), degenerate
-    segments included: the closest points minimise |p1 + s d1 - p2 - t d2| over
-    s, t ∈ [0, 1] (Ericson, *Real-Time Collision Detection*, §5.1.9). Written on plain
-    floats: the planner's body test calls it for every pose it tries."""
-    d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
-    d2x, d2y, d2z = q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]
-    rx, ry, rz = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
-    a = d1x * d1x + d1y * d1y + d1z * d1z
-    e = d2x * d2x + d2y * d2y + d2z * d2z
-    b = d1x * d2x + d1y * d2y + d1z * d2z
-    c = d1x * rx + d1y * ry + d1z * rz
-    f = d2x * rx + d2y * ry + d2z * rz
-    eps = 1e-18
-    a_s = a if a > eps else eps
-    e_s = e if e > eps else eps
-    denom = a * e - b * b
-    if denom > 1e-12 * a * e:
-        s = (b * f - c * e) / (denom if denom > eps else eps)
-        s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
-    else:
-        s = 0.0
-    t = (b * s + f) / e_s
-    if t < 0.0:
-        s = -c / a_s
-        s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
-    elif t > 1.0:
-        s = (b - c) / a_s
-        s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
-    t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
-    if a <= eps:
-        s = 0.0
-    elif e <= eps:
-        s = -c / a_s
-        s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
-    if e <= eps:
-        t = 0.0
-    elif a <= eps:
-        t = f / e_s
-        t = 0.0 if t < 0.0 else 1.0 if t > 1.0 else t
-    dx = rx + d1x * s - d2x * t
-    dy = ry + d1y * s - d2y * t
-    dz = rz + d1z * s - d2z * t
-    return math.sqrt(dx * dx + dy * dy + dz * dz)
-
-
-def fan_segment_distances(p, tips, a, b) -> np.ndarray:
-    """:func:`segment_distance_float` between each segment p-tips[i] (a fan from one point
-    ``p``, ``tips`` (N, 3)) and each segment a[k]-b[k] (``a``, ``b`` (K, 3)), as an (N, K)
-    array: the same operations in the same order on arrays, so every distance is the
-    float one to the last bit (each numpy operation rounds as a float operation does).
-    For the many hand directions of one pose tested against the body at once."""
-    p = [float(v) for v in p]
-    tips = np.asarray(tips, dtype=float)
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    d1x, d1y, d1z = (tips[:, i:i + 1] - p[i] for i in range(3))          # (N, 1)
-    d2x, d2y, d2z = (b[None, :, i] - a[None, :, i] for i in range(3))      # (1, K)
-    rx, ry, rz = (p[i] - a[None, :, i] for i in range(3))                  # (1, K)
-    aa = d1x * d1x + d1y * d1y + d1z * d1z
-    e = d2x * d2x + d2y * d2y + d2z * d2z
-    bb = d1x * d2x + d1y * d2y + d1z * d2z
-    c = d1x * rx + d1y * ry + d1z * rz
-    f = d2x * rx + d2y * ry + d2z * rz
-    eps = 1e-18
-    a_s, e_s = np.maximum(aa, eps), np.maximum(e, eps)
-    denom = aa * e - bb * bb
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(denom > 1e-12 * aa * e,
-                     np.clip((bb * f - c * e) / np.where(denom > eps, denom, eps), 0.0, 1.0),
-                     0.0)
-        t = (bb * s + f) / e_s
-        s = np.where(t < 0.0, np.clip(-c / a_s, 0.0, 1.0),
-                     np.where(t > 1.0, np.clip((bb - c) / a_s, 0.0, 1.0), s))
-        t = np.clip(t, 0.0, 1.0)
-        s = np.where(aa <= eps, 0.0, np.where(e <= eps, np.clip(-c / a_s, 0.0, 1.0), s))
-        t = np.where(e <= eps, 0.0, np.where(aa <= eps, np.clip(f / e_s, 0.0, 1.0), t))
-    dx = rx + d1x * s - d2x * t
-    dy = ry + d1y * s - d2y * t
-    dz = rz + d1z * s - d2z * t
-    return np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 class Obstacles:
@@ -365,21 +272,23 @@ class CollisionChecker:
             "hand": arm.hand_radius,
         }
         self.check_hand = bool(settings.check_hand and arm.hand_length > 0)
+        # the hand as skinned (core.hand_shape): its capsules' ends follow the joints
+        self.hand_shape = tuple(arm.hand_shape) if self.check_hand else ()
         self.segments = []
         self.by_name = {}
         for name, a, b in self.SEGMENTS:
-            r = radii[name] + margin
-            length = lengths[name]
-            # Spheres at most one radius apart (never zero apart, for zero radii), each
-            # big enough that together they contain the capsule.
-            n = max(2, int(math.ceil(length / max(r, 1e-3 * arm.arm_length))) + 1)
-            spacing = length / (n - 1)
-            cover = math.sqrt(r * r + 0.25 * spacing * spacing)
-            segment = ArmSegment(name, a, b, r, length, np.linspace(0.0, 1.0, n)[:, None], cover)
+            segment = self._segment(name, a, b, radii[name] + margin, lengths[name])
             self.by_name[name] = segment
-            if name == "hand" and not self.check_hand:
+            if name == "hand" and (not self.check_hand or self.hand_shape):
                 continue
             self.segments.append(segment)
+        self.hand_segments = [self._segment("hand", 5 + 2 * i, 6 + 2 * i, r + margin,
+                                            math.dist(a, b))
+                              for i, (a, b, r) in enumerate(self.hand_shape)] or \
+            [self.by_name["hand"]]
+        if self.hand_shape:
+            self.segments += self.hand_segments
+        self.rows = 5 + 2 * len(self.hand_shape)     # rows a pose's joints must have
         self._arm_segments = [seg for seg in self.segments if seg.name != "hand"]
         self._max_cover = max(seg.cover for seg in self.segments)
         # how far :meth:`clearance`'s row of points may over-read: half its widest spacing
@@ -394,6 +303,37 @@ class CollisionChecker:
         self.bound_wrist = max(lengths["forearm"] + rad["forearm"],
                                lengths["hand"] + rad["hand"])
         self.bound_hand = lengths["hand"] + rad["hand"]
+        # the query bound at each joint a segment meets: far enough to clear every segment
+        # that meets there from that end alone
+        self._bounds = [self.bound_sternum, self.bound_shoulder, self.bound_elbow,
+                        self.bound_wrist, self.bound_hand]
+        if self.hand_shape:
+            self.hand_reach = max(max(math.hypot(*a), math.hypot(*b)) + r + margin
+                                  for a, b, r in self.hand_shape)
+            self.bound_wrist = max(lengths["forearm"] + rad["forearm"], self.hand_reach)
+            self._bounds[3] = self.bound_wrist
+            self._bounds += [seg.length + seg.radius for seg in self.hand_segments
+                             for _end in (0, 1)]
+        else:
+            self.hand_reach = self.bound_hand
+        used = sorted({i for seg in self.segments for i in (seg.a, seg.b)})
+        self._rows_used = (used, [i for i in used if i < 4])
+
+    def _segment(self, name, a, b, r, length) -> ArmSegment:
+        """An :class:`ArmSegment` of radius ``r`` (the clearance included) and ``length``:
+        its spheres at most one radius apart (never zero apart, for zero radii), each big
+        enough that together they contain the capsule."""
+        n = max(2, int(math.ceil(length / max(r, 1e-3 * self.arm.arm_length))) + 1)
+        spacing = length / (n - 1)
+        cover = math.sqrt(r * r + 0.25 * spacing * spacing)
+        return ArmSegment(name, a, b, r, length, np.linspace(0.0, 1.0, n)[:, None], cover)
+
+    def _rows(self, j, include_hand: bool) -> None:
+        """Refuse joints without the hand shape's rows (:func:`.hand_shape.with_shape`)
+        where the hand is tested: a caller that left them out would test no hand."""
+        if include_hand and self.hand_shape and len(j) < self.rows:
+            raise ValueError(f"a pose of {len(j)} rows where the hand's shape needs "
+                             f"{self.rows} (core.hand_shape.with_shape)")
 
     def distance(self, point, bound: float) -> float:
         """Distance from a world point (3 floats) to the nearest obstacle surface, or
@@ -452,12 +392,13 @@ class CollisionChecker:
         if tree is None:
             return None
         j = np.asarray(world_joints, dtype=float)
+        self._rows(j, include_hand)
         segments = self.segments if include_hand else self._arm_segments
-        last = 5 if include_hand else 4
+        rows = self._rows_used[0 if include_hand else 1]
         points = j.tolist()
         # one query around the box of the joints first (on floats: numpy's per-call cost
         # is most of a clear pose's test)
-        xs, ys, zs = zip(*points[:last])
+        xs, ys, zs = zip(*(points[i] for i in rows))
         lo, hi = (min(xs), min(ys), min(zs)), (max(xs), max(ys), max(zs))
         dx, dy, dz = hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]
         if tree.find_nearest([0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]),
@@ -465,9 +406,8 @@ class CollisionChecker:
                              math.sqrt(dx * dx + dy * dy + dz * dz) * 0.5
                              + self._max_cover)[0] is None:
             return None
-        bounds = (self.bound_sternum, self.bound_shoulder, self.bound_elbow, self.bound_wrist,
-                  self.bound_hand)
-        dist = [self.distance(points[i], bounds[i]) for i in range(last)]
+        bounds = self._bounds
+        dist = {i: self.distance(points[i], bounds[i]) for i in rows}
         for segment in segments:
             a, b = segment.a, segment.b
             if self.segment_clear(points[a], points[b], dist[a], dist[b], segment.radius,
@@ -485,9 +425,13 @@ class CollisionChecker:
         tree = self.obstacles.tree
         if tree is None:
             return False
-        segment = self.by_name[name]
         j = np.asarray(world_joints, dtype=float)
-        return self._segment_hit(tree, j[segment.a], j[segment.b], segment) is not None
+        segments = [self.by_name[name]]
+        if name == "hand":
+            self._rows(j, True)
+            segments = self.hand_segments
+        return any(self._segment_hit(tree, j[seg.a], j[seg.b], seg) is not None
+                   for seg in segments)
 
     def capsule_clear(self, p, q, radius: float) -> bool:
         """Is the capsule from world point ``p`` to ``q`` of ``radius`` (plus the
@@ -542,6 +486,7 @@ class CollisionChecker:
         obstacles, to within ``tolerance`` (:meth:`axis_distance`), at most ``horizon``;
         negative where a capsule is in contact, by how deep."""
         j = np.asarray(world_joints, dtype=float)
+        self._rows(j, include_hand)
         segments = self.segments if include_hand else self._arm_segments
         best = horizon
         for seg in segments:
@@ -569,7 +514,7 @@ class CollisionChecker:
         c = self.pose_clearance(world_joints, cap, tolerance)
         return math.inf if c >= cap else c - tolerance
 
-    def clearance(self, world_joints, search_radius) -> float:
+    def clearance(self, world_joints, search_radius, include_hand: bool = True) -> float:
         """Least distance between the arm's capsule surfaces (without the clearance margin)
         and any obstacle, looking no farther than ``search_radius``; ``inf`` if nothing is
         that close. Measured from the sample points on each segment's axis, so it may
@@ -578,8 +523,10 @@ class CollisionChecker:
         if tree is None:
             return math.inf
         j = np.asarray(world_joints)
+        self._rows(j, include_hand)
         best = math.inf
-        for _name, a, b, r, _length, fractions, _cover in self.segments:
+        for _name, a, b, r, _length, fractions, _cover in (self.segments if include_hand
+                                                            else self._arm_segments):
             for centre in (j[a] + (j[b] - j[a]) * fractions).tolist():
                 hit = tree.find_nearest(centre, search_radius + r)
                 if hit[0] is not None:

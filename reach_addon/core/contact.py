@@ -29,6 +29,7 @@ from .arm import ArmConfig, Pose
 from .body_capsules import self_collision
 from .collision import CLEARANCE_TOLERANCE
 from .generator import ConfigurationGenerator
+from .hand_shape import world_pose
 from .search import sphere_directions
 from .torso import body_rotation_deg
 
@@ -51,18 +52,19 @@ def start_clearance(generator: ConfigurationGenerator, pose: Pose) -> float:
     (:meth:`~reach_addon.core.collision.CollisionChecker.least_clearance`): an escape
     that never lets it fall never lets the true clearance fall by more than its
     tolerance."""
-    return generator.checker.least_clearance(generator.arm.to_world_points(pose.joints),
+    return generator.checker.least_clearance(world_pose(generator.arm, pose),
                                              generator.arm.arm_length)
 
 
 def thinner(generator: ConfigurationGenerator, by: float) -> ConfigurationGenerator:
-    """A generator for the same arm with every capsule's radius less by ``by`` (kept at
-    least a tenth of itself)."""
+    """A generator for the same arm with every capsule's radius (the hand shape's too) less
+    by ``by`` (kept at least a tenth of itself)."""
     arm = generator.arm
     radii = {k: max(getattr(arm, k) - by, 0.1 * getattr(arm, k))
              for k in ("upper_arm_radius", "forearm_radius", "hand_radius")}
-    return ConfigurationGenerator(dataclasses.replace(arm, **radii), generator.obstacles,
-                                  generator.settings)
+    shape = tuple((a, b, max(r - by, 0.1 * r)) for a, b, r in arm.hand_shape)
+    return ConfigurationGenerator(dataclasses.replace(arm, hand_shape=shape, **radii),
+                                  generator.obstacles, generator.settings)
 
 
 def escape(generator: ConfigurationGenerator, start: Pose, obstacle: str,
@@ -212,7 +214,7 @@ def _straight(loose, generator, start: Pose, c0: float, goals) -> list | None:
                 break
             clearance = max(clearance, c)
             poses.append(pose)
-            if not generator.checker.collides(arm.to_world_points(pose.joints)):
+            if not generator.checker.collides(world_pose(arm, pose)):
                 return poses
     return None
 
@@ -241,7 +243,7 @@ def _greedy(loose, generator, start: Pose, c0: float, max_steps: int) -> list | 
     poses, clearance = [start], c0
     noise = _noise(generator)
     for step in range(max_steps + 1):
-        if not generator.checker.collides(arm.to_world_points(poses[-1].joints)):
+        if not generator.checker.collides(world_pose(arm, poses[-1])):
             return poses
         if step == max_steps:
             return None
@@ -310,7 +312,7 @@ def _search(loose, generator, start: Pose, c0: float, max_expansions: int) -> li
                 continue
             seen.add(key(pose))
             nodes.append((pose, i, max(c, c_prev)))
-            if not generator.checker.collides(arm.to_world_points(pose.joints)):
+            if not generator.checker.collides(world_pose(arm, pose)):
                 way, j = [], len(nodes) - 1
                 while j >= 0:
                     way.append(nodes[j][0])
@@ -334,7 +336,7 @@ def _passing(generator: ConfigurationGenerator, start: Pose, by: float,
     into a mesh, which the wrist's steps never move). Only the solve uses the thinner arm;
     every step is measured on the real one."""
     arm = generator.arm
-    world = arm.to_world_points(start.joints)
+    world = world_pose(arm, start)
     while True:
         loose = thinner(generator, by)
         if (not loose.checker.collides(world) and loose.solve(

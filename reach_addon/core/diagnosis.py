@@ -18,6 +18,7 @@ from . import ik
 from .arm import Pose, hand_coefficients
 from .body_capsules import body_hit, self_collision
 from .errors import ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, TARGET_IN_OBSTACLE
+from .hand_shape import with_shape
 from .lean import least_lean
 from .search import last_tries
 
@@ -105,7 +106,8 @@ def _refusal(generator, start: Pose, wrist) -> tuple:
             if hit is not None:
                 first = first or ("body", arm.body_capsules[hit[1]].name, hit[0])
                 break
-            hit = generator.checker.first_hit(arm.to_world_points(joints), include_hand=hand)
+            shaped = with_shape(arm, joints, sol.bend_at(0, k)) if hand else joints
+            hit = generator.checker.first_hit(arm.to_world_points(shaped), include_hand=hand)
             if hit is not None:
                 first = first or ("obstacle", hit[1], hit[0])
                 break
@@ -178,8 +180,11 @@ def diagnose_target(generator, wrist, ball: bool = True) -> Diagnosis | None:
         j = joints[n]
         hit = checker.first_hit(arm.to_world_points(j), include_hand=False)
         if hit is not None:
-            arm_only = np.vstack([j[:4], j[3:4]])
-            c = checker.clearance(arm.to_world_points(arm_only), horizon)
+            if checker.hand_shape:
+                c = checker.clearance(arm.to_world_points(j), horizon, include_hand=False)
+            else:
+                arm_only = np.vstack([j[:4], j[3:4]])
+                c = checker.clearance(arm.to_world_points(arm_only), horizon)
             if c > best[0]:
                 best = (c, hit[0], hit[1])
             continue
@@ -192,7 +197,7 @@ def diagnose_target(generator, wrist, ball: bool = True) -> Diagnosis | None:
         for coefficients in hands:
             full = j.copy()
             full[4] = j[3] + arm.hand_length * (np.asarray(coefficients) @ axes)
-            w = arm.to_world_points(full)
+            w = arm.to_world_points(with_shape(arm, full, bend))
             c = checker.clearance(w, horizon)
             if c > best[0]:
                 hit = checker.first_hit(w)

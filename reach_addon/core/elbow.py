@@ -153,7 +153,8 @@ def _layer(generator, pose: Pose, coef, hand_cost, length: float, margin: float)
     # the same for all (:meth:`hands_clear` per swivel, at once)
     axes = np.array([generator.hand_axes(joints[m], bends[m]) for m in range(len(ks))])
     tips = joints[0, 3] + generator.arm.hand_length * np.einsum("hc,mcx->mhx", coef, axes)
-    clear = generator.tips_clear(joints[0], body, tips.reshape(-1, 3)).reshape(len(ks), -1)
+    clear = generator.tips_clear(joints[0], body, tips.reshape(-1, 3),
+                                 hinge=np.repeat(axes[:, 2], len(coef), 0)).reshape(len(ks), -1)
     return _Layer(ks, sol.angles[0][:3, ks].T, sol.body[0], sol.flex[0],
                   swivel_cost[:, None] + hand_cost[None, :], clear, joints, bends)
 

@@ -16,12 +16,13 @@ import math
 
 import numpy as np
 
-from . import ik, keys
-from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_basis, hand_coefficients,
+from . import ik
+from .arm import (ArmConfig, ArmModel, Pose, forward_kinematics, hand_coefficients,
                   pose_from_config)
 from .body_capsules import body_capsules_at, segment_hits_body, self_collision
-from .collision import (CollisionChecker, Obstacles, fan_segment_distances,
-                        point_segment_distance)
+from .collision import CollisionChecker, Obstacles
+from .distances import point_segment_distance
+from .hand_checks import HandChecks
 from .limits import smooth
 from .strength import strength_category
 from .torso import ChestPath, body_rotation_deg
@@ -30,8 +31,9 @@ from .torso import ChestPath, body_rotation_deg
 CHEST_FIT_STEP = 5.0
 
 
-class ConfigurationGenerator:
-    """Legal, smooth, collision-free poses for wrist positions (canonical frame)."""
+class ConfigurationGenerator(HandChecks):
+    """Legal, smooth, collision-free poses for wrist positions (canonical frame). The
+    hand's tests are :class:`~reach_addon.core.hand_checks.HandChecks`'."""
 
     def __init__(self, arm: ArmModel, obstacles: Obstacles, settings):
         self.arm = arm
@@ -399,164 +401,6 @@ class ConfigurationGenerator:
         joints, _bend = forward_kinematics(self.arm, mid)
         return self.arm_clear(joints, float(mid[0]))
 
-    def _place_hand(self, s_c, e_c, w_c, w_w, d_w, b, caps, hands, previous=None):
-        """(hand end, wrist angles) of the first hand direction in ``hands`` that is clear
-        of the body and the obstacles, or (None, None). ``b``: the bend direction.
-
-        With ``previous`` (the pose at the previous position), the hand must also get from
-        its angles there to the new ones without passing through anything: its old
-        direction clear at the new pose, and every direction between, ``hand_grid_step`` ×
-        3 degrees apart, clear there too (the step itself, at most one search step, moves
-        it with its angles fixed and clear at both ends). A hand that must turn *before*
-        a step turns in place first: :meth:`turn_hand`, a move of the search."""
-        arm, checker, seg = self.arm, self.checker, self._seg_hand
-        l1, l2, lh = arm.upper_arm_length, arm.forearm_length, arm.hand_length
-        u = [(e_c[i] - s_c[i]) / l1 for i in range(3)]
-        f = [(w_c[i] - e_c[i]) / l2 for i in range(3)]
-        # the hand turns toward p in the elbow's plane and toward h across it
-        _f, (px, py, pz), (hx, hy, hz) = hand_basis(u, b, f)
-        clear_far = d_w - lh >= seg.radius           # no hand direction can reach an obstacle
-
-        def tip_of(coefficients):
-            cf, cp, ch = coefficients
-            return [w_c[0] + lh * (f[0] * cf + px * cp + hx * ch),
-                    w_c[1] + lh * (f[1] * cf + py * cp + hy * ch),
-                    w_c[2] + lh * (f[2] * cf + pz * cp + hz * ch)]
-
-        def clear(tip):
-            if caps and segment_hits_body(w_c, tip, arm.hand_radius, caps):
-                return False
-            if not clear_far:
-                t_w = self._world(tip)
-                if not checker.segment_clear(w_w, t_w, d_w, checker.distance(t_w, checker.bound_hand),
-                                             seg.radius, seg.length):
-                    return False
-            return True
-
-        sweep_step = 3.0 * self.settings.hand_grid_step
-        previous_hand = None if previous is None else previous.hand
-        if previous_hand is not None and not clear_far and \
-                not clear(tip_of(hand_coefficients(*previous_hand))):
-            # every sweep starts from the previous hand: where it is not clear at this
-            # pose, no hand gets anywhere (one test instead of one per sample)
-            return None, None
-        for hand in hands:
-            tip = tip_of(self._hand_coefficients[hand])
-            if hand == previous_hand and not clear_far:
-                return tip, hand                 # tested just above
-            if not clear(tip):
-                continue
-            if previous_hand is not None and hand != previous_hand and not clear_far:
-                db, ds = hand[0] - previous_hand[0], hand[1] - previous_hand[1]
-                n = max(1, int(math.ceil(max(abs(db), abs(ds)) / sweep_step)))
-                between = [hand_coefficients(previous_hand[0] + db * t / n,
-                                             previous_hand[1] + ds * t / n) for t in range(1, n)]
-                if not all(clear(tip_of(c)) for c in between):
-                    continue
-            return tip, hand
-        return None, None
-
-    def turn_hand(self, pose: Pose, hand) -> Pose | None:
-        """``pose`` with the hand turned in place to the sample ``hand`` (its arm
-        unchanged), or None if a direction on the way, ``hand_grid_step`` × 3 degrees
-        apart, touches the body or an obstacle. Used by the search when the hand must turn
-        before the arm can move on."""
-        a = pose.hand
-        db, ds = hand[0] - a[0], hand[1] - a[1]
-        n = max(1, int(math.ceil(max(abs(db), abs(ds)) / (3.0 * self.settings.hand_grid_step))))
-        coef = [hand_coefficients(a[0] + db * t / n, a[1] + ds * t / n) for t in range(1, n + 1)]
-        if not self.hands_clear(pose.joints, pose.bend, pose.config.body_rotation, coef).all():
-            return None
-        joints = pose.joints.copy()
-        joints[4] = joints[3] + self.arm.hand_length * (np.array(coef[-1]) @
-                                                        self.hand_axes(pose.joints, pose.bend))
-        return Pose(pose.config, joints, pose.bend, pose.f_r, tuple(hand))
-
-    def hand_axes(self, joints, bend):
-        """The hand's frame at a pose, rows (f, p, h) (canonical): the forearm direction,
-        the in-plane direction the hand bends toward and the elbow's hinge axis
-        (:func:`~reach_addon.core.arm.hand_direction`). ``joints`` (≥ 4, 3), ``bend`` (3,)."""
-        s, e, w = (np.asarray(joints[i], dtype=float) for i in (1, 2, 3))
-        u = (e - s) / np.linalg.norm(e - s)
-        f = (w - e) / np.linalg.norm(w - e)
-        return np.array(hand_basis(u.tolist(), np.asarray(bend, dtype=float).tolist(), f.tolist()))
-
-    def hands_clear(self, joints, bend, body_rotation: float, coefficients) -> np.ndarray:
-        """For each hand direction (rows of ``coefficients``, components along the rows of
-        :meth:`hand_axes`): is the hand, wrist to its far end, clear of the body and the
-        obstacles at this arm pose? One obstacle query at the wrist settles every direction
-        when nothing is within a hand's length of it."""
-        coefficients = np.asarray(coefficients, dtype=float)
-        if not self._check_hand:
-            return np.ones(len(coefficients), dtype=bool)
-        tips = np.asarray(joints[3], dtype=float) + \
-            self.arm.hand_length * coefficients @ self.hand_axes(joints, bend)
-        return self.tips_clear(joints, body_rotation, tips)
-
-    def tips_clear(self, joints, body_rotation: float, tips) -> np.ndarray:
-        """For each hand end (rows of ``tips``, canonical): is the hand, from the wrist
-        (``joints[3]``) to it, clear of the body and the obstacles
-        (:meth:`hands_clear`)?"""
-        out = np.ones(len(tips), dtype=bool)
-        if not self._check_hand:
-            return out
-        arm, checker, seg = self.arm, self.checker, self._seg_hand
-        w_c = np.asarray(joints[3], dtype=float)
-        reach = arm.hand_length + arm.hand_radius
-        wl = w_c.tolist()
-        caps = [c for c in self.capsules_at(float(body_rotation))     # (a, b, centre, half, r)
-                if point_segment_distance(wl, c[0], c[1]) - c[4] < reach]
-        if caps and len(tips) > 2:
-            # many directions (the hand pass's grid): every hand against every capsule
-            # in one array expression
-            gap = fan_segment_distances(wl, tips, [c[0] for c in caps], [c[1] for c in caps])
-            out &= ~(gap < arm.hand_radius + np.array([c[4] for c in caps])).any(1)
-        elif caps:
-            for i, tip in enumerate(tips.tolist()):
-                if segment_hits_body(wl, tip, arm.hand_radius, caps):
-                    out[i] = False
-        w_w = self._world(wl)
-        d_w = checker.distance(w_w, checker.bound_wrist)
-        if d_w < seg.radius:
-            out[:] = False
-        elif d_w - arm.hand_length < seg.radius:
-            for i, tip in enumerate(self.arm.to_world_points(tips).tolist()):
-                if out[i] and not checker.segment_clear(
-                        w_w, tip, d_w, checker.distance(tip, checker.bound_hand), seg.radius,
-                        seg.length):
-                    out[i] = False
-        return out
-
-    def transition_problem(self, a: Pose, b: Pose, hand_a=None, hand_b=None,
-                           instants: int | None = None, arm: bool = True):
-        """What touches between two keyed poses as they interpolate — None, 'arm' or
-        'hand' — at ``instants`` − 1 (default ``Settings.instants_per_frame`` − 1) evenly
-        spaced instants, against half the clearance (:meth:`between_keys`). The arm and
-        hand at those instants are Blender's on a linear span: each segment's rotation
-        relative to its parent blended by nlerp (:func:`~reach_addon.core.keys.between`),
-        with the wrist's angles ``hand_a`` → ``hand_b`` at the keys (default the poses'
-        own). ``arm=False`` skips the arm (already found clear)."""
-        n = self.settings.instants_per_frame if instants is None else instants
-        if n <= 1:
-            return None
-        loose = self.between_keys()
-        joints, bends, body = keys.between(self.arm, a, b, np.arange(1, n) / n, hand_a, hand_b)
-        if arm and not all(loose.arm_clear(j, c) for j, c in zip(joints, body)):
-            return "arm"
-        for j, c in zip(joints, body):
-            if not loose.tips_clear(j, c, j[4:5])[0]:
-                return "hand"
-        return None
-
-    def key_clear(self, pose: Pose) -> bool:
-        """Is ``pose``, its own hand included, clear with half the clearance (what the
-        instants between keys keep, :meth:`transition_problem`)? A pose held over a frame
-        is its own instants between."""
-        loose = self.between_keys()
-        body = pose.config.body_rotation
-        return loose.arm_clear(pose.joints, body) and \
-            bool(loose.tips_clear(pose.joints, body, pose.joints[4:5])[0])
-
     def arm_clear(self, joints, body_rotation: float) -> bool:
         """Is the arm (sternum to wrist, without the hand) of a pose clear of the obstacles
         and of the body? ``joints`` (≥ 4, 3), canonical."""
@@ -578,7 +422,7 @@ class ConfigurationGenerator:
         return bool(ok.all())
 
     def pose_collides(self, pose: Pose) -> bool:
-        return self.checker.collides(self.arm.to_world_points(pose.joints))
+        return self.checker.collides(self.world(pose))
 
     def start_problem(self, pose: Pose):
         """None if a start pose is usable, else (segment, obstacle) of its first contact or
@@ -586,7 +430,7 @@ class ConfigurationGenerator:
         root = self.arm.to_world_points(pose.joints[0])
         if self.obstacles.point_inside(root):
             return "sternum", self.obstacles.enclosing_owner(root)
-        return self.checker.first_hit(self.arm.to_world_points(pose.joints))
+        return self.checker.first_hit(self.world(pose))
 
     def config_pose(self, config: ArmConfig, hand=(0.0, 0.0)) -> Pose:
         """The pose of a configuration (forward kinematics) with the wrist's two angles

@@ -16,6 +16,8 @@ import math
 import numpy as np
 
 from .arm import ArmModel, Pose, hand_direction_floats
+from .hand_shape import shape_points
+from .numeric import cross
 from .orient import FOREARM_SHARE
 from .torso import rotate_about_spine, spine_rotation_matrix
 
@@ -146,7 +148,8 @@ def between(arm: ArmModel, a: Pose, b: Pose, t, hand_a=None, hand_b=None) -> tup
     ``hand_b``: the wrist's angles at the keys instead of the poses' own.
 
     Returns (joints (m, 5, 3), bend directions (m, 3), body rotations (m,), degrees), all
-    canonical."""
+    canonical. Where the arm has a hand shape (:mod:`.hand_shape`) the joints are followed
+    by its capsules' ends in the hand's frame as it blends, R₃(t): (m, 5 + 2K, 3)."""
     keys = []
     for pose, hand in ((a, hand_a), (b, hand_b)):
         body, *limbs = _frames(pose, hand)
@@ -155,7 +158,7 @@ def between(arm: ArmModel, a: Pose, b: Pose, t, hand_a=None, hand_b=None) -> tup
         chain = [(math.cos(half), 0.0, 0.0, math.sin(half))] + [quaternion(c) for c in limbs]
         keys.append([chain[0]] + [_mul(_conj(p), c) for p, c in zip(chain, chain[1:])])
     lengths = (arm.upper_arm_length, arm.forearm_length, arm.hand_length)
-    ends, bends, bodies = [], [], []
+    ends, bends, bodies, hands = [], [], [], []
     for x in np.atleast_1d(np.asarray(t, dtype=float)).tolist():
         q = nlerp(keys[0][0], keys[1][0], x)
         bodies.append(-math.degrees(2.0 * math.atan2(q[3], q[0])))
@@ -168,9 +171,14 @@ def between(arm: ArmModel, a: Pose, b: Pose, t, hand_a=None, hand_b=None) -> tup
                 bend = second
         ends.append(points)
         bends.append(bend)
+        hands.append((axis, second))
     body = np.array(bodies)
     sternum = rotate_about_spine(arm.sternum, body)
     shoulder = rotate_about_spine(arm.shoulder, body)
     steps = np.cumsum(np.array(ends), axis=1)                 # (m, 3, 3): elbow, wrist, end
     joints = np.concatenate([sternum[:, None], shoulder[:, None], shoulder[:, None] + steps], 1)
+    if arm.hand_shape:
+        d, g = (np.array(v) for v in zip(*hands))
+        frames = np.stack([d, g, cross(d, g)], -1)
+        joints = np.concatenate([joints, shape_points(arm.hand_shape, joints[:, 3], frames)], 1)
     return joints, np.array(bends), body

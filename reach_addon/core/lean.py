@@ -268,7 +268,8 @@ def capsules_hit(ends, capsules, checker):
 def lean_hit(arm, joints_c, lean: Lean, fractions, checker, trunk: TrunkSkin | None = None):
     """The first part that touches an obstacle as the trunk leans: (fraction, part name,
     obstacle name), or ``None`` where the lean is clear. The arm holds its start pose
-    (``joints_c``, canonical (5, 3)) on the leaning trunk; the arm's capsules (hand
+    (``joints_c``, canonical (5, 3), followed by the hand shape's rows where the arm has one:
+    :func:`~.hand_shape.with_shape`) on the leaning trunk; the arm's capsules (hand
     included, as ``checker`` tests them) are tested on every frame of ``fractions`` and
     :data:`LEAN_SUBSTEPS` instants between two, and then the trunk on them: its skin where
     the rig gives it (``trunk``, :func:`skin_hit`: part "trunk"), else the chest's and

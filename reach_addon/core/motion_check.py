@@ -10,6 +10,7 @@ import numpy as np
 from .arm import ArmModel, Pose
 from .elbow import wing_count
 from .hand import HandReport
+from .hand_shape import world_pose
 from .keys import between
 from .results import Stats
 
@@ -37,7 +38,7 @@ def first_contact(generator, poses, hand: HandReport, clearances, escaping: bool
     bad = unclear[0] + 1 if unclear else len(poses)
     for k in range(first, bad):
         if touching[k]:
-            world = arm.to_world_points(poses[k].joints)
+            world = world_pose(arm, poses[k])
             return k, checker.first_hit(world) or ("arm", "an obstacle")
     if unclear:
         k = unclear[0]
@@ -59,7 +60,7 @@ def escape_contact(generator, poses, clearances):
     n = max(2, generator.settings.instants_per_frame)
     leaving = True
     for k, pose in enumerate(poses):
-        world = arm.to_world_points(pose.joints)
+        world = world_pose(arm, pose)
         if clearances[k] >= 0.0:
             leaving = False
         elif not leaving:
@@ -95,7 +96,7 @@ def pose_clearances(arm: ArmModel, poses, checkers) -> list:
     own checker (one per pose: a chase against moving obstacles
     has one obstacle set per frame)."""
     horizon = 0.5 * arm.arm_length
-    return [checker.least_clearance(arm.to_world_points(p.joints), horizon)
+    return [checker.least_clearance(world_pose(arm, p), horizon)
             for p, checker in zip(poses, checkers)]
 
 

@@ -29,6 +29,7 @@ from .elbow import relax_elbow
 from .errors import NO_PATH, START_HELD, START_IN_COLLISION, require_finite
 from .failure import explain_failure
 from .generator import ConfigurationGenerator
+from .hand_shape import world_pose
 from .hand import HandReport, plan_hand
 from .motion import auto_duration, limb_turn, shortcut, time_path, wrist_path_length
 from .motion_check import first_contact, motion_stats, pose_clearances
@@ -240,7 +241,7 @@ class Planner:
         length = self.arm.arm_length
         depth = -start_clearance(gen, start) / length
         limit = self.settings.start_contact_depth
-        world = self.arm.to_world_points(start.joints)
+        world = world_pose(self.arm, start)
         axis = [world[a] + t * (world[b] - world[a]) for a, b in ((1, 2), (2, 3), (3, 4))
                 for t in (0.0, 0.5, 1.0)]
         how = None

@@ -14,6 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .arm import ArmModel
+from .hand_shape import world_pose
 from .search import SearchResult
 from .settings import Settings
 from .tasks import Task
@@ -150,8 +151,11 @@ class Plan:
         return f"reached {len(self.segments)} target(s) in {len(self.poses)} frames"
 
     def world_joints(self) -> np.ndarray:
-        """Joint positions per frame in world space, (frames, 5, 3) in JOINTS order."""
-        return self.arm.to_world_points(np.array([p.joints for p in self.poses]))
+        """Joint positions per frame in world space, (frames, 5, 3) in JOINTS order, each
+        followed by the hand shape's rows where the arm has one (:mod:`.hand_shape`:
+        (frames, 5 + 2K, 3)), as the collision checker takes them."""
+        return np.array([world_pose(self.arm, p) for p in self.poses]).reshape(
+            len(self.poses), -1, 3)
 
     def world_bends(self) -> np.ndarray:
         """Forearm bend direction per frame in world space, (frames, 3)."""

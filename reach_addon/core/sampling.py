@@ -25,6 +25,7 @@ from .arm import ArmConfig, Pose, forward_kinematics, hand_direction_floats
 from .body_capsules import body_capsules_at, segment_hits_body
 from .diagnosis import fit_within_tolerance
 from .errors import NO_PATH
+from .hand_shape import with_shape
 from .limits import on_elbow_side, side_normal
 from .numeric import SCALAR, cross
 from .search import SearchResult
@@ -91,10 +92,12 @@ def pose_row(pose: Pose) -> np.ndarray:
     return np.concatenate([pose.config.as_array(), np.asarray(pose.hand, dtype=float)])
 
 
-def joints_of(arm, q) -> np.ndarray:
+def joints_of(arm, q, shaped: bool = False) -> np.ndarray:
     """Canonical joint positions (N, 5, 3) of configuration rows (N, 7): the core's forward
     kinematics, with the hand turned by its two wrist angles as in
-    :func:`reach_addon.core.arm.hand_direction`."""
+    :func:`reach_addon.core.arm.hand_direction`. ``shaped``: followed by the ends of the
+    hand shape's capsules (:func:`~reach_addon.core.hand_shape.with_shape`), what the
+    collision checker takes."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
     joints, bend = forward_kinematics(arm, q[:, :5])
     s, e, w = joints[:, 1], joints[:, 2], joints[:, 3]
@@ -106,7 +109,16 @@ def joints_of(arm, q) -> np.ndarray:
     fb, fs = np.radians(q[:, 5:6]), np.radians(q[:, 6:7])
     d = f * np.cos(fb) * np.cos(fs) + p * np.sin(fb) * np.cos(fs) + h * np.sin(fs)
     joints[:, 4] = w + arm.hand_length * d
-    return joints
+    return with_shape(arm, joints, bend) if shaped else joints
+
+
+def checked_joints_of_one(arm, q, joints=None):
+    """What the collision checker takes for one configuration ``q`` (7,): its joints
+    (:func:`joints_of_one`, or ``joints`` already found), followed by the hand shape's
+    rows where the arm has one (:func:`joints_of`)."""
+    if arm.hand_shape:
+        return joints_of(arm, q, shaped=True)[0]
+    return np.array(joints_of_one(arm, q) if joints is None else joints)
 
 
 def joints_of_one(arm, q) -> list:
@@ -187,10 +199,11 @@ class StateValidity:
                     (self.checker.check_hand and
                      segment_hits_body(wrist, hand, arm.hand_radius, caps)):
                 return False
-        return self.clear(arm.to_world_points(np.array(joints)))
+        return self.clear(arm.to_world_points(checked_joints_of_one(arm, q, joints)))
 
     def clear(self, world_joints) -> bool:
-        """The obstacle part of :meth:`valid`: is the pose (world joints, (5, 3)) clear
+        """The obstacle part of :meth:`valid`: is the pose (world joints, (5, 3), or more with
+        a hand shape: :func:`checked_joints_of_one`) clear
         by the core's checker, arm and hand, with the clearance margin?"""
         return not self.checker.collides(world_joints, include_hand=True)
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from .arm import ArmModel
 from .errors import NEEDS_LEAN
+from .hand_shape import with_shape
 from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean_frames, lean_hit,
                    leaned_arm, skin_hit)
 from .torso import body_rotation_deg, rotate_about_spine
@@ -94,7 +95,8 @@ def _lean_and_reach(planner, task, lean, make_planner, trunk=None):
     s, arm = planner.settings, planner.arm
     start = planner.generator.config_pose(task.start, task.start_hand)
     fractions = lean_frames(arm, start.joints, lean, s, task.fps)
-    hit = lean_hit(arm, start.joints, lean, fractions, planner.generator.checker, trunk)
+    hit = lean_hit(arm, with_shape(arm, start.joints, start.bend, start.roll), lean, fractions,
+                   planner.generator.checker, trunk)
     if hit is not None:
         fraction, part, obstacle = hit
         return None, (f"leaning {lean.angle * fraction:.0f}° of the {lean.angle:.0f}° it "

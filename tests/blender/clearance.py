@@ -164,15 +164,59 @@ class Arm:
         self.radii = (a.upper_arm_radius, a.forearm_radius, a.hand_radius)
         self.anchor = skin_anchor(armature, self.hands)
         self.worst = {}          # part -> (margin in arm lengths, where)
+        self.shape = self._shape_at_start(info) if a.hand_shape else None
+
+    def _shape_at_start(self, info):
+        """(the hand bone's world rotation, the wrist, the ends of the hand shape's capsules
+        (2K, 3), world) at the start pose, as the rig adapter read it
+        (``RigInfo.start_hand_rotation``, ``joints_world``): the model's shape
+        (``RigInfo.arm.hand_shape``, what the planner promises to keep clear) placed on the
+        model's start pose. From there the shape is carried by the hand bone's turn as
+        Blender shows it."""
+        from reach_addon.core.arm import pose_from_config
+        from reach_addon.core.hand_shape import world_pose
+
+        model = info.arm
+        ends = world_pose(model, pose_from_config(model, info.start, hand=info.start_hand))[5:]
+        return (np.asarray(info.start_hand_rotation, dtype=float),
+                np.asarray(info.joints_world["wrist"], dtype=float), ends)
+
+    def _hand_rotation(self):
+        m = _world(self.armature, self.hands[0])[:3, :3]
+        return m / np.linalg.norm(m, axis=0)
+
+    def _joints(self):
+        mw = np.array(self.armature.matrix_world)
+        return [mw[:3, :3] @ np.array(self.armature.pose.bones[n].head) + mw[:3, 3]
+                for n in self.chain]
 
     def capsules(self):
-        """[(part, p, q, radius)] at the current evaluation."""
-        mw = np.array(self.armature.matrix_world)
-        shoulder, elbow, wrist = (mw[:3, :3] @ np.array(self.armature.pose.bones[n].head)
-                                  + mw[:3, 3] for n in self.chain)
+        """[(part, p, q, radius)] at the current evaluation. A model with a hand shape
+        (``ArmModel.hand_shape``) has one "hand" capsule per capsule of its shape, carried
+        from the start by the hand bone's turn as Blender shows it."""
+        shoulder, elbow, wrist = self._joints()
+        if self.shape is not None:
+            rot0, wrist0, ends0 = self.shape
+            turn = self._hand_rotation() @ rot0.T
+            ends = wrist + (ends0 - wrist0) @ turn.T
+            arm = [("upper arm", shoulder, elbow, self.radii[0]),
+                   ("forearm", elbow, wrist, self.radii[1])]
+            return arm + [("hand", ends[2 * i], ends[2 * i + 1], r)
+                          for i, (_a, _b, r) in enumerate(self.model.hand_shape)]
         tip = hand_end(self.armature, self.hands, wrist, self.model.hand_length, self.anchor)
         ends = ((shoulder, elbow), (elbow, wrist), (wrist, tip))
         return [(part, p, q, r) for part, (p, q), r in zip(self.PARTS, ends, self.radii)]
+
+    def wrist(self):
+        """The wrist (the hand bone's head) as Blender shows it now."""
+        return self._joints()[2]
+
+    def axis_capsule(self):
+        """("hand", wrist, far end, hand radius): the hand's axis capsule now, whether or
+        not the model has a hand shape."""
+        wrist = self.wrist()
+        tip = hand_end(self.armature, self.hands, wrist, self.model.hand_length, self.anchor)
+        return "hand", wrist, tip, self.radii[2]
 
     def margins(self, tris, parts=PARTS):
         """{part: (distance to the triangles − radius) / arm length} now (at most
@@ -198,8 +242,10 @@ class Arm:
                             for i in range(0, len(caps), per)])
         out, k = [], 0
         for cs in instants:
-            out.append({part: min((dist - r) / self.length, HORIZON)
-                        for (part, _p, _q, r), dist in zip(cs, d[k:k + len(cs)])})
+            now = {}
+            for (part, _p, _q, r), dist in zip(cs, d[k:k + len(cs)]):
+                now[part] = min(now.get(part, HORIZON), (dist - r) / self.length)
+            out.append(now)
             k += len(cs)
         return out
 
@@ -248,3 +294,70 @@ class Arm:
     def report(self):
         """The worst margins seen, one line (for -s runs and failure messages)."""
         return ", ".join(f"{part} {m:+.4f} at {where}" for part, (m, where) in self.worst.items())
+
+
+class HandSkin:
+    """The hand's skin as Blender shows it, against the obstacles' triangles: the
+    triangles of the evaluated meshes that the hand's bones (the hand group and every bone
+    below it that is no helper, :func:`hand_bones`) move, read by
+    ``verification.refusal.arm_skin`` (a triangle is the hand's where each of its vertices
+    is weighted at least half to those bones; a part parented to one of them, whole). A
+    triangle across the wrist, half the forearm's, is the forearm's: its capsule has the
+    75th percentile of its skin's distance for a radius, and a flared cuff stands outside
+    it (the Knight's gauntlet, 0.1–0.2 arm lengths at the wrist).
+
+    This measures what the capsules of :class:`Arm` stand for: the planner models the hand
+    as one capsule (wrist → far end, ``hand_radius``), and a hand's skin (a flat mitten, a
+    thumb or splayed fingers) can reach beyond it. :meth:`check_instants` keeps, for every
+    instant, whether a skin triangle crosses an obstacle's and the least distance from the
+    skin's vertices to the obstacles."""
+
+    def __init__(self, armature, info):
+        bones = info.bones.arms[info.side]
+        self.armature = armature
+        self.length = info.arm.arm_length
+        self.bones = {b for h in (getattr(info, "hand_bones", ()) or (bones.hand,))
+                      for b in hand_bones(armature, h)}
+        self.crossings = []      # (instant, number of skin triangles crossing an obstacle's)
+        self.least = (HORIZON, -1.0)    # (least distance in arm lengths, instant)
+        self.measured = 0
+
+    def skin(self):
+        """The hand's skin triangles (T, 3, 3), world, as Blender evaluates them now."""
+        from verification.refusal import arm_skin
+
+        return arm_skin(bpy.context, self.armature, self.bones, every_vertex=True)[0]
+
+    def check_instants(self, tris, frames, subframes=(0.0, 0.5)):
+        """Measure the skin against the (still) obstacle triangles ``tris`` at every frame
+        of ``frames`` and its ``subframes`` (only the frame itself at the last). Returns the
+        instants where the skin crosses an obstacle."""
+        from verification import geometry
+
+        frames = list(frames)
+        horizon = HORIZON * self.length
+        for f in frames:
+            for sub in (subframes if f < frames[-1] else (0.0,)):
+                bpy.context.scene.frame_set(f, subframe=sub)
+                skin = self.skin()
+                if not len(skin):
+                    continue
+                self.measured += 1
+                ia, _ib = geometry.intersecting_pairs(skin, tris)
+                if len(ia):
+                    self.crossings.append((f + sub, len(np.unique(ia))))
+                    self.least = min(self.least, (0.0, f + sub))
+                    continue
+                d = geometry.least_distance(np.unique(skin.reshape(-1, 3), axis=0), tris,
+                                            horizon) / self.length
+                self.least = min(self.least, (d, f + sub))
+        return self.crossings
+
+    def report(self):
+        if not self.measured:
+            return "no hand skin"
+        if self.crossings:
+            at = ", ".join(f"{t:g}" for t, _n in self.crossings[:6])
+            return (f"the hand's skin crosses an obstacle at {len(self.crossings)} of "
+                    f"{self.measured} instants (frames {at}{'…' if len(self.crossings) > 6 else ''})")
+        return f"the hand's skin keeps {self.least[0]:.4f} arm lengths at least (at {self.least[1]:g})"

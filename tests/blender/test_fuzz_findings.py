@@ -51,7 +51,7 @@ def check_clear(arm, side, result, solids, overrides=None):
     capsules.check_instants(tris, range(result.frame_start, result.frame_end + 1))
     print(f"{solids}: worst margins (arm lengths): {capsules.report()}")
     scene.frame_set(result.frame_end)
-    return capsules.capsules()[2][1], info.arm.arm_length
+    return capsules.wrist(), info.arm.arm_length
 
 
 def slide(ob, start, end, frame):

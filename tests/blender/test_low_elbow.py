@@ -37,7 +37,14 @@ def bake(name: str, settings: Settings):
     return result, figures
 
 
+#: Since the hand is kept clear as skinned (core.hand_shape), the search's own swivels no
+#: longer lift the elbow down past the crate: the scene shows nothing until another lifts
+#: it (the demo's four tasks are checked for chicken wings in test_natural_arm).
+NO_LIFT = "the greedy swivels no longer lift the elbow here (the hand as skinned)"
+
+
 @pytest.mark.parametrize("name", ["collision_free", "rotation"])
+@pytest.mark.xfail(strict=True, reason=NO_LIFT)
 def test_no_chicken_wing_down_past_the_crate(name):
     greedy, greedy_figures = bake(name, Settings(elbow_comfort=0.0))
     # the search's own swivels lift the elbow here (else this test shows nothing)

@@ -57,7 +57,7 @@ def test_a_t_posed_arm_reaches_past_a_wall(fresh, addon, key):
     first, last = task.frame_start, task.frame_end
     bpy.context.scene.frame_set(last)
     check = clearance.Arm(arm, info)
-    wrist = check.capsules()[1][2]
+    wrist = check.wrist()
     assert np.linalg.norm(wrist - np.array(target.matrix_world.translation)) \
         <= 0.01 * info.arm.arm_length
     check.check_instants(triangles(bpy.data.objects["Wall"]), range(first, last + 1))

@@ -164,7 +164,7 @@ def start_joints(addon, info):
 
 
 def test_body_capsules_leave_room_for_the_arm_it_stands_with(fresh, addon, rig):
-    segment_distance = addon.core.collision.segment_distance_float
+    segment_distance = addon.core.distances.segment_distance_float
     info = rig.build(robot(), "right")
     a, h = info.arm, info.frame.shoulder_half_width
     length = a.arm_length

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from reach_addon.core.collision import (fan_segment_distances, point_segment_distance,
+from reach_addon.core.distances import (fan_segment_distances, point_segment_distance,
                                         segment_distance_float)
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from reach_addon.core import Planner, Settings
-from reach_addon.core.collision import point_segment_distance
+from reach_addon.core.distances import point_segment_distance
 from verification import tight
 
 CASES = [("standard", "cubby", 11), ("standard", "slot", 12), ("bulky", "hole", 13),

@@ -175,9 +175,10 @@ def solid_triangles(names, min_area: float) -> np.ndarray:
 
 
 class ArmReader:
-    """The reaching arm's five joints at the current evaluation: each joint is carried by
-    its bone (read from the rig model in the start pose: sternum by the clavicle, or the
-    chest without one; the hand's far end by the hand)."""
+    """The reaching arm's five joints at the current evaluation, followed by the ends of the
+    hand shape's capsules where the rig model has one: each is carried by its bone (read
+    from the rig model in the start pose: sternum by the clavicle, or the chest without
+    one; the hand's far end and the shape by the hand)."""
 
     def __init__(self, armature, info):
         from reach_addon.blender import rig as rig_mod
@@ -193,6 +194,17 @@ class ArmReader:
         tip = mats[3][:3, 3] + axis * info.arm.hand_length
         self.sternum_local = np.linalg.solve(mats[0], np.append(sternum, 1.0))
         self.tip_local = np.linalg.solve(mats[3], np.append(tip, 1.0))
+        # the ends of the hand shape's capsules (what the planner keeps clear of the hand:
+        # reach_addon.core.hand_shape) on the model's start pose, carried by the hand bone
+        self.shape_local = np.zeros((0, 4))
+        if info.arm.hand_shape:
+            from reach_addon.core.arm import pose_from_config
+            from reach_addon.core.hand_shape import world_pose
+
+            start = pose_from_config(info.arm, info.start, hand=info.start_hand)
+            ends = world_pose(info.arm, start)[5:]
+            self.shape_local = np.linalg.solve(mats[3], np.column_stack(
+                [ends, np.ones(len(ends))]).T).T
 
     def _matrices(self, armature):
         mw = np.array(armature.matrix_world)
@@ -200,8 +212,11 @@ class ArmReader:
 
     def joints(self, armature) -> np.ndarray:
         anchor, upper, fore, hand = self._matrices(armature)
-        return np.array([(anchor @ self.sternum_local)[:3], upper[:3, 3], fore[:3, 3],
-                         hand[:3, 3], (hand @ self.tip_local)[:3]])
+        joints = np.array([(anchor @ self.sternum_local)[:3], upper[:3, 3], fore[:3, 3],
+                           hand[:3, 3], (hand @ self.tip_local)[:3]])
+        if not len(self.shape_local):
+            return joints
+        return np.vstack([joints, (self.shape_local @ hand.T)[:, :3]])
 
 
 def verify(manifest: dict, report: dict, output: Path, subframes: int) -> list:
