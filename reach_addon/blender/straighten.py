@@ -12,14 +12,15 @@ from ..core.collision import MIN_CLEARANCE
 from .settle import driven
 
 
-def _carriers(info, reference) -> tuple:
+def _carriers(info, reference, arm) -> tuple:
     """The bone that carries each of the arm's five joints (sternum, shoulder, elbow,
     wrist, hand end) and the ends of its hand shape's capsules (``Plan.world_joints``'
     rows after them): the chest, upper arm, forearm, hand, hand, and the hand for each
-    end (reference bones)."""
+    end (reference bones). ``arm``: the plans' arm model (without its hand shape where
+    ``Settings.hand_as_skinned`` is off)."""
     return (info.bones.keyed_chest, reference["upper_arm"], reference["forearm"],
             reference["hand"], reference["hand"]) + (reference["hand"],) * (
-                2 * len(info.arm.hand_shape))
+                2 * len(arm.hand_shape))
 
 
 def straighten(context, armature, info, plans, curves, reference) -> tuple:
@@ -47,7 +48,7 @@ def straighten(context, armature, info, plans, curves, reference) -> tuple:
     scene = context.scene
     bones = armature.pose.bones
     mw = np.array(armature.matrix_world)
-    carriers = _carriers(info, reference)
+    carriers = _carriers(info, reference, plans[0].plan.arm if plans else info.arm)
     # every curve's keys by frame, to find the key that starts a span
     keys = []
     for fc in curves:

@@ -15,6 +15,7 @@ closest-approach motion, clear of everything.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -51,9 +52,11 @@ class Planner:
     between plans (the configuration generator and the workspace grid)."""
 
     def __init__(self, arm: ArmModel, obstacles: Obstacles | None, settings: Settings | None = None):
-        self.arm = arm
         self.obstacles = obstacles if obstacles is not None else Obstacles(None)
         self.settings = settings if settings is not None else Settings()
+        if arm.hand_shape and not self.settings.hand_as_skinned:
+            arm = dataclasses.replace(arm, hand_shape=())     # the axis capsule instead
+        self.arm = arm
         self.generator = ConfigurationGenerator(arm, self.obstacles, self.settings)
         self._workspace: Workspace | None = None
 

@@ -216,6 +216,11 @@ class Settings:
     check_hand: bool = _f(True, "Check the hand", "Test the hand (wrist to its far end) "
                           "against obstacles and the body too, turning it at the wrist to "
                           "clear them", "collision")
+    hand_as_skinned: bool = _f(
+        True, "Hand as skinned", "Keep the hand's skin clear, as up to four capsules fitted "
+        "to it (a thumb, a flat palm, splayed fingers), rather than one capsule round the "
+        "hand's axis, which a thumb or a mitten's edge can stand outside; off, the axis "
+        "capsule (a rig without skin has only that)", "collision")
 
     # --- search (paper, "Guided path planning") --------------------------------------------
     step: float = _f(

@@ -151,3 +151,18 @@ def test_shape_points_place_capsule_ends_in_the_frame():
     frame = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])   # columns
     pts = shape_points(shape, np.array([1.0, 2.0, 3.0]), frame)
     np.testing.assert_allclose(pts, [[1, 2, 3], [1, 2, 4], [2, 2, 3], [1, 3, 3]])
+
+
+def test_hand_as_skinned_off_keeps_the_axis_capsule():
+    """``Settings.hand_as_skinned`` off: the planner's arm has no shape, its checker tests
+    the axis capsule, and a plan's poses carry the five joints only."""
+    from reach_addon.core import Planner
+
+    rng = np.random.default_rng(6)
+    shaped, _local = _shaped_arm(rng)
+    on = Planner(shaped, None, Settings())
+    off = Planner(shaped, None, Settings(hand_as_skinned=False))
+    assert on.generator.checker.hand_shape == shaped.hand_shape
+    assert off.arm.hand_shape == () and off.generator.checker.hand_shape == ()
+    assert [s.name for s in off.generator.checker.segments][-1] == "hand"
+    assert off.generator.checker.rows == 5
