@@ -22,7 +22,7 @@ planner:
 - the hand's skin itself, as Blender shows it, crosses no obstacle at any frame or
   half-frame (``clearance.HandSkin``: its evaluated triangles against the obstacles'; the
   axis capsule the planner kept clear before ``core.hand_shape`` left it crossing the
-  shelf or a sequence's obstacle on five of these scenes);
+  shelf, a sequence's or a chase's obstacle on five of these scenes);
 - no bone of the hand turns more in space from one frame to the next (the angle of the
   bone's whole world rotation, roll included) than the default
   ``Settings.hand_space_turn_speed``, 360°/s, allows at the scene's frame rate: 15° at
