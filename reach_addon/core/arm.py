@@ -232,6 +232,12 @@ class Pose:
 REACH_SLACK = 0.5
 
 
+def shape_reach(shape) -> float:
+    """How far from the wrist any point of a hand shape (:attr:`ArmModel.hand_shape`)
+    reaches: max over its capsules of max(|a|, |b|) + r; 0 for none."""
+    return max((max(math.hypot(*a), math.hypot(*b)) + r for a, b, r in shape), default=0.0)
+
+
 def reach_sphere(arm: ArmModel, slack: float = REACH_SLACK) -> tuple:
     """(world centre (3,), radius): a sphere holding every point of every pose the planner
     can give the arm, skin and hand included, with ``slack`` arm lengths to spare.
@@ -253,8 +259,7 @@ def reach_sphere(arm: ArmModel, slack: float = REACH_SLACK) -> tuple:
     out of the BVH)."""
     s, t = arm.shoulder, arm.sternum
     r0 = max(math.hypot(s[0], s[1]), math.hypot(t[0], t[1]) + abs(t[2] - s[2]))
-    shape = max((max(math.hypot(*a), math.hypot(*b)) + r for a, b, r in arm.hand_shape),
-                default=0.0)          # the hand as skinned (:mod:`.hand_shape`)
+    shape = shape_reach(arm.hand_shape)        # the hand as skinned (:mod:`.hand_shape`)
     radius = (r0 + arm.arm_length
               + max(arm.hand_length + max(arm.upper_arm_radius, arm.forearm_radius,
                                           arm.hand_radius), shape)

@@ -17,6 +17,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .arm import shape_reach
 from .errors import ReachError, require_finite
 
 
@@ -308,8 +309,7 @@ class CollisionChecker:
         self._bounds = [self.bound_sternum, self.bound_shoulder, self.bound_elbow,
                         self.bound_wrist, self.bound_hand]
         if self.hand_shape:
-            self.hand_reach = max(max(math.hypot(*a), math.hypot(*b)) + r + margin
-                                  for a, b, r in self.hand_shape)
+            self.hand_reach = shape_reach(self.hand_shape) + margin
             self.bound_wrist = max(lengths["forearm"] + rad["forearm"], self.hand_reach)
             self._bounds[3] = self.bound_wrist
             self._bounds += [seg.length + seg.radius for seg in self.hand_segments

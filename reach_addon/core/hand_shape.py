@@ -41,6 +41,7 @@ import math
 
 import numpy as np
 
+from .arm import hand_orientation, roll_frames
 from .numeric import cross
 
 #: The most capsules a hand's shape has (each costs a capsule test where the hand is near
@@ -163,26 +164,13 @@ def _holding(caps, points) -> list:
     return out
 
 
-def shape_reach(shape) -> float:
-    """How far from the wrist any point of the shape reaches: max over its capsules of
-    max(|a|, |b|) + r."""
-    return max((max(math.hypot(*a), math.hypot(*b)) + r for a, b, r in shape), default=0.0)
-
-
 def hand_frames(d, hinge, roll=0.0) -> np.ndarray:
     """The hand's frames (..., 3, 3), columns (d, g, d × g), of unit hand directions ``d``
-    (..., 3) and elbow hinge axes ``hinge`` (..., 3), turned by ``roll`` (degrees, (...)
-    or a number) about d (the module docstring)."""
-    d = np.asarray(d, dtype=float)
-    h = np.asarray(hinge, dtype=float)
-    g = h - np.sum(h * d, axis=-1, keepdims=True) * d
-    g = g / np.maximum(np.linalg.norm(g, axis=-1, keepdims=True), 1e-12)
-    c = cross(d, g)
-    roll = np.asarray(roll, dtype=float)
-    if roll.any():
-        psi = np.radians(roll)[..., None]
-        g, c = g * np.cos(psi) + c * np.sin(psi), c * np.cos(psi) - g * np.sin(psi)
-    return np.stack([d, g, c], -1)
+    (..., 3) and elbow hinge axes ``hinge`` (..., 3) (:func:`~.arm.hand_orientation`),
+    turned by ``roll`` (degrees, (...) or a number) about d (:func:`~.arm.roll_frames`):
+    the frame the bake turns the hand by."""
+    frames = hand_orientation(np.asarray(d, dtype=float), np.asarray(hinge, dtype=float))
+    return roll_frames(frames, roll) if np.any(roll) else frames
 
 
 def shape_points(shape, wrist, frames) -> np.ndarray:
