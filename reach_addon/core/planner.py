@@ -440,12 +440,16 @@ class Planner:
             frames = max(2, int(round(duration * task.fps)) + 1)
             seg_poses, arcs, sampler = time_path(gen, dense, frames)
             # an automatic duration is stretched where a limb would turn faster than
-            # limb_turn_speed at the peak (an elbow swinging round a short wrist path)
+            # limb_turn_speed at the peak (an elbow swinging round a short wrist path), up
+            # to twice; again while it still does, as the turn need not scale with the
+            # frames (a path's poses far apart in joint space move unevenly between them)
             bound = s.limb_turn_speed / task.fps
+            most = 2 * frames
             turn = limb_turn(seg_poses)
-            if task.duration_s is None and turn > bound:
-                frames = int(math.ceil(frames * min(turn / bound, 2.0)))
+            while task.duration_s is None and turn > bound and frames < most:
+                frames = min(most, int(math.ceil(frames * turn / bound)))
                 seg_poses, arcs, sampler = time_path(gen, dense, frames)
+                turn = limb_turn(seg_poses)
         loose = None if way_out is None or sampler is None else \
             (way_out.generator, float(sampler.cum[len(lead)]))
         hand = plan_hand(gen, seg_poses, task.fps, arcs=arcs, sampler=sampler, escape=loose,
