@@ -422,7 +422,8 @@ class _Chase:
         hand = self._hand_pass(self.poses)
         first = self.lead - 1
         chased = self.poses[first:]
-        relaxed = relax_elbow(gens[first:], chased)
+        relaxed = relax_elbow(gens[first:], chased,
+                              self.settings.hand_space_turn_speed / self.task.fps)
         if relaxed is chased:
             return hand
         poses = self.poses[:first] + relaxed

@@ -6,6 +6,7 @@ it is."""
 import numpy as np
 
 from reach_addon.core import Settings
+from reach_addon.core.arm import frame_turn
 from reach_addon.core.collision import Obstacles
 from reach_addon.core.elbow import chicken_wing, elbow_lift, relax_elbow, wing_count
 from reach_addon.core.generator import ConfigurationGenerator
@@ -54,6 +55,25 @@ def test_a_winged_path_comes_back_without_a_wing():
     for a, b in zip(out, out[1:]):
         assert gen.smooth_between(a, b)
         assert not gen.pose_collides(b)
+
+
+def test_a_bound_in_space_keeps_the_relaxed_hand_from_turning_faster():
+    """A chase's frames cannot be slowed: with ``space_turn`` the relaxed path's hand turns
+    in space (the arm's swing included, :func:`frame_turn`) within it where a path without a
+    wing can, here where the unbounded choice turns it almost twice as far."""
+    arm, s = standard_arm(), Settings()
+    gen = ConfigurationGenerator(arm, Obstacles(None), s)
+    path = winged_path(gen)
+
+    def most(poses):
+        return max(frame_turn(a, b) for a, b in zip(poses, poses[1:]))
+
+    assert most(relax_elbow(gen, path)) > 15.0
+    bounded = relax_elbow(gen, path, space_turn=10.0)
+    assert wing_count(bounded, arm.arm_length, s.wing_margin) == 0
+    assert most(bounded) <= 10.0 + 1e-6
+    for a, b in zip(bounded, bounded[1:]):
+        assert gen.smooth_between(a, b) and not gen.pose_collides(b)
 
 
 def test_a_path_without_a_wing_or_with_the_pass_off_is_left_as_it_is():
