@@ -353,11 +353,30 @@ class HandSkin:
                 self.least = min(self.least, (d, f + sub))
         return self.crossings
 
+    #: What the skin is of, in reports.
+    part = "hand"
+
     def report(self):
         if not self.measured:
-            return "no hand skin"
+            return f"no {self.part} skin"
         if self.crossings:
             at = ", ".join(f"{t:g}" for t, _n in self.crossings[:6])
-            return (f"the hand's skin crosses an obstacle at {len(self.crossings)} of "
+            return (f"the {self.part}'s skin crosses an obstacle at {len(self.crossings)} of "
                     f"{self.measured} instants (frames {at}{'…' if len(self.crossings) > 6 else ''})")
-        return f"the hand's skin keeps {self.least[0]:.4f} arm lengths at least (at {self.least[1]:g})"
+        return (f"the {self.part}'s skin keeps {self.least[0]:.4f} arm lengths at least "
+                f"(at {self.least[1]:g})")
+
+
+class ArmSkin(HandSkin):
+    """:class:`HandSkin` for the skin of the upper arm and the forearm: the triangles the
+    bones from the upper arm down to the hand move (twist bones included, the hand's
+    own not). The planner keeps capsules clear whose radii are the 75th percentile of
+    this skin's distance from each segment (``blender.rig``), so a quarter of it stands
+    outside them, within the clearance it keeps (an elbow's flare, a gauntlet's cuff)."""
+
+    part = "arm"
+
+    def __init__(self, armature, info):
+        super().__init__(armature, info)
+        upper = armature.pose.bones[info.bones.arms[info.side].upper_arm]
+        self.bones = {upper.name} | {b.name for b in upper.children_recursive} - self.bones

@@ -23,6 +23,8 @@ planner:
   half-frame (``clearance.HandSkin``: its evaluated triangles against the obstacles'; the
   axis capsule the planner kept clear before ``core.hand_shape`` left it crossing the
   shelf, a sequence's or a chase's obstacle on five of these scenes);
+- so does the skin of the upper arm and the forearm (``clearance.ArmSkin``), whose capsules'
+  radii hold three quarters of it: the least, 0.016 arm lengths, on the Alien's wall;
 - no bone of the hand turns more in space from one frame to the next (the angle of the
   bone's whole world rotation, roll included) than the default
   ``Settings.hand_space_turn_speed``, 360°/s, allows at the scene's frame rate: 15° at
@@ -186,6 +188,11 @@ def test_every_rig_bakes_every_everyday_scene(addon, rig_file, kind, scene):
                            f"{(kind, scene)} out of SKIN_CROSSES")
     else:
         assert not crossings, skin.report()
+    # and so does the upper arm's and the forearm's (their capsules hold three quarters)
+    skin = clearance.ArmSkin(arm, info)
+    assert not skin.check_instants(obstacle_triangles(addon, arm), range(first, last + 1)), \
+        skin.report()
+    print(f"{kind} {scene}: {skin.report()}")
 
     # the hand never turns faster in space than the default hand turn speed
     bound = hand_turn_deg(request.settings)
