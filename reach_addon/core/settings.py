@@ -304,8 +304,9 @@ class Settings:
         0.05, 20.0, "arm lengths/s")
     chase_plan_ahead: bool = _f(
         True, "Chase plans ahead", "Where following the target frame by frame misses it "
-        "(an obstacle the wrist must go round first), plan a reach to where the target "
-        "ends, taken at the chase's speed, and wait there", "search")
+        "(an obstacle the wrist must go round first) or catches it only by turning the hand "
+        "too fast, plan a reach to where the target ends, taken at the chase's speed, and "
+        "wait there", "search")
 
     # --- workspace (paper, "preprocessing") -------------------------------------------------
     grid_cells: int = _f(11, "Grid cells", "Cells along each side of the workspace grid "
