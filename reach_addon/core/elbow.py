@@ -211,7 +211,7 @@ def _dp(gens, poses, layers, hands, coef, banned, space=None):
     into = _hands_after(generator, start.hand, 1.0, hands)
     ok = (ok & own)[:, None] & into[None, :] & first.clear
     if space is not None:
-        cost = first.cost + _over(_turns(_pose_frame(start)[None, None], first.frames), space)
+        cost = first.cost + _over(frame_angle(_pose_frame(start)[None, None], first.frames), space)
     else:
         cost = first.cost
     total = _ban(np.where(ok, cost, np.inf), 1, first, hands, banned)
@@ -242,7 +242,7 @@ def _dp(gens, poses, layers, hands, coef, banned, space=None):
     held = gens[-1].hands_clear(goal.joints, goal.bend, gc.body_rotation, coef)
     ok = ok[:, None] & (turn & held)[None, :]
     if space is not None:
-        total = total + _over(_turns(last.frames, _pose_frame(goal)[None, None]), space)
+        total = total + _over(frame_angle(last.frames, _pose_frame(goal)[None, None]), space)
     total = np.where(ok, total, np.inf)
     if not np.isfinite(total).any():
         return None
@@ -272,7 +272,7 @@ def _step_in_space(total, ok, swing, cur: _Layer, adj, prev: _Layer, space: floa
     """:func:`_step` with the hand's whole turn in space from (j, h) to (m, h') at most
     ``space`` degrees: every (j, h, m, h') at once."""
     feasible = ok[:, None, :, None] & cur.clear.T[None, :, :, None] & adj[None, :, None, :]
-    over = _over(_turns(prev.frames[:, :, None, None], cur.frames[None, None]), space)
+    over = _over(frame_angle(prev.frames[:, :, None, None], cur.frames[None, None]), space)
     u = np.where(feasible, total[:, :, None, None] + swing[:, None, :, None] + over, np.inf)
     j, h, m, h2 = u.shape
     flat = u.reshape(j * h, m, h2)
@@ -287,11 +287,6 @@ def _over(turn, space: float) -> np.ndarray:
     nothing within it."""
     over = np.maximum(0.0, np.asarray(turn) - space) / space
     return OVER_TURN_COST * np.where(over > 1e-9, 1.0 + over, 0.0)
-
-
-def _turns(a, b) -> np.ndarray:
-    """The angle (degrees) between hand frames ``a`` and ``b`` (broadcast)."""
-    return frame_angle(a, b)
 
 
 def _pose_frame(pose: Pose) -> np.ndarray:
