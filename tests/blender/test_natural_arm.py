@@ -234,15 +234,24 @@ def test_the_demo_arm_looks_natural(addon, name):
     outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
     info = addon.blender.rig.build(arm, "right")
     assert_natural(addon, arm, info, outcome, {"demo": name})
-    # and the hand keeps its turn bound in space (the chase alone once turned it 15.9°)
-    bound = hand_turn_deg(request.settings) + TURN_ROUNDING
+    # and the hand keeps its turn bound in space (the chase alone once turned it 15.9°),
+    # the upper arm and forearm theirs (the rotation once turned the upper arm 15.7°):
+    # each bone's whole world rotation, and each limb's direction, from frame to frame
+    settings = request.settings
+    bound = hand_turn_deg(settings) + TURN_ROUNDING
+    limb = settings.limb_turn_speed / frame_rate() + TURN_ROUNDING
+    b = info.bones.arms["right"]
     prev = None
     for f in range(outcome.results[0].frame_start, outcome.results[-1].frame_end + 1):
         bpy.context.scene.frame_set(f)
-        now = [world_rotation(arm, b) for b in info.hand_bones]
+        now = ([world_rotation(arm, h) for h in info.hand_bones],
+               [world_rotation(arm, n)[:, 1] for n in (b.upper_arm, b.forearm)])
         if prev is not None:
-            turn = max(turn_deg(a, b) for a, b in zip(prev, now))
+            turn = max(turn_deg(x, y) for x, y in zip(prev[0], now[0]))
             assert turn <= bound, f"the hand turns {turn:.2f}° in space into frame {f}"
+            turn = max(np.degrees(np.arccos(np.clip(x @ y, -1.0, 1.0)))
+                       for x, y in zip(prev[1], now[1]))
+            assert turn <= limb, f"a limb turns {turn:.2f}° into frame {f}"
         prev = now
 
 
