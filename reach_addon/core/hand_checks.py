@@ -18,7 +18,7 @@ from . import keys
 from .arm import Pose, hand_basis, hand_coefficients
 from .body_capsules import segment_hits_body
 from .distances import fan_segment_distances, point_segment_distance
-from .hand_shape import tip_shape_points, with_shape
+from .hand_shape import tip_shape_ends, tip_shape_points, with_shape
 
 
 class HandChecks:
@@ -54,8 +54,8 @@ class HandChecks:
             if caps and segment_hits_body(w_c, tip, arm.hand_radius, caps):
                 return False
             if not clear_far and shaped:
-                return self._shape_clear(tip_shape_points(arm, w_c, [tip], (hx, hy, hz))[0],
-                                         w_w, d_w)
+                return self._shape_clear([self._world(e) for e in tip_shape_ends(
+                    arm, w_c, tip, (hx, hy, hz))], d_w)
             if not clear_far:
                 t_w = self._world(tip)
                 if not checker.segment_clear(w_w, t_w, d_w, checker.distance(t_w, checker.bound_hand),
@@ -158,9 +158,9 @@ class HandChecks:
                     hinge = np.cross(j[2] - j[1], np.asarray(bend, dtype=float))
                 hinge = np.asarray(hinge, dtype=float)
                 hinge = hinge / np.linalg.norm(hinge, axis=-1, keepdims=True)
-                ends = tip_shape_points(arm, w_c, tips, hinge)
+                ends = self._shape_world(tip_shape_points(arm, w_c, tips, hinge))
                 for i in range(len(tips)):
-                    if out[i] and not self._shape_clear(ends[i], w_w, d_w):
+                    if out[i] and not self._shape_clear(ends[i], d_w):
                         out[i] = False
             return out
         if d_w < seg.radius:
@@ -173,16 +173,20 @@ class HandChecks:
                     out[i] = False
         return out
 
-    def _shape_clear(self, ends, w_w, d_w: float) -> bool:
-        """Are the capsules of the hand's shape (:mod:`.hand_shape`), their ends ``ends``
-        (2K, 3) canonical, clear of the obstacles? ``w_w``, ``d_w``: the wrist (world) and
-        a lower bound of its distance to the obstacles; the capsules all lie within
+    def _shape_world(self, ends) -> list:
+        """The ends (..., 2K, 3) of the hand shape's capsules, canonical, in world space
+        (nested lists of floats, for :meth:`_shape_clear`)."""
+        return self.arm.to_world_points(ends).tolist()
+
+    def _shape_clear(self, pts, d_w: float) -> bool:
+        """Are the capsules of the hand's shape (:mod:`.hand_shape`), their ends ``pts``
+        (2K lists of 3 floats) in world space, clear of the obstacles? ``d_w``: a lower
+        bound of the wrist's distance to the obstacles; the capsules all lie within
         ``checker.hand_reach`` of it, so a wrist at least that far from everything needs
         no further test."""
         checker = self.checker
         if d_w >= checker.hand_reach:
             return True
-        pts = self.arm.to_world_points(ends).tolist()
         for seg in checker.hand_segments:
             p, q = pts[seg.a - 5], pts[seg.b - 5]
             bound = seg.length + seg.radius
@@ -200,7 +204,8 @@ class HandChecks:
         if caps and segment_hits_body(j[3].tolist(), j[4].tolist(), self.arm.hand_radius, caps):
             return False
         w_w = self._world(j[3].tolist())
-        return self._shape_clear(j[5:], w_w, self.checker.distance(w_w, self.checker.bound_wrist))
+        d_w = self.checker.distance(w_w, self.checker.bound_wrist)
+        return d_w >= self.checker.hand_reach or self._shape_clear(self._shape_world(j[5:]), d_w)
 
     def transition_problem(self, a: Pose, b: Pose, hand_a=None, hand_b=None,
                            instants: int | None = None, arm: bool = True):

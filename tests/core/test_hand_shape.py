@@ -13,7 +13,8 @@ from reach_addon.core.arm import ArmConfig, pose_from_config
 from reach_addon.core.collision import CollisionChecker
 from reach_addon.core.generator import ConfigurationGenerator
 from reach_addon.core.hand_shape import (capsule_volume, fit_capsule, fit_hand_shape, hand_frames,
-                                         shape_points, with_shape, world_pose)
+                                         shape_points, tip_shape_ends, tip_shape_points,
+                                         with_shape, world_pose)
 from reach_addon.core.keys import between, segment_frames
 from reach_addon.samples import box
 
@@ -151,6 +152,20 @@ def test_shape_points_place_capsule_ends_in_the_frame():
     frame = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])   # columns
     pts = shape_points(shape, np.array([1.0, 2.0, 3.0]), frame)
     np.testing.assert_allclose(pts, [[1, 2, 3], [1, 2, 4], [2, 2, 3], [1, 3, 3]])
+
+
+def test_one_tip_in_floats_gives_the_arrays_numbers():
+    """The search's float path for one hand (:func:`tip_shape_ends`) places the shape's
+    capsule ends where the arrays' (:func:`tip_shape_points`) do, bit for bit: a plan must
+    not depend on which path tested its hand."""
+    rng = np.random.default_rng(5)
+    arm, _local = _shaped_arm(rng)
+    for _ in range(200):
+        wrist, tip = rng.normal(size=3), rng.normal(size=3)
+        hinge = rng.normal(size=3)
+        hinge /= np.linalg.norm(hinge)
+        arrays = tip_shape_points(arm, wrist, [tip], hinge)[0]
+        assert np.array_equal(np.array(tip_shape_ends(arm, wrist, tip, hinge)), arrays)
 
 
 def test_hand_as_skinned_off_keeps_the_axis_capsule():
