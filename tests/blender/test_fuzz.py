@@ -347,6 +347,34 @@ def test_a_contradicted_refusal_is_counted_as_a_false_refusal():
     assert "**2 decided**" in line and "**1 false refusals**; seed 2 `no_path` ('B')" in line
 
 
+def test_the_hand_turn_check_finds_a_turn_over_the_bound():
+    """``checks.HandTurns`` reads the hand bones' whole turn from frame to frame as Blender
+    evaluates it: a bone keyed to turn 10°, 10°, then 30° a frame is over a 15° bound into
+    the third frame only, roll about its own axis included (a turn the bone's direction
+    alone would not show)."""
+    import bpy
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    arm = bpy.data.objects.new("Turner", bpy.data.armatures.new("Turner"))
+    bpy.context.scene.collection.objects.link(arm)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    bone = arm.data.edit_bones.new("hand")
+    bone.head, bone.tail = (0.0, 0.0, 0.0), (0.0, 0.2, 0.0)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    pb = arm.pose.bones["hand"]
+    pb.rotation_mode = "XYZ"
+    for frame, roll in ((1, 0.0), (2, 10.0), (3, 20.0), (4, 50.0)):
+        pb.rotation_euler = (0.0, np.radians(roll), 0.0)         # about the bone's own y
+        pb.keyframe_insert("rotation_euler", frame=frame)
+    turns = checks.HandTurns(arm, ["hand"], 15.0 + checks.TURN_ROUNDING)
+    for frame in range(1, 5):
+        bpy.context.scene.frame_set(frame)
+        turns.at(frame)
+    assert [f for f, _t in turns.over] == [4]
+    assert abs(turns.over[0][1] - 30.0) < 1e-3
+
+
 def test_a_stopped_campaign_carries_on_where_it_stopped(tmp_path):
     """``make fuzz --resume``: the results kept in the campaign's folder are not run again;
     a scene started and not finished (the line a stopped worker leaves) is."""

@@ -34,6 +34,9 @@ CATEGORIES = {
                             "touching an obstacle at some instant",
     "success_off_target": "reported success, but the wrist is not on the target on the last "
                           "frame",
+    "success_turns_too_fast": "reported success, but a bone of the hand turns faster in "
+                              "space from one frame to the next than the hand's bound, on "
+                              "more frames than the report says it lifted the bound",
     "input_changed": "the input file (or a library it links) changed",
     "nondeterministic": "two bakes of the same file keyed different values or ended "
                         "differently",
@@ -252,14 +255,19 @@ def verify(manifest: dict, report: dict, output: Path, subframes: int) -> list:
     horizon = 0.05 * length
     tolerance = (0.005 + 1e-4) * length
     hand = bool(report.get("settings", {}).get("check_hand", True))   # off: the user's choice
+    turn_bound = hand_turn_bound(report, scene)
+    hand_bones = list(getattr(info, "hand_bones", None) or (info.bones.arms[info.side].hand,))
     for task in tasks:
         fa, fb = int(task["frame_start"]), int(task["frame_end"])
         instants = [(f, k / (subframes + 1)) for f in range(fa, fb) for k in range(subframes + 1)]
         instants.append((fb, 0.0))
         leaving = True           # a start in contact may stay in contact only while leaving it
         touching = []            # (instant, part, depth) after the first clear instant
+        turns = HandTurns(arm, hand_bones, turn_bound)
         for f, sub in instants:
             scene.frame_set(f, subframe=sub)
+            if sub == 0.0:
+                turns.at(f)
             if static is None:
                 static = solid_triangles([n for n in manifest["solids"] if n not in movers], min_area)
             tris = static
@@ -277,6 +285,14 @@ def verify(manifest: dict, report: dict, output: Path, subframes: int) -> list:
                              f"'{task['target']}': {len(touching)} instant(s) from frame "
                              f"{touching[0][0]:.2f} to {touching[-1][0]:.2f} touching, the "
                              f"deepest the {part} {depth:.4f} arm lengths in at frame {at:.2f}"))
+        lifted = int(task.get("unbounded_hand_turns") or 0)
+        if len(turns.over) > lifted:
+            at, turn = max(turns.over, key=lambda x: x[1])
+            problems.append(("success_turns_too_fast",
+                             f"'{task['target']}': the hand turns more than "
+                             f"{turn_bound:.2f}° a frame into {len(turns.over)} frame(s) "
+                             f"(the report lifts the bound on {lifted}), {turn:.2f}° into "
+                             f"frame {at}"))
         scene.frame_set(fb)
         wrist = reader.joints(arm)[3]
         name = task["target"]
@@ -288,6 +304,49 @@ def verify(manifest: dict, report: dict, output: Path, subframes: int) -> list:
                              f"'{name}': the wrist is {gap / length:.4f} arm lengths from the "
                              f"target at frame {fb}"))
     return problems
+
+
+#: How far (degrees) a measured turn may exceed the bound: float32 round-off in Blender's
+#: matrices (the planner's turns at the bound measure 14.99°–15.00° on the bones).
+TURN_ROUNDING = 0.01
+
+
+def hand_turn_bound(report: dict, scene) -> float:
+    """The most a bone of the hand may turn in space from one frame to the next (degrees):
+    the bake's ``hand_space_turn_speed`` at the scene's frame rate, with the round-off
+    allowed."""
+    speed = float(report.get("settings", {}).get("hand_space_turn_speed", 360.0))
+    return speed / (scene.render.fps / scene.render.fps_base) + TURN_ROUNDING
+
+
+class HandTurns:
+    """The hand bones' whole world rotation, frame to frame (the angle of R_prevᵀ R, the
+    bone's roll included), as Blender evaluates them: ``over`` lists (frame, degrees) of
+    the frames into which some bone turned more than ``bound``."""
+
+    def __init__(self, armature, bones, bound: float):
+        self.armature, self.bones, self.bound = armature, list(bones), bound
+        self.previous = None
+        self.over: list = []
+
+    def _rotations(self):
+        mw = np.array(self.armature.matrix_world)[:3, :3]
+        out = []
+        for name in self.bones:
+            m = mw @ np.array(self.armature.pose.bones[name].matrix)[:3, :3]
+            out.append(m / np.linalg.norm(m, axis=0))
+        return out
+
+    def at(self, frame: int) -> None:
+        """Measure the turn into ``frame`` (the scene evaluated there)."""
+        now = self._rotations()
+        if self.previous is not None:
+            turn = max(float(np.degrees(np.arccos(np.clip((np.trace(a.T @ b) - 1.0) / 2.0,
+                                                             -1.0, 1.0))))
+                       for a, b in zip(self.previous, now))
+            if turn > self.bound:
+                self.over.append((frame, turn))
+        self.previous = now
 
 
 _REPORT_KEYS = ("target", "arm", "success", "reason", "message", "frame_start", "frame_end",
@@ -330,7 +389,7 @@ def classify(spec: dict, manifest: dict, runs: list, changed: list, keys: list,
         differ = next((a[1], a[2]) for a, b in zip(keys[0], keys[1]) if a != b) \
             if len(keys[0]) == len(keys[1]) else ("count", len(keys[0]) - len(keys[1]))
         return "nondeterministic", f"the two bakes keyed different values ({differ[0]}[{differ[1]}])"
-    for category in ("success_but_collides", "success_off_target"):
+    for category in ("success_but_collides", "success_off_target", "success_turns_too_fast"):
         for c, line in problems:
             if c == category:
                 return c, line
