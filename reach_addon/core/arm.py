@@ -429,13 +429,17 @@ def frame_angle(a, b):
     return np.degrees(np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0)))
 
 
+def rolled_hand_frame(pose: Pose) -> np.ndarray:
+    """The hand's frame at a pose (:func:`hand_frame`) turned by its palm's
+    :attr:`~Pose.roll` (:func:`roll_frames`): its whole orientation in space."""
+    f = hand_frame(pose)
+    return roll_frames(f, pose.roll) if pose.roll else f
+
+
 def frame_turn(a: Pose, b: Pose) -> float:
     """The angle (degrees) of the rotation that takes the hand of ``a`` to that of ``b``
-    (:func:`hand_frame`, turned by each pose's :attr:`~Pose.roll`)."""
-    fa, fb = hand_frame(a), hand_frame(b)
-    if a.roll or b.roll:
-        fa, fb = roll_frames(fa, a.roll), roll_frames(fb, b.roll)
-    return float(frame_angle(fb, fa))
+    (:func:`rolled_hand_frame`)."""
+    return float(frame_angle(rolled_hand_frame(b), rolled_hand_frame(a)))
 
 
 def forward_kinematics(arm: ArmModel, configs):

@@ -60,8 +60,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arm import ArmConfig, Pose, frame_angle, hand_coefficients, hand_frame, hand_orientation,\
-    roll_frames
+from .arm import (ArmConfig, Pose, frame_angle, hand_coefficients, hand_orientation,
+                  rolled_hand_frame)
 from .hand_grid import wrist_turn
 from .limits import smooth
 
@@ -211,7 +211,8 @@ def _dp(gens, poses, layers, hands, coef, banned, space=None):
     into = _hands_after(generator, start.hand, 1.0, hands)
     ok = (ok & own)[:, None] & into[None, :] & first.clear
     if space is not None:
-        cost = first.cost + _over(frame_angle(_pose_frame(start)[None, None], first.frames), space)
+        turn = frame_angle(rolled_hand_frame(start)[None, None], first.frames)
+        cost = first.cost + _over(turn, space)
     else:
         cost = first.cost
     total = _ban(np.where(ok, cost, np.inf), 1, first, hands, banned)
@@ -242,7 +243,8 @@ def _dp(gens, poses, layers, hands, coef, banned, space=None):
     held = gens[-1].hands_clear(goal.joints, goal.bend, gc.body_rotation, coef)
     ok = ok[:, None] & (turn & held)[None, :]
     if space is not None:
-        total = total + _over(frame_angle(last.frames, _pose_frame(goal)[None, None]), space)
+        turn = frame_angle(last.frames, rolled_hand_frame(goal)[None, None])
+        total = total + _over(turn, space)
     total = np.where(ok, total, np.inf)
     if not np.isfinite(total).any():
         return None
@@ -287,12 +289,6 @@ def _over(turn, space: float) -> np.ndarray:
     nothing within it."""
     over = np.maximum(0.0, np.asarray(turn) - space) / space
     return OVER_TURN_COST * np.where(over > 1e-9, 1.0 + over, 0.0)
-
-
-def _pose_frame(pose: Pose) -> np.ndarray:
-    """A pose's hand frame in space, its roll included (:func:`~.arm.frame_turn`)."""
-    f = hand_frame(pose)
-    return roll_frames(f, pose.roll) if pose.roll else f
 
 
 def _banned_swings(i: int, prev: _Layer, cur: _Layer, count: int, banned) -> np.ndarray:
