@@ -14,9 +14,8 @@ then the search's own swivels no longer lift the elbow there, so those scenes sh
 
 from __future__ import annotations
 
-import bpy
-import everyday
 from test_every_rig import rig_file  # noqa: F401  (the fixture)
+from test_natural_arm import bake as bake_natural
 
 from verification import naturalness
 
@@ -24,15 +23,7 @@ from verification import naturalness
 def bake(addon, rig_file, kind, scene, settings):  # noqa: F811
     """Bake ``scene`` round rig ``kind`` with ``settings``: (its result, the naturalness
     figures measured on the evaluated bones)."""
-    path, name = rig_file(kind)
-    bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
-    arm = bpy.data.objects[name]
-    info = addon.blender.rig.build(arm, "right")
-    targets = everyday.build(scene, info, arm)
-    request = addon.blender.pipeline.Request(
-        arm.name, [t.name for t in targets], task=everyday.TASKS[scene], side="right",
-        frame_start=1, settings=settings, draw=False)
-    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
+    arm, info, outcome = bake_natural(addon, rig_file, kind, scene, settings)
     (result,) = outcome.results
     assert result.success, result.message
     b = info.bones.arms["right"]

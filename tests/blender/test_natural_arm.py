@@ -39,8 +39,8 @@ import clearance
 import everyday
 import numpy as np
 import pytest
-from test_every_rig import (TURN_ROUNDING, cases, frame_rate, hand_turn_deg,  # noqa: F401
-                            obstacle_triangles, rig_file, turn_deg, world_rotation)
+from test_every_rig import (TURN_ROUNDING, cases, frame_rate, hand_turns,  # noqa: F401
+                            obstacle_triangles, rig_file)
 
 from verification import naturalness
 from verification.geometry import segment_triangle_distances
@@ -71,7 +71,9 @@ XFAIL = {
 }
 
 
-def bake(addon, rig_file, kind, scene):  # noqa: F811
+def bake(addon, rig_file, kind, scene, settings=None):  # noqa: F811
+    """Bake ``scene`` round rig ``kind`` as a user's Bake is (``settings``: the defaults
+    unless given): (armature, rig info, outcome)."""
     path, name = rig_file(kind)
     bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
     arm = bpy.data.objects[name]
@@ -79,7 +81,8 @@ def bake(addon, rig_file, kind, scene):  # noqa: F811
     targets = everyday.build(scene, info, arm)
     pipeline = addon.blender.pipeline
     request = pipeline.Request(arm.name, [t.name for t in targets], task=everyday.TASKS[scene],
-                               side="right", frame_start=1, draw=False)
+                               side="right", frame_start=1, draw=False,
+                               **({} if settings is None else {"settings": settings}))
     return arm, info, pipeline.run(bpy.context, request, bake=True)
 
 
@@ -237,20 +240,19 @@ def test_the_demo_arm_looks_natural(addon, name):
     # and the hand keeps its turn bound in space (the chase alone once turned it 15.9°),
     # the upper arm and forearm theirs (the rotation once turned the upper arm 15.7°):
     # each bone's whole world rotation, and each limb's direction, from frame to frame
-    settings = request.settings
-    bound = hand_turn_deg(settings) + TURN_ROUNDING
-    limb = settings.limb_turn_speed / frame_rate() + TURN_ROUNDING
+    frames = range(outcome.results[0].frame_start, outcome.results[-1].frame_end + 1)
+    turns = hand_turns(arm, info, request.settings, frames)
+    assert not turns.over, f"the hand turns {turns.worst[0]:.2f}° into frame {turns.worst[1]}"
+    limb = request.settings.limb_turn_speed / frame_rate() + TURN_ROUNDING
     b = info.bones.arms["right"]
+    mw = arm.matrix_world
     prev = None
-    for f in range(outcome.results[0].frame_start, outcome.results[-1].frame_end + 1):
+    for f in frames:
         bpy.context.scene.frame_set(f)
-        now = ([world_rotation(arm, h) for h in info.hand_bones],
-               [world_rotation(arm, n)[:, 1] for n in (b.upper_arm, b.forearm)])
+        now = [(mw @ arm.pose.bones[n].tail - mw @ arm.pose.bones[n].head).normalized()
+               for n in (b.upper_arm, b.forearm)]
         if prev is not None:
-            turn = max(turn_deg(x, y) for x, y in zip(prev[0], now[0]))
-            assert turn <= bound, f"the hand turns {turn:.2f}° in space into frame {f}"
-            turn = max(np.degrees(np.arccos(np.clip(x @ y, -1.0, 1.0)))
-                       for x, y in zip(prev[1], now[1]))
+            turn = max(np.degrees(x.angle(y, 0.0)) for x, y in zip(prev, now))
             assert turn <= limb, f"a limb turns {turn:.2f}° into frame {f}"
         prev = now
 

@@ -322,12 +322,14 @@ def hand_turn_bound(report: dict, scene) -> float:
 class HandTurns:
     """The hand bones' whole world rotation, frame to frame (the angle of R_prevᵀ R, the
     bone's roll included), as Blender evaluates them: ``over`` lists (frame, degrees) of
-    the frames into which some bone turned more than ``bound``."""
+    the frames into which some bone turned more than ``bound``; ``worst`` is (degrees,
+    frame) of the largest turn (-1, None before two frames)."""
 
     def __init__(self, armature, bones, bound: float):
         self.armature, self.bones, self.bound = armature, list(bones), bound
         self.previous = None
         self.over: list = []
+        self.worst = (-1.0, None)
 
     def _rotations(self):
         mw = np.array(self.armature.matrix_world)[:3, :3]
@@ -346,6 +348,7 @@ class HandTurns:
                        for a, b in zip(self.previous, now))
             if turn > self.bound:
                 self.over.append((frame, turn))
+            self.worst = max(self.worst, (turn, frame))
         self.previous = now
 
 
