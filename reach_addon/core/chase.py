@@ -6,7 +6,8 @@ from the last.
 ``Settings.chase_nodes_per_frame`` nodes, committing at most
 :func:`chase_steps_per_frame` steps (``Settings.chase_max_speed``) and a hand turn within
 ``Settings.hand_space_turn_speed``. A start in contact leads with its escape
-(:func:`escape_frames`). Where that pursuit misses the target at the end, the chase
+(:func:`escape_frames`). Where that pursuit misses the target at the end, or catches it
+only by turning the hand too fast or lifting the elbow over a low hand, the chase
 plans ahead (``Settings.chase_plan_ahead``): a reach to where the target
 ends, retimed to the chase's limits, the wrist waiting there (:meth:`_Chase._plan_ahead`).
 """
@@ -24,7 +25,7 @@ from .arm import Pose, frame_turn
 from .chase_timing import at_chase_speed, blend, chase_rate, shortcut_for, span_cost
 from .contact import line_escape
 from .diagnosis import diagnose_target
-from .elbow import relax_elbow
+from .elbow import relax_elbow, wing_count
 from .errors import NO_PATH, START_IN_COLLISION, require_finite
 from .generator import ConfigurationGenerator
 from .hand import HandReport, plan_hand
@@ -37,6 +38,10 @@ from .settings import Settings
 from .steps import drain
 from .tasks import Task
 
+
+#: How many frames a chase whose pursuit lifts the elbow over a low hand tries to plan
+#: ahead to and follow from (:meth:`_Chase.run`), besides the target's end.
+AHEAD_TRIES = 4
 
 #: Degrees a turn may exceed its bound by round-off alone (the search's own hand-turn
 #: bound leaves poses right at it).
@@ -234,6 +239,7 @@ class _Chase:
         self.poses = [start] + self._way_out(way_out, start)
         self.lead = len(self.poses)       # the chased frames start here
         self.frames: list = []
+        self.ahead_why = ""       # why a chase that caught the target planned ahead
 
     def _way_out(self, way_out, start: Pose) -> list:
         """The escape's frames (:func:`escape_frames`), ``self.steps`` of its poses a frame
@@ -259,19 +265,63 @@ class _Chase:
         (:meth:`_plan_ahead`) and keep that where it catches it within the bounds (the
         demo's chase from the rest pose: the pursuit turned the hand 15.9° in a frame and
         lifted the elbow over it for 11 frames; the reach ahead keeps to 14.5°, no wing).
+        Where the pursuit catches it within the bounds but lifts the elbow over a low hand
+        (:func:`~reach_addon.core.elbow.wing_count`), it plans ahead to where the target
+        is on the frame the pursuit first caught it, on :data:`AHEAD_TRIES` frames from
+        there on and on the last, following it from there; the chase whose elbow rises
+        least (:meth:`_lifts`) is kept, the pursuit and then the earlier on a tie (the
+        rigid robot's chase over a table: its wrist rose in front of the shoulder, where a
+        forearm 2.4 times the upper arm folds the elbow up, for 10 winged frames; the
+        reaches to where the target is on frames 24, 30, 36 and 42 lift it too, to frame
+        30's within the margin by a hair and 0.23 arm lengths over the shoulder; the reach
+        to its end rises inward of the shoulder, no wing, the wrist waiting 24 frames).
         A generator: yields (fraction, message) and returns the hand pass's report."""
         hand = yield from self._pursue(chunk)
+        wings = self._wings(hand)
         if not self.settings.chase_plan_ahead or \
-                (self._caught(hand.poses) and self._first_too_fast(hand) is None):
+                (self._caught(hand.poses) and self._first_too_fast(hand) is None and not wings):
             return hand
-        ahead = self._plan_ahead()
-        return hand if ahead is None else ahead
+        if not self._caught(hand.poses) or self._first_too_fast(hand) is not None:
+            ahead = self._plan_ahead()
+            return hand if ahead is None else ahead
+        # caught within the bounds, with the elbow lifted: ahead to where the target is
+        # when the pursuit first caught it, then following it; or later; or to its end
+        best = (self._lifts(hand), list(self.poses), list(self.frames), hand)
+        on, end = self._first_on_target(hand.poses), len(self.trajectory) - 1
+        for to in dict.fromkeys([*range(on, end, max(1, (end - on) // AHEAD_TRIES)), end]):
+            self.poses[:], self.frames = list(best[1]), list(best[2])
+            ahead = self._plan_ahead(to)
+            if ahead is not None and self._lifts(ahead) < best[0]:
+                best = (self._lifts(ahead), list(self.poses), list(self.frames), ahead)
+                self.ahead_why = f"following it lifted the elbow over a low hand on {wings} " \
+                                 "frames"
+        self.poses[:], self.frames = best[1], best[2]
+        return best[3]
+
+    def _wings(self, hand: HandReport, share: float = 1.0) -> int:
+        """The chased frames of ``hand`` with the elbow lifted over a low hand
+        (:func:`~reach_addon.core.elbow.wing_count`, ``share`` of the margin)."""
+        return wing_count(hand.poses[self.lead - 1:], self.arm.arm_length,
+                          share * self.settings.wing_margin)
+
+    def _lifts(self, hand: HandReport) -> tuple:
+        """How a chase's elbow rises over a low hand, to compare chases by: (its winged
+        frames, those at half the margin: an elbow 0.2 arm lengths over a hand just at
+        the margin below the shoulder is as lifted to the eye)."""
+        return self._wings(hand), self._wings(hand, 0.5)
 
     def _caught(self, poses) -> bool:
         return float(np.linalg.norm(poses[-1].wrist - self.trajectory[-1])) <= \
             self.settings.goal_tolerance * self.arm.arm_length
 
-    def _plan_ahead(self):
+    def _first_on_target(self, poses) -> int:
+        """The first chased frame whose wrist is on the target (within the goal
+        tolerance)."""
+        tol = self.settings.goal_tolerance * self.arm.arm_length
+        return next(f for f in range(self.lead, len(poses))
+                    if float(np.linalg.norm(poses[f].wrist - self.trajectory[f])) <= tol)
+
+    def _plan_ahead(self, to: int | None = None):
         """Where the pursuit misses: the paper's reach (:meth:`Planner.plan`, guided and
         sampling fallbacks included) from the pose of the frame before the chase to where
         the target ends, its frames taken as fast as the chase's limits let
@@ -288,10 +338,14 @@ class _Chase:
         way). Either way each frame's keys and the instants into it are checked against
         the obstacles as they are on it. The hand report of the first chase so planned
         that catches the target with every hand turn within its bound and every
-        transition clear; else None, and the pursuit stays."""
+        transition clear; else None, and the pursuit stays.
+
+        With ``to`` (a frame): the reach goes to where the target is on that frame, the
+        wrist waiting there until it comes, and the pursuit follows it from there."""
         first = self.lead - 1
         for planner in self._ahead_planners(first):
-            hand = self._ahead_with(planner, first)
+            hand = self._ahead_with(planner, first, len(self.trajectory) - 1 if to is None
+                                    else to)
             if hand is not None:
                 return hand
         return None
@@ -310,16 +364,17 @@ class _Chase:
             # which imports chase)
             yield type(distinct[0])(self.arm, union, self.settings)
 
-    def _ahead_with(self, planner, first: int):
-        """:meth:`_plan_ahead` with ``planner``'s obstacles: the hand report, or None."""
-        start, n = self.poses[first], len(self.trajectory)
+    def _ahead_with(self, planner, first: int, to: int):
+        """:meth:`_plan_ahead` with ``planner``'s obstacles, to the target on frame ``to``:
+        the hand report, or None."""
+        start, n = self.poses[first], to + 1
         t0 = time.perf_counter()
-        plan = planner.plan(Task("reach", np.asarray(self.task.targets)[-1:], start.config,
-                                 fps=self.task.fps, names=(self.task.name(0),),
+        plan = planner.plan(Task("reach", np.asarray(self.task.targets)[to:to + 1],
+                                 start.config, fps=self.task.fps, names=(self.task.name(0),),
                                  start_hand=start.hand))
         way = None if not plan.success else self._at_chase_speed(
             planner.generator, [start] + list(plan.poses[1:]), n - 1 - first)
-        target = self.arm.to_canonical_points(np.asarray(self.task.targets, dtype=float)[-1])
+        target = self.trajectory[to]
         if way is None:
             # the search's way is longer than the frames allow: a straight line in joint
             # space to a goal pose, if one is clear (fuzz seed 2482: OMPL's straight line
@@ -345,7 +400,8 @@ class _Chase:
                                      else 0, elapsed if k == 0 else 0.0, 0.0,
                                      self.trajectory[first + 1 + k], method="ahead"), None)
                        for k, (a, b) in enumerate(zip(way[:-1], way[1:]))]
-        hand = self._hand_pass(self.poses)
+        drain(self._chase_frames(len(self.trajectory), 0))     # following it from ``to``
+        hand = self._hand()
         # transitions of the escape from a start in contact (before the chase's first
         # frame) touch by design; :meth:`_way_out` checked them (fuzz seed 5239)
         if self._caught(hand.poses) and self._first_too_fast(hand) is None and \
@@ -502,9 +558,14 @@ class _Chase:
             on_target = sum(float(np.linalg.norm(p.wrist - trajectory[f])) <=
                             s.goal_tolerance * length
                             for f, p in enumerate(poses) if f >= self.lead)
-            ahead = any(res.method == "ahead" for res, _c in self.frames)
-            return None, (f"caught '{name}'" + (" by planning ahead to where it ends, the wrist "
-                                                 "waiting there" if ahead else "")
+            ahead = [k for k, (res, _c) in enumerate(self.frames) if res.method == "ahead"]
+            how = "" if not ahead else \
+                " by planning ahead to where it ends, the wrist waiting there" \
+                if ahead[-1] == len(self.frames) - 1 else \
+                f" by planning ahead to where it is on frame {self.lead + ahead[-1]}, then " \
+                "following it"
+            why = f" ({self.ahead_why})" if ahead and self.ahead_why else ""
+            return None, (f"caught '{name}'{how}{why}"
                           + f" ({on_target} of {len(poses) - 1} frames on target)")
         last = self.planners[-1]
         diagnosis = diagnose_target(last.generator, trajectory[-1])

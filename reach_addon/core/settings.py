@@ -304,8 +304,8 @@ class Settings:
         0.05, 20.0, "arm lengths/s")
     chase_plan_ahead: bool = _f(
         True, "Chase plans ahead", "Where following the target frame by frame misses it "
-        "(an obstacle the wrist must go round first) or catches it only by turning the hand "
-        "too fast, plan a reach to where the target ends, taken at the chase's speed, and "
+        "(an obstacle the wrist must go round first), catches it only by turning the hand "
+        "too fast, or lifts the elbow over a low hand where a reach ahead does not, plan a reach to where the target ends, taken at the chase's speed, and "
         "wait there", "search")
 
     # --- workspace (paper, "preprocessing") -------------------------------------------------
