@@ -52,23 +52,10 @@ MEAN_AGREES, MAX_AGREES = 2.0, 6.0
 #: How many chicken-wing frames the report and the measure may count apart.
 WING_FRAMES_AGREE = 1
 
-#: (rig, scene) → what keeps it from the goal, as measured at this commit ("forced": the
-#: report names the obstacle and the relaxed hand, or the hand turned straight back to
-#: it, would touch it on those frames).
-XFAIL = {
-    # since the hand is kept clear as skinned (core.hand_shape): up to four capsules that
-    # hold the skin, where the axis capsule left a thumb or a flat palm outside it
-    ("gomakehuman", "shelf"): "frame 25 bent beyond 45° where the hand turned back to its "
-                              "rest alignment keeps the clearance by its shape's capsules "
-                              "(the hand pass's grid holds it bent one frame longer)",
-    ("robot", "chase"): "chicken wing on frames 14-26, since the hand shape (the robot's "
-                        "two-palm hand, two capsules). Traced: on frames 14-18 the "
-                        "pursuit's wrist, 0.4 arm lengths behind the target, passes 0.53-"
-                        "0.58 arm lengths from the shoulder and 0.33-0.43 below it, where "
-                        "every clear swivel (3-10 of 72) holds the elbow 0.11-0.26 above "
-                        "the shoulder: the elbow pass keeps the wrist's path, so the wing "
-                        "is the pursuit's choice of path",
-}
+#: (rig, scene) → what keeps it from the goal, as measured at its commit (none now;
+#: "forced": the report names the obstacle and the relaxed hand, or the hand turned
+#: straight back to it, would touch it on those frames).
+XFAIL: dict = {}
 
 
 def bake(addon, rig_file, kind, scene, settings=None):  # noqa: F811
