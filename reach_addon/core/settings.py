@@ -305,8 +305,10 @@ class Settings:
     chase_plan_ahead: bool = _f(
         True, "Chase plans ahead", "Where following the target frame by frame misses it "
         "(an obstacle the wrist must go round first), catches it only by turning the hand "
-        "too fast, or lifts the elbow over a low hand where a reach ahead does not, plan a reach to where the target ends, taken at the chase's speed, and "
-        "wait there", "search")
+        "too fast, plan a reach to where the target ends, taken at the chase's speed, and "
+        "wait there; where following it lifts the elbow over a low hand, reach ahead to "
+        "where it is later, or ends, and follow it, whichever lifts the elbow least",
+        "search")
 
     # --- workspace (paper, "preprocessing") -------------------------------------------------
     grid_cells: int = _f(11, "Grid cells", "Cells along each side of the workspace grid "
