@@ -22,7 +22,8 @@ import numpy as np
 
 from . import obstacle_union
 from .arm import Pose, frame_turn
-from .chase_timing import at_chase_speed, blend, chase_rate, shortcut_for, span_cost
+from .chase_timing import (at_chase_speed, chase_rate, part_way, shortcut_for, span_cost,
+                           wrist_travel)
 from .contact import line_escape
 from .diagnosis import diagnose_target
 from .elbow import relax_elbow, wing_count
@@ -46,40 +47,6 @@ AHEAD_TRIES = 4
 #: Degrees a turn may exceed its bound by round-off alone (the search's own hand-turn
 #: bound leaves poses right at it).
 TURN_ROUND_OFF = 0.01
-
-
-def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
-             halvings: int = 10, measure=frame_turn) -> Pose | None:
-    """A pose part of the way from ``a`` to ``b`` whose hand turns at most ``bound`` degrees
-    from ``a``'s (roll included, :func:`~reach_addon.core.arm.frame_turn`; ``measure``:
-    another figure of the move from ``a``, such as :func:`wrist_travel`),
-    and that is clear as a key and as the keys from ``a`` interpolate
-    (:meth:`ConfigurationGenerator.key_clear`, ``transition_problem``): the angles of the
-    two poses, the wrist's two and the roll included, blended at the largest share found by
-    ``halvings`` bisections; None if no share is clear. A chase cannot slow down its frames:
-    where one step of its search turns the hand faster than the bound (a twist of the upper
-    arm near its bound turns the forearm 15° and more), the frame takes only part of it."""
-    def at(t):
-        return blend(generator, a, b, t)
-
-    lo, hi = 0.0, 1.0
-    for _ in range(halvings):
-        mid = 0.5 * (lo + hi)
-        if measure(a, at(mid)) <= bound:
-            lo = mid
-        else:
-            hi = mid
-    while lo > 1e-3:
-        pose = at(lo)
-        if generator.key_clear(pose) and generator.transition_problem(a, pose) is None:
-            return pose
-        lo *= 0.5
-    return None
-
-
-def wrist_travel(a: Pose, b: Pose) -> float:
-    """How far the wrist moves from ``a`` to ``b`` (figure units)."""
-    return math.dist(a.wrist.tolist(), b.wrist.tolist())
 
 
 def chase_step(generator: ConfigurationGenerator, previous: Pose, target, steps: int,

@@ -9,6 +9,9 @@ frames its tightest limit asks (:func:`span_cost`); a way costs the sum. The sea
 shortens a way in the wrist's length and the sampling planner in its joint metric, neither
 in this cost, where the limit that binds changes along the way (the hand turning in place
 at one end, the wrist travelling at the other).
+
+A frame of the pursuit that would go faster than a bound takes part of its way
+(:func:`part_way`, measured by the hand's turn or :func:`wrist_travel`).
 """
 
 from __future__ import annotations
@@ -146,3 +149,37 @@ def shortcut_for(gen: ConfigurationGenerator, poses: list, cost, tries: int = SH
         poses[i:j + 1] = line
         costs[i:j] = line_costs
     return poses
+
+
+def part_way(generator: ConfigurationGenerator, a: Pose, b: Pose, bound: float,
+             halvings: int = 10, measure=frame_turn) -> Pose | None:
+    """A pose part of the way from ``a`` to ``b`` whose hand turns at most ``bound`` degrees
+    from ``a``'s (roll included, :func:`~reach_addon.core.arm.frame_turn`; ``measure``:
+    another figure of the move from ``a``, such as :func:`wrist_travel`),
+    and that is clear as a key and as the keys from ``a`` interpolate
+    (:meth:`ConfigurationGenerator.key_clear`, ``transition_problem``): the angles of the
+    two poses, the wrist's two and the roll included, blended at the largest share found by
+    ``halvings`` bisections; None if no share is clear. A chase cannot slow down its frames:
+    where one step of its search turns the hand faster than the bound (a twist of the upper
+    arm near its bound turns the forearm 15° and more), the frame takes only part of it."""
+    def at(t):
+        return blend(generator, a, b, t)
+
+    lo, hi = 0.0, 1.0
+    for _ in range(halvings):
+        mid = 0.5 * (lo + hi)
+        if measure(a, at(mid)) <= bound:
+            lo = mid
+        else:
+            hi = mid
+    while lo > 1e-3:
+        pose = at(lo)
+        if generator.key_clear(pose) and generator.transition_problem(a, pose) is None:
+            return pose
+        lo *= 0.5
+    return None
+
+
+def wrist_travel(a: Pose, b: Pose) -> float:
+    """How far the wrist moves from ``a`` to ``b`` (figure units)."""
+    return math.dist(a.wrist.tolist(), b.wrist.tolist())

@@ -35,7 +35,7 @@ cause found for it, so the suite records it and says when it is fixed. There is 
 The last four were chases turning the hand 15.2–49° in a frame: a chase's frames are tied
 to the clock, and its step (``core.chase.chase_step``) bounded the turn only down to one
 search step while catching up, and not at all on the target; it now takes part of a step
-(``core.chase.part_way``) where one turns the hand faster than the bound.
+(``core.chase_timing.part_way``) where one turns the hand faster than the bound.
 
 Each rig is made once per module (imported, its clip stopped, saved to a .blend in a
 temporary folder) and the file opened again for each scene.
