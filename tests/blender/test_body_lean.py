@@ -17,7 +17,8 @@ Measured on what Blender evaluates, with code that shares nothing with the plann
   instants (signed distance to the box; the metarig has no skin);
 - the lean bone turns by the reported lean (±1°) by the reach's first frame, and the
   report gives the lean and the centre of mass's margin, never below 0 nor below the
-  rig's own as it stands (two synthetic rigs and the metarig stand past their feet).
+  rig's own as it stands (two synthetic rigs and the metarig stand past their feet), at
+  the full lean and over every frame of the bake (:data:`TIPS`: where it does not yet).
 
 Without *Lean* the same target is refused as ``needs_lean``, with a hint to turn it on.
 """
@@ -137,7 +138,20 @@ def bake(addon, rig_file, kind, ahead, lean):  # noqa: F811
     return (armature, info) + run(addon, armature, info, ahead, lean, True)
 
 
-@pytest.mark.parametrize("kind", KINDS)
+#: Rigs whose leaned reach ends past their feet, as measured (the balance is checked at the
+#: full lean with the arm at its start; the arm's own reach then carries the centre of
+#: mass farther): the next stage, the hips moving back, is to hold it.
+TIPS = {
+    "quaternius": "the centre of mass ends 0.0113 arm lengths past the feet at frame 59 "
+                  "(0.0126 inside at the full lean, the arm at its start)",
+    "alien": "the centre of mass ends 0.0039 arm lengths past the feet at frame 44 "
+             "(0.0127 inside at the full lean, the arm at its start)",
+}
+
+
+@pytest.mark.parametrize("kind", [
+    pytest.param(k, marks=[pytest.mark.xfail(strict=True, reason=TIPS[k])] if k in TIPS else [])
+    for k in KINDS])
 def test_a_target_past_the_arm_is_reached_by_leaning_the_trunk(addon, rig_file, kind):  # noqa: F811
     ahead = reach_edge(addon, rig_file, kind) + BEYOND
     armature, info, target, table, outcome = bake(addon, rig_file, kind, ahead, lean=True)
@@ -187,7 +201,12 @@ def test_a_target_past_the_arm_is_reached_by_leaning_the_trunk(addon, rig_file, 
     turn = np.degrees(np.arccos(np.clip((np.trace(r1 @ np.linalg.inv(r0)) - 1.0) / 2.0, -1, 1)))
     assert turn == pytest.approx(result.stats['lean_deg'], abs=1.0)
     stats = result.stats
+    print(f"MARGIN {kind}: at the full lean {stats['lean_com_margin']:.4f}, least over the "
+          f"bake {stats['com_margin_min']:.4f} (frame {stats['com_margin_min_frame']}), "
+          f"standing {stats['com_margin_start']:.4f}")
     assert stats["lean_com_margin"] >= min(0.0, stats["com_margin_start"]) - 1e-4, stats
+    # and over every frame of the bake, the arm's own reach included
+    assert stats["com_margin_min"] >= min(0.0, stats["com_margin_start"]) - 1e-4, stats
 
 
 def test_without_lean_the_same_target_is_refused_with_a_hint(addon, rig_file):  # noqa: F811
