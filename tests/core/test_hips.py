@@ -76,3 +76,24 @@ def test_lean_and_shift_reach_the_target_with_the_body_over_its_feet():
     assert balance_margin(com_of(theta), feet, UP) < 0.02
     assert lean_and_shift(shoulder, pivot, target, reach, 45.0, com_of, feet, UP, 0.15,
                           margin=0.02, most=0.99 * delta) is None
+
+
+def test_a_shifted_lean_carries_the_arm_and_moves_the_pelvis_by_the_shift_alone():
+    from geometry import standard_arm
+    from reach_addon.core.lean import Lean, leaned_arm
+
+    arm = standard_arm()
+    pivot = np.array([0.0, 0.0, float(arm.shoulder[2]) - 0.5 * arm.arm_length])
+    shift = np.array([-0.1, 0.02, -0.01]) * arm.arm_length
+    lean = Lean(pivot, np.array([0.0, 1.0, 0.0]), 20.0, shift)
+    upright = Lean(pivot, np.array([0.0, 1.0, 0.0]), 20.0)
+    moved, still = leaned_arm(arm, lean), leaned_arm(arm, upright)
+    w = np.asarray(arm.to_world, dtype=float)[:3, :3]
+    # the shoulder in the world: leaned as without the shift, then moved by it
+    assert np.allclose(moved.to_world_points(moved.shoulder),
+                       still.to_world_points(still.shoulder) + w @ shift)
+    for a, rest in zip(moved.body_capsules, arm.body_capsules):
+        if not a.turns_with_chest:       # the pelvis: where it was, moved by the shift only
+            assert np.allclose(moved.to_world_points(np.asarray(a.a)),
+                               arm.to_world_points(np.asarray(rest.a)) + w @ shift)
+    assert any(not c.turns_with_chest for c in arm.body_capsules)
