@@ -87,10 +87,13 @@ def _below(armature, leg, joint) -> str | None:
     return None
 
 
-def pose_shift(context, armature, legs, hips: str, shift_world, up) -> float:
+def pose_shift(context, armature, legs, hips: str, shift_world, up, forward) -> float:
     """Pose the hips moved by ``shift_world`` (and down as far as the legs need,
     :func:`~..core.hips.hips_drop`) with both feet where they are (see the module
-    docstring). Returns how far the hips came down (world units)."""
+    docstring). The knees bend the way they are bent where that is forward of the leg
+    (``forward``: the body's), else straight forward: a leg held straight has no bend of its
+    own to follow, and a knee bends only forward (the Knight, in a T-pose, bent its knees
+    backward until this). Returns how far the hips came down (world units)."""
     point = balance._point
     up = np.asarray(up, dtype=float)
     feet = [_below(armature, leg, leg.ankle) for leg in legs]
@@ -106,6 +109,9 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up) -> float:
         hip_now = point(armature, leg.hip)
         line = a - h
         pole = (k - h) - ((k - h) @ line) / float(line @ line) * line
+        ahead = np.asarray(forward, dtype=float)
+        if float(np.linalg.norm(pole)) < 0.05 * thigh or float(pole @ ahead) <= 0.0:
+            pole = ahead
         knee = two_bone_knee(hip_now, a, thigh, shank, pole)
         _turn(context, armature, leg.hip[0], hip_now,
               _least_rotation(point(armature, leg.knee) - hip_now, knee - hip_now))
@@ -120,3 +126,37 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up) -> float:
             armature.pose.bones[name].matrix = Matrix(foot.tolist())
             context.view_layer.update()
     return float(drop)
+
+
+#: The share of the body's mass the hips' shift leaves in place: both shanks and feet
+#: (:data:`~..core.balance.WINTER`: 2 × (0.0465 + 0.0145)).
+PLANTED_SHARE = 2 * (0.0465 + 0.0145)
+
+
+def leg_bones(armature, legs) -> list:
+    """The bones :func:`pose_shift` turns, parent before child: each leg's thigh, shank
+    and (where the shank carries it) foot."""
+    out = []
+    for leg in legs:
+        for name in (leg.hip[0], _below(armature, leg, leg.knee), _below(armature, leg, leg.ankle)):
+            if name is not None and name not in out:
+                out.append(name)
+    return out
+
+
+class Posed:
+    """A context manager that puts back the channel matrices of ``bones`` on exit."""
+
+    def __init__(self, context, armature, bones):
+        self.context, self.armature, self.bones = context, armature, list(bones)
+
+    def __enter__(self):
+        pbs = self.armature.pose.bones
+        self.kept = [(n, pbs[n].matrix_basis.copy()) for n in self.bones]
+        return self
+
+    def __exit__(self, *exc):
+        for n, m in self.kept:
+            self.armature.pose.bones[n].matrix_basis = m
+        self.context.view_layer.update()
+        return False

@@ -25,11 +25,15 @@ from dataclasses import dataclass
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from ..core import NEEDS_LEAN, Planner
+from ..core import balance as core_balance
+from ..core import hips as core_hips
 from ..core.lean import TrunkSkin
 from ..core.whole_body import LeanPhase, lean_then_reach
 from . import balance, skin
+from . import hips as hips_mod
 from . import bake as bake_mod
 from .bake import KeyedPlan
 from .bone_matrices import channel_values
@@ -85,6 +89,11 @@ def world_rotations(info, lean, fractions) -> np.ndarray:
     return np.array([m @ lean.matrix(f)[:3, :3] @ m.T for f in fractions])
 
 
+def shift_world(info, lean) -> np.ndarray:
+    """The hips' shift of ``lean`` (canonical) in the world."""
+    return np.asarray(info.arm.to_world, dtype=float)[:3, :3] @ np.asarray(lean.shift, float)
+
+
 def pose_lean(context, armature, bone: str, basis) -> None:
     """Set the lean bone's channel matrix to ``basis`` (4, 4) and evaluate."""
     from mathutils import Matrix
@@ -130,6 +139,9 @@ class RigLean:
     bases: np.ndarray
     frame_start: int
     margin: float
+    #: the hips bone and the legs it moves where the lean moves the hips back, else None
+    hips: str | None = None
+    legs: tuple = ()
 
 
 def plan(context, armature, info, planner, keyed):
@@ -156,12 +168,17 @@ def plan(context, armature, info, planner, keyed):
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
         check = BalanceCheck(context, armature, info, legs, bone)
+        body = None if check.hips is None else BalanceBody(
+            context, armature, info, legs, bone, check.hips, planner.settings, check.standing)
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
-                                              trunk_skin(armature, info, bone))
+                                              trunk_skin(armature, info, bone), body)
         if phase is not None:
             bases = lean_basis(armature, bone, world_rotations(info, phase.lean, phase.fractions))
             first = keyed.first_frame
-            return RigLean(phase, bone, bases, first, check.margins[-1]), KeyedPlan(
+            moved = bool(np.any(phase.lean.shift))
+            return RigLean(phase, bone, bases, first, check.margins[-1],
+                           check.hips if moved else None,
+                           tuple(legs) if moved else ()), KeyedPlan(
                 reach_or_why, first + phase.frames, (made[-1].generator.checker,), True)
         why = reach_or_why
     for seg in failed.segments:
@@ -225,22 +242,69 @@ class BalanceCheck:
             context, armature, info, legs, bone
         self.standing = balance.margin_now(armature, info.bones, legs,
                                            np.asarray(info.frame.up, float))
+        self.hips = hips_mod.hips_bone(armature, legs, bone)
         self.margins = []
 
     def __call__(self, lean):
         basis = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, [1.0]))[0]
-        margin = margin_leaned(self.context, self.armature, self.info, self.legs, self.bone,
-                               basis)
+        if not np.any(lean.shift):
+            margin = margin_leaned(self.context, self.armature, self.info, self.legs,
+                                   self.bone, basis)
+        else:
+            up = np.asarray(self.info.frame.up, float)
+            bones = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
+            with hips_mod.Posed(self.context, self.armature, bones):
+                pose_lean(self.context, self.armature, self.bone, basis)
+                hips_mod.pose_shift(self.context, self.armature, self.legs, self.hips,
+                                    shift_world(self.info, lean), up,
+                                    np.asarray(self.info.frame.forward, float))
+                margin = balance.margin_now(self.armature, self.info.bones, self.legs, up)
         self.margins.append(margin)
         if margin >= min(0.0, self.standing):
             return None
         length = self.info.arm.arm_length
         why = (f"leaning {lean.angle:.0f}° would carry the centre of mass "
-               f"{-margin / length:.3f} arm lengths past the feet, and Reach does not move "
-               "the hips back yet")
+               f"{-margin / length:.3f} arm lengths past the feet"
+               + ("" if np.any(lean.shift) else ", the hips not moved back"))
         if self.standing < 0.0:
             why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"
         return why
+
+
+class BalanceBody:
+    """The rig's balance for :func:`~..core.hips.shifted_lean` (world frame): the centre of
+    mass with the trunk leaned (the lean bone posed, measured, put back), the support
+    polygon and up as the rig stands, the planted share, the margin to keep
+    (``Settings.balance_margin`` arm lengths, from the rig's own where that is below 0),
+    and how far the hips come down for a shift."""
+
+    def __init__(self, context, armature, info, legs, lean_bone, hips, settings, standing):
+        self.context, self.armature, self.info, self.legs = context, armature, info, legs
+        self.lean_bone, self.hips = lean_bone, hips
+        self.up = np.asarray(info.frame.up, dtype=float)
+        self.polygon = balance.support_now(armature, legs, self.up)[0]
+        self.planted_share = hips_mod.PLANTED_SHARE
+        self.margin = min(0.0, standing) + settings.balance_margin * info.arm.arm_length
+
+    def com(self, lean) -> np.ndarray:
+        """The centre of mass (world) with the trunk leaned by ``lean`` (its turn only)."""
+        basis = lean_basis(self.armature, self.lean_bone,
+                           world_rotations(self.info, lean, [1.0]))[0]
+        with hips_mod.Posed(self.context, self.armature, [self.lean_bone]):
+            pose_lean(self.context, self.armature, self.lean_bone, basis)
+            return core_balance.centre_of_mass(
+                balance.body_segments(self.armature, self.info.bones, self.legs))
+
+    def drop(self, shift_world) -> float:
+        """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`)."""
+        point = balance._point
+        shift = np.asarray(shift_world, dtype=float)
+        out = 0.0
+        for leg in self.legs:
+            h, k, a = (point(self.armature, p) for p in (leg.hip, leg.knee, leg.ankle))
+            out = max(out, core_hips.hips_drop(h + shift, a, float(np.linalg.norm(k - h)),
+                                     float(np.linalg.norm(a - k)), self.up))
+        return out
 
 
 def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False):
@@ -253,7 +317,11 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
     first frame."""
     pb = armature.pose.bones[lean.bone]
     before = pb.matrix_basis.copy()
+    hips_keys = _hips_bases(context, armature, info, lean)
     pose_lean(context, armature, lean.bone, lean.bases[-1])
+    for name, bases in hips_keys.items():
+        armature.pose.bones[name].matrix_basis = Matrix(bases[-1].tolist())
+    context.view_layer.update()
     try:
         result = bake_mod.bake(context, armature, dataclasses.replace(info, arm=lean.phase.arm),
                                plans, new_action)
@@ -272,9 +340,46 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
     if last > reach_first and lean.bone not in result.bones:
         write_channel(channels, f'pose.bones["{lean.bone}"].{path}', values[[-1, -1]],
                       np.array([reach_first, last], float), lean.bone)
+    for name, bases in hips_keys.items():
+        _key_bone(channels, armature.pose.bones[name], bases, frames,
+                  [reach_first, last] if last > reach_first else [], name == lean.hips)
     context.view_layer.update()
     result.frames = (first, last)
     return result
+
+
+def _hips_bases(context, armature, info, lean: RigLean) -> dict:
+    """Where the lean moves the hips back: the channel matrices (F, 4, 4) of the hips bone
+    and the legs' bones (:func:`.hips.pose_shift`) on each frame of the lean, the shift
+    growing with the lean's fraction; the pose is put back after. {} otherwise."""
+    if lean.hips is None:
+        return {}
+    up = np.asarray(info.frame.up, float)
+    shift = shift_world(info, lean.phase.lean)
+    names = [lean.hips] + hips_mod.leg_bones(armature, list(lean.legs))
+    out: dict = {n: [] for n in names}
+    for basis, fraction in zip(lean.bases, lean.phase.fractions):
+        with hips_mod.Posed(context, armature, [lean.bone] + names):
+            pose_lean(context, armature, lean.bone, basis)
+            hips_mod.pose_shift(context, armature, list(lean.legs), lean.hips,
+                                float(fraction) * shift, up,
+                                np.asarray(info.frame.forward, float))
+            for n in names:
+                out[n].append(np.array(armature.pose.bones[n].matrix_basis))
+    return {n: np.array(v) for n, v in out.items()}
+
+
+def _key_bone(channels, pb, bases, frames, hold, location: bool) -> None:
+    """Key ``pb``'s rotation (and ``location``) from its channel matrices ``bases`` on
+    ``frames``, and hold the last on the frames ``hold`` (the reach's first and last)."""
+    path, values = channel_values(pb, bases)
+    keyed = [(f'pose.bones["{pb.name}"].{path}', values)]
+    if location:
+        keyed.append((f'pose.bones["{pb.name}"].location', np.array([b[:3, 3] for b in bases])))
+    for p, v in keyed:
+        write_channel(channels, p, v, frames, pb.name)
+        if hold:
+            write_channel(channels, p, v[[-1, -1]], np.array(hold, float), pb.name)
 
 
 def _channel_values_into(pb, channels, bases, frame):
@@ -317,7 +422,11 @@ def report(results, lean: RigLean | None, length: float) -> None:
         return
     for r in results:
         r.frame_start = lean.frame_start
+        back = float(np.linalg.norm(np.asarray(lean.phase.lean.shift, float)[:2])) / \
+            lean.phase.arm.arm_length
         r.stats.update(lean_deg=round(float(lean.phase.lean.angle), 2),
                        lean_frames=lean.phase.frames, lean_bone=lean.bone,
-                       lean_com_margin=round(lean.margin / length, 4))
-        r.message += f", leaning the trunk {lean.phase.lean.angle:.0f}° at the hips first"
+                       lean_com_margin=round(lean.margin / length, 4),
+                       lean_hips_back=round(back, 4))
+        r.message += f", leaning the trunk {lean.phase.lean.angle:.0f}° at the hips first" + (
+            f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")

@@ -36,8 +36,9 @@ import math
 
 import numpy as np
 
-from .balance import balance_margin
-from .lean import least_lean
+from .balance import balance_margin, ground_basis, polygon_of
+from .lean import UP, Lean, lean_axis, least_lean
+from .torso import rotate_about_spine
 
 #: The greatest hip-to-ankle distance the knees are solved for, as a share of thigh +
 #: shank: a leg kept just short of straight.
@@ -176,3 +177,48 @@ def two_bone_knee(hip, ankle, thigh: float, shank: float, pole) -> np.ndarray:
     v = v / n
     a = (l1 * l1 - l2 * l2 + d * d) / (2.0 * d)
     return hip + a * u + math.sqrt(max(0.0, l1 * l1 - a * a)) * v
+
+
+def shifted_lean(arm, target_c, pivot_c, settings, turns, body) -> Lean | None:
+    """The least lean with the hips moved back (:func:`lean_and_shift`) that brings
+    ``target_c`` within ``Settings.lean_reach`` of the shoulder with the centre of mass
+    ``body.margin`` inside the feet, the chest turned by one of ``turns`` (degrees); the
+    hips' shift (canonical) includes how far they come down (``body.drop``); None where
+    none up to ``Settings.lean_max`` and ``Settings.lean_hips_max`` does. Solved in the
+    arm's canonical frame (z up, where :func:`~.lean.least_lean` works).
+
+    ``body`` is the rig's (the Blender layer's, world frame): ``com(lean)`` the centre of
+    mass with the trunk leaned by a :class:`~.lean.Lean` (no shift), ``polygon`` the support
+    polygon (:func:`~.balance.ground_basis` coordinates of ``up``), ``up`` the body's up,
+    ``planted_share`` the share of the body's mass the shift leaves in place (shanks and
+    feet), ``margin`` (world units) and ``drop(shift_world)``."""
+    m = np.asarray(arm.to_world, dtype=float)
+    rot, inv = m[:3, :3], np.linalg.inv(m[:3, :3])
+    scale = abs(float(np.linalg.det(rot))) ** (1.0 / 3.0)
+
+    def canonical(p):
+        return inv @ (np.asarray(p, dtype=float) - m[:3, 3])
+
+    up_w = np.asarray(body.up, dtype=float)
+    corners = [canonical(ground_basis(up_w).T @ np.asarray(c, dtype=float))
+               for c in body.polygon]
+    polygon = polygon_of(corners, UP)
+    axis = lean_axis(pivot_c, target_c)
+    length = arm.arm_length
+    found = []
+    for turn in turns:
+        pair = lean_and_shift(
+            rotate_about_spine(arm.shoulder, float(turn)), pivot_c, target_c,
+            settings.lean_reach * length, settings.lean_max,
+            lambda theta: canonical(body.com(Lean(np.asarray(pivot_c, float), axis,
+                                                  float(theta)))),
+            polygon, UP, body.planted_share, body.margin / scale,
+            settings.lean_hips_max * length)
+        if pair is not None:
+            found.append(pair)
+    if not found:
+        return None
+    theta, delta = min(found)
+    shift = -delta * horizontal_toward(pivot_c, target_c, UP)
+    drop = body.drop(rot @ shift) / scale
+    return Lean(np.asarray(pivot_c, dtype=float), axis, float(theta), shift - drop * UP)

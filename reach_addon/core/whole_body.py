@@ -30,6 +30,7 @@ import numpy as np
 from .arm import ArmModel
 from .errors import NEEDS_LEAN
 from .hand_shape import with_shape
+from .hips import shifted_lean
 from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean_frames, lean_hit,
                    leaned_arm, skin_hit)
 from .torso import body_rotation_deg, rotate_about_spine
@@ -52,7 +53,7 @@ class LeanPhase:
 
 
 def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None,
-                    trunk: TrunkSkin | None = None):
+                    trunk: TrunkSkin | None = None, body=None):
     """Plan ``task`` (a reach) with a lean, where ``failed`` (``planner``'s plan of it)
     was refused as ``needs_lean``: returns (:class:`LeanPhase`, the reach's plan on the
     leaned trunk), or (None, why not: a sentence) where no lean is planned; (None, None)
@@ -61,7 +62,10 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     the same obstacles and settings; ``acceptable(lean)``: why a lean may not be taken
     (the Blender layer's balance), or None; ``trunk``: the trunk as skinned
     (:class:`~.lean.TrunkSkin`, canonical frame of ``planner.arm``), which the lean's
-    obstacle tests use instead of the chest's and head's capsules where given.
+    obstacle tests use instead of the chest's and head's capsules where given; ``body``:
+    the rig's balance (:func:`~.hips.shifted_lean`), with which a lean that
+    ``acceptable`` refuses is tried again with the hips moved back
+    (``Settings.lean_hips_back``).
 
     Recruitment, as the issue orders it: the chest turns as the paper's Table 1 has it at
     the target, and the lean takes the rest (:func:`~.lean.choose_lean`); where that lean
@@ -72,15 +76,19 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
         return None, None
     target_c = arm.to_canonical_points(np.asarray(task.targets[0], dtype=float))
     table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
-    leans = [choose_lean(arm, target_c, pivot_c, s, (table1,)),
-             choose_lean(arm, target_c, pivot_c, s, chest_turns(s))]
+    turns = [(table1,), chest_turns(s)]
+    leans = [choose_lean(arm, target_c, pivot_c, s, t) for t in turns]
     if leans[1] is None:
         return None, f"no lean up to {s.lean_max:.0f}° at the hips brings it within reach"
     if leans[0] is None or leans[0].angle <= leans[1].angle + 0.5:
-        leans = leans[1:]
+        leans, turns = leans[1:], turns[1:]
     whys = []
-    for lean in leans:
+    for lean, turn in zip(leans, turns):
         why = acceptable(lean) if acceptable is not None else None
+        if why is not None and body is not None and s.lean_hips_back:
+            shifted = shifted_lean(arm, target_c, pivot_c, s, turn, body)
+            if shifted is not None:
+                lean, why = shifted, acceptable(shifted)
         phase = None
         if why is None:
             phase, why = _lean_and_reach(planner, task, lean, make_planner, trunk)

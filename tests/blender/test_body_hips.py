@@ -5,7 +5,8 @@ Each rig's hips are posed 0.12 arm lengths back from the body's front (and down 
 its legs need). Measured on Blender's evaluated bones, by code that shares nothing with the
 posing: every bone whose head starts in the lowest 15 % of the figure's height moves less
 than 2 % of an arm length (the issue's planted feet); the hips bone's head moves by the
-shift asked (and the drop reported); the chest, carried by the hips, comes back with them.
+shift asked (and the drop reported); the chest, carried by the hips, comes back with them;
+each knee lies ahead of the line from its hip to its ankle (a knee bends only forward).
 """
 
 from __future__ import annotations
@@ -44,12 +45,18 @@ def test_the_hips_move_back_and_the_feet_stay(addon, rig_file, kind):  # noqa: F
     feet = [n for n, h in heights.items() if h <= low + 0.15 * (high - low)]
     assert feet
     shift = -SHIFT * length * forward
-    drop = hips_mod.pose_shift(bpy.context, armature, legs, hips, shift, up)
+    drop = hips_mod.pose_shift(bpy.context, armature, legs, hips, shift, up, forward)
     now = bone_heads(armature)
     moved = max(float(np.linalg.norm(now[n] - start[n])) for n in feet) / length
     assert moved < FEET_HOLD, f"{kind}: a foot bone moved {moved:.4f} arm lengths"
     expected = shift - drop * up
     assert np.linalg.norm(now[hips] - start[hips] - expected) < 1e-4 * length
+    # and the knees bend forward, ahead of the line from hip to ankle
+    for leg in legs:
+        h, k, a = (blender.balance._point(armature, p) for p in (leg.hip, leg.knee, leg.ankle))
+        line = (a - h) / np.linalg.norm(a - h)
+        off = (k - h) - ((k - h) @ line) * line
+        assert float(off @ forward) > 0.0, f"{kind}: a knee bends backward"
     chest = info.bones.keyed_chest
     assert np.linalg.norm(now[chest] - start[chest] - expected) < 1e-4 * length
     print(f"HIPS {kind}: hips '{hips}', drop {drop / length:.3f}, feet {moved:.5f}")
