@@ -216,3 +216,38 @@ def test_without_lean_the_same_target_is_refused_with_a_hint(addon, rig_file):  
     result = outcome.results[0]
     assert not result.success and result.reason == "needs_lean", result.message
     assert "turn on Lean" in result.message
+
+
+#: The issue's lean: a target this far ahead of the shoulder (arm lengths), :data:`BELOW`
+#: under it.
+FAR = 1.3
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_file, kind):  # noqa: F811
+    """Issue "Reach past the arm", *Lean*: a target :data:`FAR` arm lengths ahead is reached
+    by leaning, the hips moving back where the lean alone would tip the body; the feet stay
+    (every bone whose head starts in the lowest 15 % of the figure moves less than 2 % of
+    an arm length at every frame) and the centre of mass stays over them (the report's
+    least margin, read on the evaluated bones, is not below 0 nor below the rig's own)."""
+    armature = open_rig(rig_file, kind)
+    info = addon.blender.rig.build(armature, "right")
+    bpy.context.scene.frame_set(1)
+    start = bone_heads(armature)
+    _target, _table, outcome = run(addon, armature, info, FAR, True, True)
+    result = outcome.results[0]
+    assert result.success, result.message
+    length = info.arm.arm_length
+    heights = {n: float(p @ info.frame.up) for n, p in start.items()}
+    low, high = min(heights.values()), max(heights.values())
+    feet = [n for n, h in heights.items() if h <= low + 0.15 * (high - low)]
+    worst = 0.0
+    for f in range(result.frame_start, result.frame_end + 1):
+        bpy.context.scene.frame_set(f)
+        now = bone_heads(armature)
+        worst = max(worst, max(float(np.linalg.norm(now[n] - start[n])) for n in feet))
+    print(f"FAR {kind}: lean {result.stats.get('lean_deg')}°, hips back "
+          f"{result.stats.get('lean_hips_back')}, margin {result.stats['com_margin_min']:.4f}, "
+          f"feet {worst / length:.6f}")
+    assert worst / length < 0.02, f"{kind}: a foot moved {worst / length:.4f} arm lengths"
+    assert result.stats["com_margin_min"] >= min(0.0, result.stats["com_margin_start"]) - 1e-4
