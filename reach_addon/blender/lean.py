@@ -102,14 +102,44 @@ def pose_lean(context, armature, bone: str, basis) -> None:
     context.view_layer.update()
 
 
-def margin_leaned(context, armature, info, legs, bone, basis) -> float:
-    """The centre of mass's margin over the feet (world units, :func:`.balance.margin_now`)
-    with the trunk leaned by ``basis``; the pose is put back after."""
+def reaching_segments(armature, info, legs, target) -> list:
+    """The body's segments now (:func:`.balance.body_segments`) with the reaching arm held
+    straight from its shoulder toward ``target`` (world), the wrist at most on it: where
+    the arm will be when the reach ends, which a lean's balance must allow for (an arm
+    reaching forward carries the centre of mass about 0.03 arm lengths farther)."""
+    out = balance.body_segments(armature, info.bones, legs)
+    arms = list(info.bones.arms)
+    k = 3 * arms.index(info.side)
+    (_u, s, e), (_f, _e, w), (_h, _w, tip) = out[k:k + 3]
+    s = np.asarray(s, dtype=float)
+    upper, fore, hand = (float(np.linalg.norm(np.asarray(b) - np.asarray(a)))
+                         for a, b in ((s, e), (e, w), (w, tip)))
+    d = np.asarray(target, dtype=float) - s
+    u = d / max(float(np.linalg.norm(d)), 1e-12)
+    wrist = s + min(float(np.linalg.norm(d)), upper + fore) * u
+    elbow = s + upper / max(upper + fore, 1e-12) * (wrist - s)
+    out[k:k + 3] = [("upper_arm", s, elbow), ("forearm", elbow, wrist),
+                    ("hand", wrist, wrist + hand * u)]
+    return out
+
+
+def margin_reaching(armature, info, legs, target) -> float:
+    """The centre of mass's margin over the feet now (world units), the reaching arm at
+    ``target`` (:func:`reaching_segments`)."""
+    up = np.asarray(info.frame.up, float)
+    com = core_balance.centre_of_mass(reaching_segments(armature, info, legs, target))
+    return core_balance.balance_margin(com, balance.support_now(armature, legs, up)[0], up)
+
+
+def margin_leaned(context, armature, info, legs, bone, basis, target) -> float:
+    """The centre of mass's margin over the feet (world units, :func:`margin_reaching`,
+    the arm at ``target``) with the trunk leaned by ``basis``; the pose is put back
+    after."""
     pb = armature.pose.bones[bone]
     before = pb.matrix_basis.copy()
     try:
         pose_lean(context, armature, bone, basis)
-        return balance.margin_now(armature, info.bones, legs, np.asarray(info.frame.up, float))
+        return margin_reaching(armature, info, legs, target)
     finally:
         pb.matrix_basis = before
         context.view_layer.update()
@@ -167,9 +197,11 @@ def plan(context, armature, info, planner, keyed):
         why = f"bone '{bone}', which leans the trunk, has keys of its own"
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
-        check = BalanceCheck(context, armature, info, legs, bone)
+        target = np.asarray(task.targets[0], dtype=float)
+        check = BalanceCheck(context, armature, info, legs, bone, target)
         body = None if check.hips is None else BalanceBody(
-            context, armature, info, legs, bone, check.hips, planner.settings, check.standing)
+            context, armature, info, legs, bone, check.hips, planner.settings, check.standing,
+            target)
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
                                               trunk_skin(armature, info, bone), body)
         if phase is not None:
@@ -237,9 +269,10 @@ class BalanceCheck:
     its start (:func:`margin_leaned`), may not fall below 0 nor below the rig's own as it
     stands (see the module docstring). ``margins``: each lean's margin, in turn."""
 
-    def __init__(self, context, armature, info, legs, bone):
+    def __init__(self, context, armature, info, legs, bone, target):
         self.context, self.armature, self.info, self.legs, self.bone = \
             context, armature, info, legs, bone
+        self.target = np.asarray(target, dtype=float)
         self.standing = balance.margin_now(armature, info.bones, legs,
                                            np.asarray(info.frame.up, float))
         self.hips = hips_mod.hips_bone(armature, legs, bone)
@@ -249,7 +282,7 @@ class BalanceCheck:
         basis = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, [1.0]))[0]
         if not np.any(lean.shift):
             margin = margin_leaned(self.context, self.armature, self.info, self.legs,
-                                   self.bone, basis)
+                                   self.bone, basis, self.target)
         else:
             up = np.asarray(self.info.frame.up, float)
             bones = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
@@ -258,7 +291,7 @@ class BalanceCheck:
                 hips_mod.pose_shift(self.context, self.armature, self.legs, self.hips,
                                     shift_world(self.info, lean), up,
                                     np.asarray(self.info.frame.forward, float))
-                margin = balance.margin_now(self.armature, self.info.bones, self.legs, up)
+                margin = margin_reaching(self.armature, self.info, self.legs, self.target)
         self.margins.append(margin)
         if margin >= min(0.0, self.standing):
             return None
@@ -278,7 +311,9 @@ class BalanceBody:
     (``Settings.balance_margin`` arm lengths, from the rig's own where that is below 0),
     and how far the hips come down for a shift."""
 
-    def __init__(self, context, armature, info, legs, lean_bone, hips, settings, standing):
+    def __init__(self, context, armature, info, legs, lean_bone, hips, settings, standing,
+                 target):
+        self.target = np.asarray(target, dtype=float)
         self.context, self.armature, self.info, self.legs = context, armature, info, legs
         self.lean_bone, self.hips = lean_bone, hips
         self.up = np.asarray(info.frame.up, dtype=float)
@@ -293,7 +328,7 @@ class BalanceBody:
         with hips_mod.Posed(self.context, self.armature, [self.lean_bone]):
             pose_lean(self.context, self.armature, self.lean_bone, basis)
             return core_balance.centre_of_mass(
-                balance.body_segments(self.armature, self.info.bones, self.legs))
+                reaching_segments(self.armature, self.info, self.legs, self.target))
 
     def drop(self, shift_world) -> float:
         """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`)."""
