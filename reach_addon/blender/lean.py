@@ -102,44 +102,50 @@ def pose_lean(context, armature, bone: str, basis) -> None:
     context.view_layer.update()
 
 
-def reaching_segments(armature, info, legs, target) -> list:
-    """The body's segments now (:func:`.balance.body_segments`) with the reaching arm held
-    straight from its shoulder toward ``target`` (world), the wrist at most on it: where
-    the arm will be when the reach ends, which a lean's balance must allow for (an arm
-    reaching forward carries the centre of mass about 0.03 arm lengths farther)."""
+def reaching_segments(armature, info, legs, target=None, arm_world=None) -> list:
+    """The body's segments now (:func:`.balance.body_segments`), the reaching arm's
+    replaced: by its joints ``arm_world`` (the core's pose, world: shoulder, elbow, wrist,
+    hand's end) where given; else held straight from its shoulder toward ``target``
+    (world), the wrist at most on it (an estimate of where the arm ends, for the hips'
+    shift); else as it is."""
     out = balance.body_segments(armature, info.bones, legs)
-    arms = list(info.bones.arms)
-    k = 3 * arms.index(info.side)
-    (_u, s, e), (_f, _e, w), (_h, _w, tip) = out[k:k + 3]
-    s = np.asarray(s, dtype=float)
-    upper, fore, hand = (float(np.linalg.norm(np.asarray(b) - np.asarray(a)))
-                         for a, b in ((s, e), (e, w), (w, tip)))
-    d = np.asarray(target, dtype=float) - s
-    u = d / max(float(np.linalg.norm(d)), 1e-12)
-    wrist = s + min(float(np.linalg.norm(d)), upper + fore) * u
-    elbow = s + upper / max(upper + fore, 1e-12) * (wrist - s)
-    out[k:k + 3] = [("upper_arm", s, elbow), ("forearm", elbow, wrist),
-                    ("hand", wrist, wrist + hand * u)]
+    if target is None and arm_world is None:
+        return out
+    k = 3 * list(info.bones.arms).index(info.side)
+    if arm_world is not None:
+        s, e, w, tip = (np.asarray(p, dtype=float) for p in np.asarray(arm_world)[1:5])
+    else:
+        (_u, s, e), (_f, _e, w), (_h, _w, tip) = out[k:k + 3]
+        s = np.asarray(s, dtype=float)
+        upper, fore, hand = (float(np.linalg.norm(np.asarray(b) - np.asarray(a)))
+                             for a, b in ((s, e), (e, w), (w, tip)))
+        d = np.asarray(target, dtype=float) - s
+        u = d / max(float(np.linalg.norm(d)), 1e-12)
+        w = s + min(float(np.linalg.norm(d)), upper + fore) * u
+        e = s + upper / max(upper + fore, 1e-12) * (w - s)
+        tip = w + hand * u
+    out[k:k + 3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, tip)]
     return out
 
 
-def margin_reaching(armature, info, legs, target) -> float:
-    """The centre of mass's margin over the feet now (world units), the reaching arm at
-    ``target`` (:func:`reaching_segments`)."""
+def margin_reaching(armature, info, legs, target=None, arm_world=None) -> float:
+    """The centre of mass's margin over the feet now (world units), the reaching arm as
+    :func:`reaching_segments` places it."""
     up = np.asarray(info.frame.up, float)
-    com = core_balance.centre_of_mass(reaching_segments(armature, info, legs, target))
+    com = core_balance.centre_of_mass(reaching_segments(armature, info, legs, target,
+                                                        arm_world))
     return core_balance.balance_margin(com, balance.support_now(armature, legs, up)[0], up)
 
 
-def margin_leaned(context, armature, info, legs, bone, basis, target) -> float:
+def margin_leaned(context, armature, info, legs, bone, basis, arm_world=None) -> float:
     """The centre of mass's margin over the feet (world units, :func:`margin_reaching`,
-    the arm at ``target``) with the trunk leaned by ``basis``; the pose is put back
-    after."""
+    the arm at its joints ``arm_world`` where given) with the trunk leaned by ``basis``;
+    the pose is put back after."""
     pb = armature.pose.bones[bone]
     before = pb.matrix_basis.copy()
     try:
         pose_lean(context, armature, bone, basis)
-        return margin_reaching(armature, info, legs, target)
+        return margin_reaching(armature, info, legs, arm_world=arm_world)
     finally:
         pb.matrix_basis = before
         context.view_layer.update()
@@ -198,7 +204,7 @@ def plan(context, armature, info, planner, keyed):
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
         target = np.asarray(task.targets[0], dtype=float)
-        check = BalanceCheck(context, armature, info, legs, bone, target)
+        check = BalanceCheck(context, armature, info, legs, bone)
         body = None if check.hips is None else BalanceBody(
             context, armature, info, legs, bone, check.hips, planner.settings, check.standing,
             target)
@@ -269,20 +275,19 @@ class BalanceCheck:
     its start (:func:`margin_leaned`), may not fall below 0 nor below the rig's own as it
     stands (see the module docstring). ``margins``: each lean's margin, in turn."""
 
-    def __init__(self, context, armature, info, legs, bone, target):
+    def __init__(self, context, armature, info, legs, bone):
         self.context, self.armature, self.info, self.legs, self.bone = \
             context, armature, info, legs, bone
-        self.target = np.asarray(target, dtype=float)
         self.standing = balance.margin_now(armature, info.bones, legs,
                                            np.asarray(info.frame.up, float))
         self.hips = hips_mod.hips_bone(armature, legs, bone)
         self.margins = []
 
-    def __call__(self, lean):
+    def __call__(self, lean, arm_world=None):
         basis = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, [1.0]))[0]
         if not np.any(lean.shift):
             margin = margin_leaned(self.context, self.armature, self.info, self.legs,
-                                   self.bone, basis, self.target)
+                                   self.bone, basis, arm_world)
         else:
             up = np.asarray(self.info.frame.up, float)
             bones = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
@@ -291,13 +296,15 @@ class BalanceCheck:
                 hips_mod.pose_shift(self.context, self.armature, self.legs, self.hips,
                                     shift_world(self.info, lean), up,
                                     np.asarray(self.info.frame.forward, float))
-                margin = margin_reaching(self.armature, self.info, self.legs, self.target)
+                margin = margin_reaching(self.armature, self.info, self.legs,
+                                         arm_world=arm_world)
         self.margins.append(margin)
         if margin >= min(0.0, self.standing):
             return None
         length = self.info.arm.arm_length
         why = (f"leaning {lean.angle:.0f}° would carry the centre of mass "
-               f"{-margin / length:.3f} arm lengths past the feet"
+               + ("" if arm_world is None else "(the arm where the reach ends) ")
+               + f"{-margin / length:.3f} arm lengths past the feet"
                + ("" if np.any(lean.shift) else ", the hips not moved back"))
         if self.standing < 0.0:
             why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"

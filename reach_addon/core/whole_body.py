@@ -59,13 +59,14 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     leaned trunk), or (None, why not: a sentence) where no lean is planned; (None, None)
     where none was asked for. ``pivot_c``: the hips' pivot (canonical frame of
     ``planner.arm``); ``make_planner(arm)``: a :class:`~.planner.Planner` for an arm among
-    the same obstacles and settings; ``acceptable(lean)``: why a lean may not be taken
-    (the Blender layer's balance), or None; ``trunk``: the trunk as skinned
+    the same obstacles and settings; ``acceptable(lean, arm_world=None)``: why a lean may
+    not be taken (the Blender layer's balance, the arm at its start, or with its joints
+    at ``arm_world``: weighed again where the reach ends), or None; ``trunk``: the trunk as skinned
     (:class:`~.lean.TrunkSkin`, canonical frame of ``planner.arm``), which the lean's
     obstacle tests use instead of the chest's and head's capsules where given; ``body``:
     the rig's balance (:func:`~.hips.shifted_lean`), with which a lean that
-    ``acceptable`` refuses is tried again with the hips moved back
-    (``Settings.lean_hips_back``).
+    ``acceptable`` refuses, before or after its reach, is tried again with the hips moved
+    back (``Settings.lean_hips_back``).
 
     Recruitment, as the issue orders it: the chest turns as the paper's Table 1 has it at
     the target, and the lean takes the rest (:func:`~.lean.choose_lean`); where that lean
@@ -83,19 +84,35 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     if leans[0] is None or leans[0].angle <= leans[1].angle + 0.5:
         leans, turns = leans[1:], turns[1:]
     whys = []
+    shifting = body is not None and s.lean_hips_back
     for lean, turn in zip(leans, turns):
         why = acceptable(lean) if acceptable is not None else None
-        if why is not None and body is not None and s.lean_hips_back:
+        if why is None:
+            phase, why = _balanced_reach(planner, task, lean, make_planner, trunk, acceptable)
+            if phase is not None:
+                return phase, why
+        if shifting and why is not None:
             shifted = shifted_lean(arm, target_c, pivot_c, s, turn, body)
             if shifted is not None:
-                lean, why = shifted, acceptable(shifted)
-        phase = None
-        if why is None:
-            phase, why = _lean_and_reach(planner, task, lean, make_planner, trunk)
-        if phase is not None:
-            return phase, why
+                why = acceptable(shifted)
+                if why is None:
+                    phase, why = _balanced_reach(planner, task, shifted, make_planner, trunk,
+                                                 acceptable)
+                    if phase is not None:
+                        return phase, why
         whys.append(why)
     return None, "; ".join(whys)
+
+
+def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable):
+    """:func:`_lean_and_reach`, and the body weighed again with the arm where the reach
+    ends (``acceptable(lean, arm_world)``, the arm's joints in the world): (phase, the
+    reach's plan), or (None, why not)."""
+    phase, reach = _lean_and_reach(planner, task, lean, make_planner, trunk)
+    if phase is None or acceptable is None:
+        return phase, reach
+    why = acceptable(lean, phase.arm.to_world_points(np.asarray(reach.poses[-1].joints)))
+    return (phase, reach) if why is None else (None, why)
 
 
 def _lean_and_reach(planner, task, lean, make_planner, trunk=None):
