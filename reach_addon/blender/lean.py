@@ -102,53 +102,62 @@ def pose_lean(context, armature, bone: str, basis) -> None:
     context.view_layer.update()
 
 
-def reaching_segments(armature, info, legs, target=None, arm_world=None) -> list:
-    """The body's segments now (:func:`.balance.body_segments`), the reaching arm's
-    replaced: by its joints ``arm_world`` (the core's pose, world: shoulder, elbow, wrist,
-    hand's end) where given; else held straight from its shoulder toward ``target``
-    (world), the wrist at most on it (an estimate of where the arm ends, for the hips'
-    shift); else as it is."""
+def reaching_segments(armature, info, legs, target=None) -> list:
+    """The body's segments now (:func:`.balance.body_segments`), the reaching arm held
+    straight from its shoulder toward ``target`` (world), the wrist at most on it (an
+    estimate of where the arm ends, for the hips' shift); as it is without a target."""
     out = balance.body_segments(armature, info.bones, legs)
-    if target is None and arm_world is None:
+    if target is None:
         return out
     k = 3 * list(info.bones.arms).index(info.side)
-    if arm_world is not None:
-        s, e, w, tip = (np.asarray(p, dtype=float) for p in np.asarray(arm_world)[1:5])
-    else:
-        (_u, s, e), (_f, _e, w), (_h, _w, tip) = out[k:k + 3]
-        s = np.asarray(s, dtype=float)
-        upper, fore, hand = (float(np.linalg.norm(np.asarray(b) - np.asarray(a)))
-                             for a, b in ((s, e), (e, w), (w, tip)))
-        d = np.asarray(target, dtype=float) - s
-        u = d / max(float(np.linalg.norm(d)), 1e-12)
-        w = s + min(float(np.linalg.norm(d)), upper + fore) * u
-        e = s + upper / max(upper + fore, 1e-12) * (w - s)
-        tip = w + hand * u
+    (_u, s, e), (_f, _e, w), (_h, _w, tip) = out[k:k + 3]
+    s = np.asarray(s, dtype=float)
+    upper, fore, hand = (float(np.linalg.norm(np.asarray(b) - np.asarray(a)))
+                         for a, b in ((s, e), (e, w), (w, tip)))
+    d = np.asarray(target, dtype=float) - s
+    u = d / max(float(np.linalg.norm(d)), 1e-12)
+    w = s + min(float(np.linalg.norm(d)), upper + fore) * u
+    e = s + upper / max(upper + fore, 1e-12) * (w - s)
+    out[k:k + 3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, w + hand * u)]
+    return out
+
+
+def posed_segments(segments, info, joints, turned=None) -> list:
+    """``segments`` (:func:`.balance.body_segments`) with the reaching arm's at the core's
+    ``joints`` (world: sternum, shoulder, elbow, wrist, hand's end), and the other arms'
+    and the head's points mapped by ``turned`` (world points → where the chest's turn takes
+    them) where given."""
+    out = list(segments)
+    k = 3 * list(info.bones.arms).index(info.side)
+    if turned is not None:
+        carried = [i for i in range(3 * len(info.bones.arms)) if not k <= i < k + 3]
+        carried += [i for i, seg in enumerate(out) if seg[0] == "head_neck"]
+        for i in carried:
+            kind, a, b = out[i]
+            a, b = turned(np.array([a, b], dtype=float))
+            out[i] = (kind, a, b)
+    s, e, w, tip = (np.asarray(p, dtype=float) for p in np.asarray(joints)[1:5])
     out[k:k + 3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, tip)]
     return out
 
 
-def margin_reaching(armature, info, legs, target=None, arm_world=None) -> float:
-    """The centre of mass's margin over the feet now (world units), the reaching arm as
-    :func:`reaching_segments` places it."""
+def margin_reaching(armature, info, legs, arm_world=None, turned=None) -> tuple:
+    """(the centre of mass's least margin over the feet now, world units; the pose it is
+    least on; the centre of mass there, world): the arm as it is (pose None) where
+    ``arm_world`` is None, else on each of its poses (P, 5, 3), the chest turned by
+    ``turned(points, k)`` (:func:`posed_segments`)."""
     up = np.asarray(info.frame.up, float)
-    com = core_balance.centre_of_mass(reaching_segments(armature, info, legs, target,
-                                                        arm_world))
-    return core_balance.balance_margin(com, balance.support_now(armature, legs, up)[0], up)
-
-
-def margin_leaned(context, armature, info, legs, bone, basis, arm_world=None) -> float:
-    """The centre of mass's margin over the feet (world units, :func:`margin_reaching`,
-    the arm at its joints ``arm_world`` where given) with the trunk leaned by ``basis``;
-    the pose is put back after."""
-    pb = armature.pose.bones[bone]
-    before = pb.matrix_basis.copy()
-    try:
-        pose_lean(context, armature, bone, basis)
-        return margin_reaching(armature, info, legs, arm_world=arm_world)
-    finally:
-        pb.matrix_basis = before
-        context.view_layer.update()
+    polygon = balance.support_now(armature, legs, up)[0]
+    segments = balance.body_segments(armature, info.bones, legs)
+    if arm_world is None:
+        com = core_balance.centre_of_mass(segments)
+        return core_balance.balance_margin(com, polygon, up), None, com
+    coms = [core_balance.centre_of_mass(posed_segments(
+        segments, info, joints, None if turned is None else lambda p, k=k: turned(p, k)))
+        for k, joints in enumerate(np.asarray(arm_world, dtype=float))]
+    margins = [core_balance.balance_margin(c, polygon, up) for c in coms]
+    k = int(np.argmin(margins))
+    return float(margins[k]), k, coms[k]
 
 
 def animated(armature, bone: str) -> bool:
@@ -204,10 +213,9 @@ def plan(context, armature, info, planner, keyed):
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
         target = np.asarray(task.targets[0], dtype=float)
-        check = BalanceCheck(context, armature, info, legs, bone)
+        check = BalanceCheck(context, armature, info, legs, bone, target)
         body = None if check.hips is None else BalanceBody(
-            context, armature, info, legs, bone, check.hips, planner.settings, check.standing,
-            target)
+            context, armature, info, legs, bone, check.hips, planner.settings, check)
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
                                               trunk_skin(armature, info, bone), body)
         if phase is not None:
@@ -270,42 +278,55 @@ def trunk_skin(armature, info, bone) -> TrunkSkin | None:
 
 
 class BalanceCheck:
-    """``check(lean)``: why a lean (:class:`~..core.lean.Lean`) may not be taken, or None:
-    the centre of mass's margin over the feet with the trunk at the full lean, the arm at
-    its start (:func:`margin_leaned`), may not fall below 0 nor below the rig's own as it
-    stands (see the module docstring). ``margins``: each lean's margin, in turn."""
+    """``check(lean, arm_world=None, turned=None)``: why a lean (:class:`~..core.lean.
+    Lean`) may not be taken, or None: the centre of mass's margin over the feet with the
+    trunk at the full lean (the hips moved back by the lean's shift) may not fall below 0
+    nor below the rig's own as it stands (see the module docstring): the arm at its start,
+    or on each pose of the reach planned after the lean (``arm_world``, ``turned``:
+    :func:`margin_reaching`). ``margins``: each lean's margin, in turn.
 
-    def __init__(self, context, armature, info, legs, bone):
+    ``correction``: where the reach after a lean (its hips not moved) was weighed, its
+    least-balanced pose's centre of mass less :class:`BalanceBody`'s estimate for the same
+    lean (the arm straight toward ``target``, the chest unturned): the estimate's error,
+    which :class:`BalanceBody` adds, so the hips move back by what the planned arm needs
+    (on the Quaternius alien the estimate put the centre of mass 0.04 arm lengths too far
+    forward: its chest turns 55° and brings the other arm back)."""
+
+    def __init__(self, context, armature, info, legs, bone, target=None):
         self.context, self.armature, self.info, self.legs, self.bone = \
             context, armature, info, legs, bone
+        self.target = None if target is None else np.asarray(target, dtype=float)
         self.standing = balance.margin_now(armature, info.bones, legs,
                                            np.asarray(info.frame.up, float))
         self.hips = hips_mod.hips_bone(armature, legs, bone)
         self.margins = []
+        self.correction = None
 
-    def __call__(self, lean, arm_world=None):
+    def __call__(self, lean, arm_world=None, turned=None):
         basis = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, [1.0]))[0]
-        if not np.any(lean.shift):
-            margin = margin_leaned(self.context, self.armature, self.info, self.legs,
-                                   self.bone, basis, arm_world)
-        else:
-            up = np.asarray(self.info.frame.up, float)
-            bones = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
-            with hips_mod.Posed(self.context, self.armature, bones):
-                pose_lean(self.context, self.armature, self.bone, basis)
+        up = np.asarray(self.info.frame.up, float)
+        moved = bool(np.any(lean.shift))
+        bones = [self.bone] + ([self.hips] + hips_mod.leg_bones(self.armature, self.legs)
+                               if moved else [])
+        with hips_mod.Posed(self.context, self.armature, bones):
+            pose_lean(self.context, self.armature, self.bone, basis)
+            if moved:
                 hips_mod.pose_shift(self.context, self.armature, self.legs, self.hips,
                                     shift_world(self.info, lean), up,
                                     np.asarray(self.info.frame.forward, float))
-                margin = margin_reaching(self.armature, self.info, self.legs,
-                                         arm_world=arm_world)
+            margin, pose, com = margin_reaching(self.armature, self.info, self.legs,
+                                                arm_world, turned)
+            if pose is not None and not moved and self.target is not None:
+                self.correction = com - core_balance.centre_of_mass(
+                    reaching_segments(self.armature, self.info, self.legs, self.target))
         self.margins.append(margin)
         if margin >= min(0.0, self.standing):
             return None
         length = self.info.arm.arm_length
         why = (f"leaning {lean.angle:.0f}° would carry the centre of mass "
-               + ("" if arm_world is None else "(the arm where the reach ends) ")
+               + ("" if pose is None else f"(the arm on the reach's frame {pose}) ")
                + f"{-margin / length:.3f} arm lengths past the feet"
-               + ("" if np.any(lean.shift) else ", the hips not moved back"))
+               + ("" if moved else ", the hips not moved back"))
         if self.standing < 0.0:
             why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"
         return why
@@ -313,20 +334,22 @@ class BalanceCheck:
 
 class BalanceBody:
     """The rig's balance for :func:`~..core.hips.shifted_lean` (world frame): the centre of
-    mass with the trunk leaned (the lean bone posed, measured, put back), the support
-    polygon and up as the rig stands, the planted share, the margin to keep
-    (``Settings.balance_margin`` arm lengths, from the rig's own where that is below 0),
-    and how far the hips come down for a shift."""
+    mass with the trunk leaned (the lean bone posed, measured, put back; the arm straight
+    toward the target, corrected by the ``check``'s :attr:`BalanceCheck.correction` where
+    it has one), the support polygon and up as the rig stands, the planted share, the
+    margin to keep (``Settings.balance_margin`` arm lengths over the ``floor``: 0, or the
+    rig's own where that is below 0), and how far the hips come down for a shift."""
 
-    def __init__(self, context, armature, info, legs, lean_bone, hips, settings, standing,
-                 target):
-        self.target = np.asarray(target, dtype=float)
+    def __init__(self, context, armature, info, legs, lean_bone, hips, settings,
+                 check: BalanceCheck):
+        self.target, self.check = check.target, check
         self.context, self.armature, self.info, self.legs = context, armature, info, legs
         self.lean_bone, self.hips = lean_bone, hips
         self.up = np.asarray(info.frame.up, dtype=float)
         self.polygon = balance.support_now(armature, legs, self.up)[0]
         self.planted_share = hips_mod.PLANTED_SHARE
-        self.margin = min(0.0, standing) + settings.balance_margin * info.arm.arm_length
+        self.floor = min(0.0, check.standing)
+        self.margin = self.floor + settings.balance_margin * info.arm.arm_length
 
     def com(self, lean) -> np.ndarray:
         """The centre of mass (world) with the trunk leaned by ``lean`` (its turn only)."""
@@ -334,8 +357,9 @@ class BalanceBody:
                            world_rotations(self.info, lean, [1.0]))[0]
         with hips_mod.Posed(self.context, self.armature, [self.lean_bone]):
             pose_lean(self.context, self.armature, self.lean_bone, basis)
-            return core_balance.centre_of_mass(
+            com = core_balance.centre_of_mass(
                 reaching_segments(self.armature, self.info, self.legs, self.target))
+        return com if self.check.correction is None else com + self.check.correction
 
     def drop(self, shift_world) -> float:
         """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`)."""
@@ -457,9 +481,10 @@ def _hold(channels, bones, lean_bone, frame_from, frame_to) -> None:
 
 def report(results, lean: RigLean | None, length: float) -> None:
     """Put the lean into the reach's result (:class:`.results.TaskResult`), in place: its
-    ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone`` and ``lean_com_margin``
-    (arm lengths, at the full lean, the arm at its start), its message says so, and its
-    frames start with the lean's."""
+    ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone``, ``lean_hips_back`` (arm
+    lengths) and ``lean_com_margin`` (arm lengths: the least :class:`BalanceCheck` weighed
+    for the lean taken, over the reach's poses), its message says so, and its frames start
+    with the lean's."""
     if lean is None:
         return
     for r in results:

@@ -179,7 +179,8 @@ def two_bone_knee(hip, ankle, thigh: float, shank: float, pole) -> np.ndarray:
     return hip + a * u + math.sqrt(max(0.0, l1 * l1 - a * a)) * v
 
 
-def shifted_lean(arm, target_c, pivot_c, settings, turns, body) -> Lean | None:
+def shifted_lean(arm, target_c, pivot_c, settings, turns, body, share: float = 1.0
+                 ) -> Lean | None:
     """The least lean with the hips moved back (:func:`lean_and_shift`) that brings
     ``target_c`` within ``Settings.lean_reach`` of the shoulder with the centre of mass
     ``body.margin`` inside the feet, the chest turned by one of ``turns`` (degrees); the
@@ -191,7 +192,10 @@ def shifted_lean(arm, target_c, pivot_c, settings, turns, body) -> Lean | None:
     mass with the trunk leaned by a :class:`~.lean.Lean` (no shift), ``polygon`` the support
     polygon (:func:`~.balance.ground_basis` coordinates of ``up``), ``up`` the body's up,
     ``planted_share`` the share of the body's mass the shift leaves in place (shanks and
-    feet), ``margin`` (world units) and ``drop(shift_world)``."""
+    feet), ``margin`` (world units), ``floor`` (the least margin the lean may keep, world
+    units, ≤ ``margin``) and ``drop(shift_world)``. ``share``: how much of the way from
+    ``floor`` to ``margin`` the centre of mass is kept (1: the whole margin; less, a
+    smaller shift and a smaller lean)."""
     m = np.asarray(arm.to_world, dtype=float)
     rot, inv = m[:3, :3], np.linalg.inv(m[:3, :3])
     scale = abs(float(np.linalg.det(rot))) ** (1.0 / 3.0)
@@ -212,7 +216,8 @@ def shifted_lean(arm, target_c, pivot_c, settings, turns, body) -> Lean | None:
             settings.lean_reach * length, settings.lean_max,
             lambda theta: canonical(body.com(Lean(np.asarray(pivot_c, float), axis,
                                                   float(theta)))),
-            polygon, UP, body.planted_share, body.margin / scale,
+            polygon, UP, body.planted_share,
+            (body.floor + float(share) * (body.margin - body.floor)) / scale,
             settings.lean_hips_max * length)
         if pair is not None:
             found.append(pair)

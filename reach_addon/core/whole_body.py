@@ -36,6 +36,15 @@ from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean
 from .torso import body_rotation_deg, rotate_about_spine
 
 
+#: The shares of ``Settings.balance_margin`` a lean with the hips back keeps, tried in
+#: turn (:func:`~.hips.shifted_lean`): the whole margin first; where that lean is refused
+#: (its trunk touching, its arm finding no way), a quarter of it: a smaller shift, so a
+#: smaller lean, still over the feet. On the
+#: Quaternius alien over the stage-1 table the whole margin asked a 3.8° lean whose belly,
+#: turning with the chest, touched the table; a quarter asks 2.6°, which clears it.
+SHIFT_SHARES = (1.0, 0.25)
+
+
 @dataclass(frozen=True)
 class LeanPhase:
     """A planned lean: the ``lean``, its ``fractions`` (one a frame, 0 on the first, 1 on
@@ -59,10 +68,11 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     leaned trunk), or (None, why not: a sentence) where no lean is planned; (None, None)
     where none was asked for. ``pivot_c``: the hips' pivot (canonical frame of
     ``planner.arm``); ``make_planner(arm)``: a :class:`~.planner.Planner` for an arm among
-    the same obstacles and settings; ``acceptable(lean, arm_world=None)``: why a lean may
-    not be taken (the Blender layer's balance, the arm at its start, or with its joints
-    at ``arm_world``: weighed again where the reach ends), or None; ``trunk``: the trunk as skinned
-    (:class:`~.lean.TrunkSkin`, canonical frame of ``planner.arm``), which the lean's
+    the same obstacles and settings; ``acceptable(lean, arm_world=None, turned=None)``:
+    why a lean may not be taken (the Blender layer's balance, the arm at its start, or
+    with its joints on each pose of the reach at ``arm_world`` and the chest turned by
+    ``turned``: weighed again as the arm reaches, :func:`_balanced_reach`), or None; ``trunk``: the trunk as
+    skinned (:class:`~.lean.TrunkSkin`, canonical frame of ``planner.arm``), which the lean's
     obstacle tests use instead of the chest's and head's capsules where given; ``body``:
     the rig's balance (:func:`~.hips.shifted_lean`), with which a lean that
     ``acceptable`` refuses, before or after its reach, is tried again with the hips moved
@@ -91,27 +101,38 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
             phase, why = _balanced_reach(planner, task, lean, make_planner, trunk, acceptable)
             if phase is not None:
                 return phase, why
-        if shifting and why is not None:
-            shifted = shifted_lean(arm, target_c, pivot_c, s, turn, body)
-            if shifted is not None:
-                why = acceptable(shifted)
-                if why is None:
-                    phase, why = _balanced_reach(planner, task, shifted, make_planner, trunk,
-                                                 acceptable)
-                    if phase is not None:
-                        return phase, why
+        for share in (SHIFT_SHARES if shifting and why is not None else ()):
+            shifted = shifted_lean(arm, target_c, pivot_c, s, turn, body, share)
+            if shifted is None:
+                break
+            why = acceptable(shifted)
+            if why is None:
+                phase, why = _balanced_reach(planner, task, shifted, make_planner, trunk,
+                                             acceptable)
+                if phase is not None:
+                    return phase, why
         whys.append(why)
     return None, "; ".join(whys)
 
 
 def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable):
-    """:func:`_lean_and_reach`, and the body weighed again with the arm where the reach
-    ends (``acceptable(lean, arm_world)``, the arm's joints in the world): (phase, the
-    reach's plan), or (None, why not)."""
+    """:func:`_lean_and_reach`, and the body weighed again on every pose of the reach
+    (``acceptable(lean, arm_world, turned)``: the arm's joints in the world, (P, 5, 3),
+    and ``turned(points, k)``, world points the chest carries where its turn on pose k
+    takes them, so the other arm and the head turn back as the reaching shoulder comes
+    forward): (phase, the reach's plan), or (None, why not)."""
     phase, reach = _lean_and_reach(planner, task, lean, make_planner, trunk)
     if phase is None or acceptable is None:
         return phase, reach
-    why = acceptable(lean, phase.arm.to_world_points(np.asarray(reach.poses[-1].joints)))
+    arm = phase.arm
+    turns = [p.config.body_rotation - reach.poses[0].config.body_rotation for p in reach.poses]
+
+    def turned(points, k):
+        return arm.to_world_points(rotate_about_spine(arm.to_canonical_points(points),
+                                                      turns[k]))
+
+    joints = arm.to_world_points(np.array([p.joints for p in reach.poses], dtype=float))
+    why = acceptable(lean, joints, turned)
     return (phase, reach) if why is None else (None, why)
 
 

@@ -17,8 +17,8 @@ Measured on what Blender evaluates, with code that shares nothing with the plann
   instants (signed distance to the box; the metarig has no skin);
 - the lean bone turns by the reported lean (±1°) by the reach's first frame, and the
   report gives the lean and the centre of mass's margin, never below 0 nor below the
-  rig's own as it stands (two synthetic rigs and the metarig stand past their feet), at
-  the full lean and over every frame of the bake (:data:`TIPS`: where it does not yet).
+  rig's own as it stands (two synthetic rigs and the metarig stand past their feet), as
+  the planner weighed it and over every frame of the bake.
 
 Without *Lean* the same target is refused as ``needs_lean``, with a hint to turn it on.
 """
@@ -138,20 +138,7 @@ def bake(addon, rig_file, kind, ahead, lean):  # noqa: F811
     return (armature, info) + run(addon, armature, info, ahead, lean, True)
 
 
-#: Rigs whose leaned reach ends past their feet, as measured (the balance is checked at the
-#: full lean with the arm at its start; the arm's own reach then carries the centre of
-#: mass farther): the next stage, the hips moving back, is to hold it.
-TIPS = {
-    "quaternius": "the centre of mass ends 0.0113 arm lengths past the feet at frame 59 "
-                  "(0.0126 inside at the full lean, the arm at its start)",
-    "alien": "the centre of mass ends 0.0039 arm lengths past the feet at frame 44 "
-             "(0.0127 inside at the full lean, the arm at its start)",
-}
-
-
-@pytest.mark.parametrize("kind", [
-    pytest.param(k, marks=[pytest.mark.xfail(strict=True, reason=TIPS[k])] if k in TIPS else [])
-    for k in KINDS])
+@pytest.mark.parametrize("kind", KINDS)
 def test_a_target_past_the_arm_is_reached_by_leaning_the_trunk(addon, rig_file, kind):  # noqa: F811
     ahead = reach_edge(addon, rig_file, kind) + BEYOND
     armature, info, target, table, outcome = bake(addon, rig_file, kind, ahead, lean=True)
