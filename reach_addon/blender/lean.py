@@ -160,15 +160,24 @@ def margin_reaching(armature, info, legs, arm_world=None, turned=None) -> tuple:
     return float(margins[k]), k, coms[k]
 
 
-def animated(armature, bone: str) -> bool:
-    """Does the armature's action key the lean bone's rotation (a lean would overwrite it)?"""
+def animated(armature, bone: str, channel: str = "rotation") -> bool:
+    """Does the armature's action key ``bone``'s ``channel`` (``rotation``, ``location``:
+    the lean would overwrite it)?"""
     ad = armature.animation_data
     action = ad.action if ad else None
     if action is None:
         return False
-    prefix = f'pose.bones["{bone}"].rotation'
+    prefix = f'pose.bones["{bone}"].{channel}'
     bag = Channels(armature, action).bag
     return any(fc.data_path.startswith(prefix) for fc in bag.fcurves)
+
+
+def hips_keyed(armature, hips: str, legs) -> str | None:
+    """The first bone the hips' shift would key that has keys of its own (the hips bone's
+    location, a leg bone's rotation), or None."""
+    if animated(armature, hips, "location"):
+        return hips
+    return next((n for n in hips_mod.leg_bones(armature, legs) if animated(armature, n)), None)
 
 
 @dataclass
@@ -214,7 +223,8 @@ def plan(context, armature, info, planner, keyed):
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
         target = np.asarray(task.targets[0], dtype=float)
         check = BalanceCheck(context, armature, info, legs, bone, target)
-        body = None if check.hips is None else BalanceBody(
+        keyed_own = None if check.hips is None else hips_keyed(armature, check.hips, legs)
+        body = None if check.hips is None or keyed_own else BalanceBody(
             context, armature, info, legs, bone, check.hips, planner.settings, check)
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
                                               trunk_skin(armature, info, bone), body)
@@ -227,6 +237,8 @@ def plan(context, armature, info, planner, keyed):
                            tuple(legs) if moved else ()), KeyedPlan(
                 reach_or_why, first + phase.frames, (made[-1].generator.checker,), True)
         why = reach_or_why
+        if keyed_own and planner.settings.lean_hips_back:
+            why += f" (the hips stay: bone '{keyed_own}' has keys of its own)"
     for seg in failed.segments:
         if seg.reason == NEEDS_LEAN:
             seg.message += f"; with Lean on: {why}"

@@ -14,10 +14,14 @@ trunk again on every pose of the reach, as the chest turns (:func:`body_hit`): t
 as skinned where the rig gives it (:class:`~.lean.TrunkSkin`), else the chest's and head's
 capsules.
 
+Where the Blender layer's balance refuses a lean (the centre of mass past the feet, with
+the arm at its start or on any pose of the reach) the hips move back
+(:func:`~.hips.shifted_lean`, stage 3), the lean growing as the shoulder comes back with
+them.
+
 What this stage leaves to later ones, and refuses meanwhile: the lean is not phased with
-the reach (lean first, then reach, as a person does where a blend would touch); the hips
-do not move back, so the Blender layer refuses a lean whose centre of mass leaves the
-feet; only a single reach leans (a sequence, a guided reach and a chase still refuse as
+the reach (lean first, then reach, as a person does where a blend would touch); only a
+single reach leans (a sequence, a guided reach and a chase still refuse as
 ``needs_lean``); and a start in contact does not lean.
 """
 

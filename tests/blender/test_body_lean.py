@@ -25,6 +25,8 @@ Without *Lean* the same target is refused as ``needs_lean``, with a hint to turn
 
 from __future__ import annotations
 
+import importlib
+
 import bpy
 import everyday
 import numpy as np
@@ -238,3 +240,41 @@ def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_fil
           f"feet {worst / length:.6f}")
     assert worst / length < 0.02, f"{kind}: a foot moved {worst / length:.4f} arm lengths"
     assert result.stats["com_margin_min"] >= min(0.0, result.stats["com_margin_start"]) - 1e-4
+
+
+def test_hips_with_keys_of_their_own_stay_where_the_user_keyed_them(addon, rig_file):  # noqa: F811
+    """Nothing lost: where the hips bone's location is keyed by the user, the lean does not
+    move the hips back (it would overwrite those keys). Quaternius' 1.3-arm-length lean,
+    which moves its hips 0.14 arm lengths back when they are free, is planned without them
+    (a smaller lean with the chest turned farther) and the user's keys are as they were."""
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
+    lean_mod = importlib.import_module(addon.__name__ + ".blender.lean")
+    hips_mod = importlib.import_module(addon.__name__ + ".blender.hips")
+    hips = hips_mod.hips_bone(armature, legs, lean_mod.lean_bone(armature, info.bones, legs))
+    pb = armature.pose.bones[hips]
+    pb.keyframe_insert("location", frame=1)
+    pb.keyframe_insert("location", frame=40)         # held: the body does not move
+
+    def keys():
+        """The hips' location keys, read on Blender's own F-curves."""
+        ad = armature.animation_data
+        if hasattr(ad.action, "layers") and ad.action.layers:     # a layered action (4.4+)
+            bag = ad.action.layers[0].strips[0].channelbag(ad.action_slot)
+            curves = bag.fcurves
+        else:
+            curves = ad.action.fcurves
+        return sorted((fc.data_path, fc.array_index, [tuple(k.co) for k in fc.keyframe_points])
+                      for fc in curves if fc.data_path == f'pose.bones["{hips}"].location')
+
+    before = keys()
+    assert len(before) == 3
+    _target, _table, outcome = run(addon, armature, info, FAR, True, True)
+    result = outcome.results[0]
+    assert keys() == before
+    if result.success:
+        assert not result.stats.get("lean_hips_back"), result.stats
+        assert result.stats["com_margin_min"] >= 0.0, result.stats
+    else:
+        assert f"bone '{hips}' has keys of its own" in result.message, result.message
