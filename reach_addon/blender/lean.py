@@ -25,11 +25,15 @@ from dataclasses import dataclass
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from ..core import NEEDS_LEAN, Planner
+from ..core import balance as core_balance
+from ..core import hips as core_hips
 from ..core.lean import TrunkSkin
 from ..core.whole_body import LeanPhase, lean_then_reach
 from . import balance, skin
+from . import hips as hips_mod
 from . import bake as bake_mod
 from .bake import KeyedPlan
 from .bone_matrices import channel_values
@@ -85,6 +89,11 @@ def world_rotations(info, lean, fractions) -> np.ndarray:
     return np.array([m @ lean.matrix(f)[:3, :3] @ m.T for f in fractions])
 
 
+def shift_world(info, lean) -> np.ndarray:
+    """The hips' shift of ``lean`` (canonical) in the world."""
+    return np.asarray(info.arm.to_world, dtype=float)[:3, :3] @ np.asarray(lean.shift, float)
+
+
 def pose_lean(context, armature, bone: str, basis) -> None:
     """Set the lean bone's channel matrix to ``basis`` (4, 4) and evaluate."""
     from mathutils import Matrix
@@ -93,28 +102,82 @@ def pose_lean(context, armature, bone: str, basis) -> None:
     context.view_layer.update()
 
 
-def margin_leaned(context, armature, info, legs, bone, basis) -> float:
-    """The centre of mass's margin over the feet (world units, :func:`.balance.margin_now`)
-    with the trunk leaned by ``basis``; the pose is put back after."""
-    pb = armature.pose.bones[bone]
-    before = pb.matrix_basis.copy()
-    try:
-        pose_lean(context, armature, bone, basis)
-        return balance.margin_now(armature, info.bones, legs, np.asarray(info.frame.up, float))
-    finally:
-        pb.matrix_basis = before
-        context.view_layer.update()
+def reaching_segments(armature, info, legs, target=None) -> list:
+    """The body's segments now (:func:`.balance.body_segments`), the reaching arm held
+    straight from its shoulder toward ``target`` (world), the wrist at most on it (an
+    estimate of where the arm ends, for the hips' shift); as it is without a target."""
+    out = balance.body_segments(armature, info.bones, legs)
+    if target is None:
+        return out
+    k = 3 * list(info.bones.arms).index(info.side)
+    (_u, s, e), (_f, _e, w), (_h, _w, tip) = out[k:k + 3]
+    s = np.asarray(s, dtype=float)
+    upper, fore, hand = (float(np.linalg.norm(np.asarray(b) - np.asarray(a)))
+                         for a, b in ((s, e), (e, w), (w, tip)))
+    d = np.asarray(target, dtype=float) - s
+    u = d / max(float(np.linalg.norm(d)), 1e-12)
+    w = s + min(float(np.linalg.norm(d)), upper + fore) * u
+    e = s + upper / max(upper + fore, 1e-12) * (w - s)
+    out[k:k + 3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, w + hand * u)]
+    return out
 
 
-def animated(armature, bone: str) -> bool:
-    """Does the armature's action key the lean bone's rotation (a lean would overwrite it)?"""
+def posed_segments(segments, info, joints, turned=None) -> list:
+    """``segments`` (:func:`.balance.body_segments`) with the reaching arm's at the core's
+    ``joints`` (world: sternum, shoulder, elbow, wrist, hand's end), and the other arms'
+    and the head's points mapped by ``turned`` (world points → where the chest's turn takes
+    them) where given."""
+    out = list(segments)
+    k = 3 * list(info.bones.arms).index(info.side)
+    if turned is not None:
+        carried = [i for i in range(3 * len(info.bones.arms)) if not k <= i < k + 3]
+        carried += [i for i, seg in enumerate(out) if seg[0] == "head_neck"]
+        for i in carried:
+            kind, a, b = out[i]
+            a, b = turned(np.array([a, b], dtype=float))
+            out[i] = (kind, a, b)
+    s, e, w, tip = (np.asarray(p, dtype=float) for p in np.asarray(joints)[1:5])
+    out[k:k + 3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, tip)]
+    return out
+
+
+def margin_reaching(armature, info, legs, arm_world=None, turned=None) -> tuple:
+    """(the centre of mass's least margin over the feet now, world units; the pose it is
+    least on; the centre of mass there, world): the arm as it is (pose None) where
+    ``arm_world`` is None, else on each of its poses (P, 5, 3), the chest turned by
+    ``turned(points, k)`` (:func:`posed_segments`)."""
+    up = np.asarray(info.frame.up, float)
+    polygon = balance.support_now(armature, legs, up)[0]
+    segments = balance.body_segments(armature, info.bones, legs)
+    if arm_world is None:
+        com = core_balance.centre_of_mass(segments)
+        return core_balance.balance_margin(com, polygon, up), None, com
+    coms = [core_balance.centre_of_mass(posed_segments(
+        segments, info, joints, None if turned is None else lambda p, k=k: turned(p, k)))
+        for k, joints in enumerate(np.asarray(arm_world, dtype=float))]
+    margins = [core_balance.balance_margin(c, polygon, up) for c in coms]
+    k = int(np.argmin(margins))
+    return float(margins[k]), k, coms[k]
+
+
+def animated(armature, bone: str, channel: str = "rotation") -> bool:
+    """Does the armature's action key ``bone``'s ``channel`` (``rotation``, ``location``:
+    the lean would overwrite it)?"""
     ad = armature.animation_data
     action = ad.action if ad else None
     if action is None:
         return False
-    prefix = f'pose.bones["{bone}"].rotation'
+    prefix = f'pose.bones["{bone}"].{channel}'
     bag = Channels(armature, action).bag
     return any(fc.data_path.startswith(prefix) for fc in bag.fcurves)
+
+
+def hips_keyed(armature, hips: str, legs) -> str | None:
+    """The first bone the hips' shift would key that has keys of its own (the hips bone's
+    location, a leg bone's rotation), or None."""
+    if animated(armature, hips, "location"):
+        return hips
+    return next((n for n in hips_mod.leg_bones(armature, legs) if animated(armature, n)), None)
 
 
 @dataclass
@@ -130,6 +193,9 @@ class RigLean:
     bases: np.ndarray
     frame_start: int
     margin: float
+    #: the hips bone and the legs it moves where the lean moves the hips back, else None
+    hips: str | None = None
+    legs: tuple = ()
 
 
 def plan(context, armature, info, planner, keyed):
@@ -155,15 +221,24 @@ def plan(context, armature, info, planner, keyed):
         why = f"bone '{bone}', which leans the trunk, has keys of its own"
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
-        check = BalanceCheck(context, armature, info, legs, bone)
+        target = np.asarray(task.targets[0], dtype=float)
+        check = BalanceCheck(context, armature, info, legs, bone, target)
+        keyed_own = None if check.hips is None else hips_keyed(armature, check.hips, legs)
+        body = None if check.hips is None or keyed_own else BalanceBody(
+            context, armature, info, legs, bone, check.hips, planner.settings, check)
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
-                                              trunk_skin(armature, info, bone))
+                                              trunk_skin(armature, info, bone), body)
         if phase is not None:
             bases = lean_basis(armature, bone, world_rotations(info, phase.lean, phase.fractions))
             first = keyed.first_frame
-            return RigLean(phase, bone, bases, first, check.margins[-1]), KeyedPlan(
+            moved = bool(np.any(phase.lean.shift))
+            return RigLean(phase, bone, bases, first, check.margins[-1],
+                           check.hips if moved else None,
+                           tuple(legs) if moved else ()), KeyedPlan(
                 reach_or_why, first + phase.frames, (made[-1].generator.checker,), True)
         why = reach_or_why
+        if keyed_own and planner.settings.lean_hips_back:
+            why += f" (the hips stay: bone '{keyed_own}' has keys of its own)"
     for seg in failed.segments:
         if seg.reason == NEEDS_LEAN:
             seg.message += f"; with Lean on: {why}"
@@ -215,32 +290,99 @@ def trunk_skin(armature, info, bone) -> TrunkSkin | None:
 
 
 class BalanceCheck:
-    """``check(lean)``: why a lean (:class:`~..core.lean.Lean`) may not be taken, or None:
-    the centre of mass's margin over the feet with the trunk at the full lean, the arm at
-    its start (:func:`margin_leaned`), may not fall below 0 nor below the rig's own as it
-    stands (see the module docstring). ``margins``: each lean's margin, in turn."""
+    """``check(lean, arm_world=None, turned=None)``: why a lean (:class:`~..core.lean.
+    Lean`) may not be taken, or None: the centre of mass's margin over the feet with the
+    trunk at the full lean (the hips moved back by the lean's shift) may not fall below 0
+    nor below the rig's own as it stands (see the module docstring): the arm at its start,
+    or on each pose of the reach planned after the lean (``arm_world``, ``turned``:
+    :func:`margin_reaching`). ``margins``: each lean's margin, in turn.
 
-    def __init__(self, context, armature, info, legs, bone):
+    ``correction``: where the reach after a lean (its hips not moved) was weighed, its
+    least-balanced pose's centre of mass less :class:`BalanceBody`'s estimate for the same
+    lean (the arm straight toward ``target``, the chest unturned): the estimate's error,
+    which :class:`BalanceBody` adds, so the hips move back by what the planned arm needs
+    (on the Quaternius alien the estimate put the centre of mass 0.04 arm lengths too far
+    forward: its chest turns 55° and brings the other arm back)."""
+
+    def __init__(self, context, armature, info, legs, bone, target=None):
         self.context, self.armature, self.info, self.legs, self.bone = \
             context, armature, info, legs, bone
+        self.target = None if target is None else np.asarray(target, dtype=float)
         self.standing = balance.margin_now(armature, info.bones, legs,
                                            np.asarray(info.frame.up, float))
+        self.hips = hips_mod.hips_bone(armature, legs, bone)
         self.margins = []
+        self.correction = None
 
-    def __call__(self, lean):
+    def __call__(self, lean, arm_world=None, turned=None):
         basis = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, [1.0]))[0]
-        margin = margin_leaned(self.context, self.armature, self.info, self.legs, self.bone,
-                               basis)
+        up = np.asarray(self.info.frame.up, float)
+        moved = bool(np.any(lean.shift))
+        bones = [self.bone] + ([self.hips] + hips_mod.leg_bones(self.armature, self.legs)
+                               if moved else [])
+        with hips_mod.Posed(self.context, self.armature, bones):
+            pose_lean(self.context, self.armature, self.bone, basis)
+            if moved:
+                hips_mod.pose_shift(self.context, self.armature, self.legs, self.hips,
+                                    shift_world(self.info, lean), up,
+                                    np.asarray(self.info.frame.forward, float))
+            margin, pose, com = margin_reaching(self.armature, self.info, self.legs,
+                                                arm_world, turned)
+            if pose is not None and not moved and self.target is not None:
+                self.correction = com - core_balance.centre_of_mass(
+                    reaching_segments(self.armature, self.info, self.legs, self.target))
         self.margins.append(margin)
         if margin >= min(0.0, self.standing):
             return None
         length = self.info.arm.arm_length
         why = (f"leaning {lean.angle:.0f}° would carry the centre of mass "
-               f"{-margin / length:.3f} arm lengths past the feet, and Reach does not move "
-               "the hips back yet")
+               + ("" if pose is None else f"(the arm on the reach's frame {pose}) ")
+               + f"{-margin / length:.3f} arm lengths past the feet"
+               + ("" if moved else ", the hips not moved back"))
         if self.standing < 0.0:
             why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"
         return why
+
+
+class BalanceBody:
+    """The rig's balance for :func:`~..core.hips.shifted_lean` (world frame): the centre of
+    mass with the trunk leaned (the lean bone posed, measured, put back; the arm straight
+    toward the target, corrected by the ``check``'s :attr:`BalanceCheck.correction` where
+    it has one), the support polygon and up as the rig stands, the planted share, the
+    margin to keep (``Settings.balance_margin`` arm lengths over the ``floor``: 0, or the
+    rig's own where that is below 0), and how far the hips come down for a shift."""
+
+    def __init__(self, context, armature, info, legs, lean_bone, hips, settings,
+                 check: BalanceCheck):
+        self.target, self.check = check.target, check
+        self.context, self.armature, self.info, self.legs = context, armature, info, legs
+        self.lean_bone, self.hips = lean_bone, hips
+        self.up = np.asarray(info.frame.up, dtype=float)
+        self.polygon = balance.support_now(armature, legs, self.up)[0]
+        self.planted_share = hips_mod.PLANTED_SHARE
+        self.floor = min(0.0, check.standing)
+        self.margin = self.floor + settings.balance_margin * info.arm.arm_length
+
+    def com(self, lean) -> np.ndarray:
+        """The centre of mass (world) with the trunk leaned by ``lean`` (its turn only)."""
+        basis = lean_basis(self.armature, self.lean_bone,
+                           world_rotations(self.info, lean, [1.0]))[0]
+        with hips_mod.Posed(self.context, self.armature, [self.lean_bone]):
+            pose_lean(self.context, self.armature, self.lean_bone, basis)
+            com = core_balance.centre_of_mass(
+                reaching_segments(self.armature, self.info, self.legs, self.target))
+        return com if self.check.correction is None else com + self.check.correction
+
+    def drop(self, shift_world) -> float:
+        """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`)."""
+        point = balance._point
+        shift = np.asarray(shift_world, dtype=float)
+        out = 0.0
+        for leg in self.legs:
+            h, k, a = (point(self.armature, p) for p in (leg.hip, leg.knee, leg.ankle))
+            out = max(out, core_hips.hips_drop(h + shift, a, float(np.linalg.norm(k - h)),
+                                     float(np.linalg.norm(a - k)), self.up))
+        return out
 
 
 def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False):
@@ -253,7 +395,11 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
     first frame."""
     pb = armature.pose.bones[lean.bone]
     before = pb.matrix_basis.copy()
+    hips_keys = _hips_bases(context, armature, info, lean)
     pose_lean(context, armature, lean.bone, lean.bases[-1])
+    for name, bases in hips_keys.items():
+        armature.pose.bones[name].matrix_basis = Matrix(bases[-1].tolist())
+    context.view_layer.update()
     try:
         result = bake_mod.bake(context, armature, dataclasses.replace(info, arm=lean.phase.arm),
                                plans, new_action)
@@ -272,9 +418,46 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
     if last > reach_first and lean.bone not in result.bones:
         write_channel(channels, f'pose.bones["{lean.bone}"].{path}', values[[-1, -1]],
                       np.array([reach_first, last], float), lean.bone)
+    for name, bases in hips_keys.items():
+        _key_bone(channels, armature.pose.bones[name], bases, frames,
+                  [reach_first, last] if last > reach_first else [], name == lean.hips)
     context.view_layer.update()
     result.frames = (first, last)
     return result
+
+
+def _hips_bases(context, armature, info, lean: RigLean) -> dict:
+    """Where the lean moves the hips back: the channel matrices (F, 4, 4) of the hips bone
+    and the legs' bones (:func:`.hips.pose_shift`) on each frame of the lean, the shift
+    growing with the lean's fraction; the pose is put back after. {} otherwise."""
+    if lean.hips is None:
+        return {}
+    up = np.asarray(info.frame.up, float)
+    shift = shift_world(info, lean.phase.lean)
+    names = [lean.hips] + hips_mod.leg_bones(armature, list(lean.legs))
+    out: dict = {n: [] for n in names}
+    for basis, fraction in zip(lean.bases, lean.phase.fractions):
+        with hips_mod.Posed(context, armature, [lean.bone] + names):
+            pose_lean(context, armature, lean.bone, basis)
+            hips_mod.pose_shift(context, armature, list(lean.legs), lean.hips,
+                                float(fraction) * shift, up,
+                                np.asarray(info.frame.forward, float))
+            for n in names:
+                out[n].append(np.array(armature.pose.bones[n].matrix_basis))
+    return {n: np.array(v) for n, v in out.items()}
+
+
+def _key_bone(channels, pb, bases, frames, hold, location: bool) -> None:
+    """Key ``pb``'s rotation (and ``location``) from its channel matrices ``bases`` on
+    ``frames``, and hold the last on the frames ``hold`` (the reach's first and last)."""
+    path, values = channel_values(pb, bases)
+    keyed = [(f'pose.bones["{pb.name}"].{path}', values)]
+    if location:
+        keyed.append((f'pose.bones["{pb.name}"].location', np.array([b[:3, 3] for b in bases])))
+    for p, v in keyed:
+        write_channel(channels, p, v, frames, pb.name)
+        if hold:
+            write_channel(channels, p, v[[-1, -1]], np.array(hold, float), pb.name)
 
 
 def _channel_values_into(pb, channels, bases, frame):
@@ -310,14 +493,19 @@ def _hold(channels, bones, lean_bone, frame_from, frame_to) -> None:
 
 def report(results, lean: RigLean | None, length: float) -> None:
     """Put the lean into the reach's result (:class:`.results.TaskResult`), in place: its
-    ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone`` and ``lean_com_margin``
-    (arm lengths, at the full lean, the arm at its start), its message says so, and its
-    frames start with the lean's."""
+    ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone``, ``lean_hips_back`` (arm
+    lengths) and ``lean_com_margin`` (arm lengths: the least :class:`BalanceCheck` weighed
+    for the lean taken, over the reach's poses), its message says so, and its frames start
+    with the lean's."""
     if lean is None:
         return
     for r in results:
         r.frame_start = lean.frame_start
+        back = float(np.linalg.norm(np.asarray(lean.phase.lean.shift, float)[:2])) / \
+            lean.phase.arm.arm_length
         r.stats.update(lean_deg=round(float(lean.phase.lean.angle), 2),
                        lean_frames=lean.phase.frames, lean_bone=lean.bone,
-                       lean_com_margin=round(lean.margin / length, 4))
-        r.message += f", leaning the trunk {lean.phase.lean.angle:.0f}° at the hips first"
+                       lean_com_margin=round(lean.margin / length, 4),
+                       lean_hips_back=round(back, 4))
+        r.message += f", leaning the trunk {lean.phase.lean.angle:.0f}° at the hips first" + (
+            f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -115,25 +115,38 @@ def least_lean(shoulder, pivot, target, reach, lean_max_deg):
 @dataclass(frozen=True)
 class Lean:
     """A lean of the upper body (canonical frame of the upright arm): ``angle`` degrees
-    about the line through ``pivot`` along the unit ``axis`` (:func:`lean_axis`)."""
+    about the line through ``pivot`` along the unit ``axis`` (:func:`lean_axis`), the
+    hips moved by ``shift`` (canonical, :mod:`~.hips`; none by default) with everything
+    they carry."""
 
     pivot: np.ndarray
     axis: np.ndarray
     angle: float
+    shift: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def matrix(self, fraction: float = 1.0) -> np.ndarray:
-        """The 4×4 canonical transform of ``fraction`` of the lean (:func:`lean_rotation`)."""
-        return lean_rotation(self.pivot, self.axis, self.angle * float(fraction))
+        """The 4×4 canonical transform of ``fraction`` of the lean: the hips' shift after
+        the turn about the pivot, T(f·shift) · :func:`lean_rotation`."""
+        m = lean_rotation(self.pivot, self.axis, self.angle * float(fraction))
+        m[:3, 3] += float(fraction) * np.asarray(self.shift, dtype=float)
+        return m
+
+    def moved(self, fraction: float = 1.0) -> np.ndarray:
+        """The 4×4 canonical transform of what the hips carry below the pivot at
+        ``fraction``: the shift alone."""
+        m = np.eye(4)
+        m[:3, 3] = float(fraction) * np.asarray(self.shift, dtype=float)
+        return m
 
 
 def leaned_arm(arm, lean: Lean, fraction: float = 1.0):
     """``arm`` on a trunk leaned by ``fraction`` of ``lean``: the same arm in its own
     (leaned) canonical frame, whose ``to_world`` is ``arm.to_world @ L``. The body
     capsules that turn with the chest (chest, head) lean with it; the others (the pelvis,
-    below the pivot) stay where they are in the world, so in the leaned frame they turn by
-    ``L⁻¹``."""
+    below the pivot) only move with the hips' shift ``S`` (:meth:`Lean.moved`), so in the
+    leaned frame they are carried by ``L⁻¹ S``."""
     m = lean.matrix(fraction)
-    back = np.linalg.inv(m)
+    back = np.linalg.inv(m) @ lean.moved(fraction)
 
     def stay(c):
         if c.turns_with_chest:

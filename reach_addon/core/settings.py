@@ -129,6 +129,18 @@ class Settings:
         "lengths): people reaching by a lean extend the arm nearly straight (the functional "
         "reach test); 0.98 leaves the elbow bent about 23° on equal arm segments", "body",
         0.5, 1.0)
+    lean_hips_back: bool = _f(
+        True, "Hips back", "Where a lean would carry the centre of mass past the feet (or "
+        "within Balance margin of their edge), move the hips back, the feet planted and the "
+        "knees bending, and lean as much more as that needs (the hip strategy of a forward "
+        "reach)", "body")
+    lean_hips_max: float = _f(
+        0.3, "Hips back limit", "Farthest the hips move back for a lean (arm lengths)",
+        "body", 0.0, 1.0)
+    balance_margin: float = _f(
+        0.02, "Balance margin", "How far inside the feet's support polygon the hips' shift "
+        "keeps the centre of mass (arm lengths; the rig's own margin as it stands where "
+        "that is less than 0)", "body", 0.0, 0.2)
     chest_phase_delay: float = _f(
         0.25, "Chest delay", "Fraction of a reach's progress toward its target before "
         "the chest starts to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)

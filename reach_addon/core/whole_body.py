@@ -14,10 +14,14 @@ trunk again on every pose of the reach, as the chest turns (:func:`body_hit`): t
 as skinned where the rig gives it (:class:`~.lean.TrunkSkin`), else the chest's and head's
 capsules.
 
+Where the Blender layer's balance refuses a lean (the centre of mass past the feet, with
+the arm at its start or on any pose of the reach) the hips move back
+(:func:`~.hips.shifted_lean`, stage 3), the lean growing as the shoulder comes back with
+them.
+
 What this stage leaves to later ones, and refuses meanwhile: the lean is not phased with
-the reach (lean first, then reach, as a person does where a blend would touch); the hips
-do not move back, so the Blender layer refuses a lean whose centre of mass leaves the
-feet; only a single reach leans (a sequence, a guided reach and a chase still refuse as
+the reach (lean first, then reach, as a person does where a blend would touch); only a
+single reach leans (a sequence, a guided reach and a chase still refuse as
 ``needs_lean``); and a start in contact does not lean.
 """
 
@@ -30,9 +34,19 @@ import numpy as np
 from .arm import ArmModel
 from .errors import NEEDS_LEAN
 from .hand_shape import with_shape
+from .hips import shifted_lean
 from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean_frames, lean_hit,
                    leaned_arm, skin_hit)
 from .torso import body_rotation_deg, rotate_about_spine
+
+
+#: The shares of ``Settings.balance_margin`` a lean with the hips back keeps, tried in
+#: turn (:func:`~.hips.shifted_lean`): the whole margin first; where that lean is refused
+#: (its trunk touching, its arm finding no way), a quarter of it: a smaller shift, so a
+#: smaller lean, still over the feet. On the
+#: Quaternius alien over the stage-1 table the whole margin asked a 3.8° lean whose belly,
+#: turning with the chest, touched the table; a quarter asks 2.6°, which clears it.
+SHIFT_SHARES = (1.0, 0.25)
 
 
 @dataclass(frozen=True)
@@ -52,16 +66,21 @@ class LeanPhase:
 
 
 def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None,
-                    trunk: TrunkSkin | None = None):
+                    trunk: TrunkSkin | None = None, body=None):
     """Plan ``task`` (a reach) with a lean, where ``failed`` (``planner``'s plan of it)
     was refused as ``needs_lean``: returns (:class:`LeanPhase`, the reach's plan on the
     leaned trunk), or (None, why not: a sentence) where no lean is planned; (None, None)
     where none was asked for. ``pivot_c``: the hips' pivot (canonical frame of
     ``planner.arm``); ``make_planner(arm)``: a :class:`~.planner.Planner` for an arm among
-    the same obstacles and settings; ``acceptable(lean)``: why a lean may not be taken
-    (the Blender layer's balance), or None; ``trunk``: the trunk as skinned
-    (:class:`~.lean.TrunkSkin`, canonical frame of ``planner.arm``), which the lean's
-    obstacle tests use instead of the chest's and head's capsules where given.
+    the same obstacles and settings; ``acceptable(lean, arm_world=None, turned=None)``:
+    why a lean may not be taken (the Blender layer's balance, the arm at its start, or
+    with its joints on each pose of the reach at ``arm_world`` and the chest turned by
+    ``turned``: weighed again as the arm reaches, :func:`_balanced_reach`), or None; ``trunk``: the trunk as
+    skinned (:class:`~.lean.TrunkSkin`, canonical frame of ``planner.arm``), which the lean's
+    obstacle tests use instead of the chest's and head's capsules where given; ``body``:
+    the rig's balance (:func:`~.hips.shifted_lean`), with which a lean that
+    ``acceptable`` refuses, before or after its reach, is tried again with the hips moved
+    back (``Settings.lean_hips_back``).
 
     Recruitment, as the issue orders it: the chest turns as the paper's Table 1 has it at
     the target, and the lean takes the rest (:func:`~.lean.choose_lean`); where that lean
@@ -72,22 +91,53 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
         return None, None
     target_c = arm.to_canonical_points(np.asarray(task.targets[0], dtype=float))
     table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
-    leans = [choose_lean(arm, target_c, pivot_c, s, (table1,)),
-             choose_lean(arm, target_c, pivot_c, s, chest_turns(s))]
+    turns = [(table1,), chest_turns(s)]
+    leans = [choose_lean(arm, target_c, pivot_c, s, t) for t in turns]
     if leans[1] is None:
         return None, f"no lean up to {s.lean_max:.0f}° at the hips brings it within reach"
     if leans[0] is None or leans[0].angle <= leans[1].angle + 0.5:
-        leans = leans[1:]
+        leans, turns = leans[1:], turns[1:]
     whys = []
-    for lean in leans:
+    shifting = body is not None and s.lean_hips_back
+    for lean, turn in zip(leans, turns):
         why = acceptable(lean) if acceptable is not None else None
-        phase = None
         if why is None:
-            phase, why = _lean_and_reach(planner, task, lean, make_planner, trunk)
-        if phase is not None:
-            return phase, why
+            phase, why = _balanced_reach(planner, task, lean, make_planner, trunk, acceptable)
+            if phase is not None:
+                return phase, why
+        for share in (SHIFT_SHARES if shifting and why is not None else ()):
+            shifted = shifted_lean(arm, target_c, pivot_c, s, turn, body, share)
+            if shifted is None:
+                break
+            why = acceptable(shifted)
+            if why is None:
+                phase, why = _balanced_reach(planner, task, shifted, make_planner, trunk,
+                                             acceptable)
+                if phase is not None:
+                    return phase, why
         whys.append(why)
     return None, "; ".join(whys)
+
+
+def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable):
+    """:func:`_lean_and_reach`, and the body weighed again on every pose of the reach
+    (``acceptable(lean, arm_world, turned)``: the arm's joints in the world, (P, 5, 3),
+    and ``turned(points, k)``, world points the chest carries where its turn on pose k
+    takes them, so the other arm and the head turn back as the reaching shoulder comes
+    forward): (phase, the reach's plan), or (None, why not)."""
+    phase, reach = _lean_and_reach(planner, task, lean, make_planner, trunk)
+    if phase is None or acceptable is None:
+        return phase, reach
+    arm = phase.arm
+    turns = [p.config.body_rotation - reach.poses[0].config.body_rotation for p in reach.poses]
+
+    def turned(points, k):
+        return arm.to_world_points(rotate_about_spine(arm.to_canonical_points(points),
+                                                      turns[k]))
+
+    joints = arm.to_world_points(np.array([p.joints for p in reach.poses], dtype=float))
+    why = acceptable(lean, joints, turned)
+    return (phase, reach) if why is None else (None, why)
 
 
 def _lean_and_reach(planner, task, lean, make_planner, trunk=None):

@@ -1,0 +1,162 @@
+"""The hips moved on a rig with its feet planted (:mod:`..core.hips`; stage 3 of the
+whole-body reach, ``docs/design/core.md``).
+
+**The hips bone** (:func:`hips_bone`) is the lowest bone that carries both legs and the
+lean bone (:func:`.lean.lean_bone`): moving it moves the trunk, both arms and the thighs.
+
+**Posing a shift** (:func:`pose_shift`): the hips bone's pose matrix is translated by the
+shift; then on each leg (:class:`.balance.Leg`), as forward kinematics, parent before
+child: the thigh turns about the hip joint so the knee lies where the thigh and the shank
+meet with the ankle where it was (:func:`~..core.hips.two_bone_knee`, bent the way the
+knee is bent now); the shank turns about the knee so the ankle comes back to its place;
+and the ankle's bone gets back its world matrix, so the foot keeps its place and its tilt.
+Each turn is the least rotation between two directions, applied to the bone's pose matrix
+about its head (armature space), whatever its parents, rotation mode or roll.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.hips import hips_drop, two_bone_knee
+from . import balance
+from .rig_detect import ancestors
+
+
+def hips_bone(armature, legs, lean: str) -> str | None:
+    """The lowest bone that carries both legs' hip bones and the ``lean`` bone, or None."""
+    bones = armature.data.bones
+    chains = [[bones[n]] + ancestors(bones[n]) for n in (legs[0].hip[0], legs[1].hip[0])]
+    chains.append(ancestors(bones[lean]))
+    common = [b for b in chains[0] if all(b in c for c in chains[1:])]
+    return common[0].name if common else None
+
+
+def _least_rotation(a, b) -> np.ndarray:
+    """The least rotation (3, 3) that takes direction ``a`` to direction ``b``."""
+    a = np.asarray(a, dtype=float) / np.linalg.norm(a)
+    b = np.asarray(b, dtype=float) / np.linalg.norm(b)
+    v, c = np.cross(a, b), float(a @ b)
+    if c < -1.0 + 1e-12:
+        raise ValueError("opposite directions: no least rotation")
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + k + k @ k / (1.0 + c)
+
+
+def _turn(context, armature, bone: str, pivot_world, rotation_world) -> None:
+    """Turn ``bone``'s pose about ``pivot_world`` by ``rotation_world`` (3, 3)."""
+    from mathutils import Matrix
+
+    mw = np.array(armature.matrix_world)
+    a, a_inv = mw[:3, :3], np.linalg.inv(mw[:3, :3])
+    pivot = a_inv @ (np.asarray(pivot_world, dtype=float) - mw[:3, 3])
+    r = a_inv @ rotation_world @ a
+    t = np.eye(4)
+    t[:3, :3] = r
+    t[:3, 3] = pivot - r @ pivot
+    pb = armature.pose.bones[bone]
+    pb.matrix = Matrix((t @ np.array(pb.matrix)).tolist())
+    context.view_layer.update()
+
+
+def _move(context, armature, bone: str, shift_world) -> None:
+    """Translate ``bone``'s pose by ``shift_world``."""
+    from mathutils import Matrix
+
+    a_inv = np.linalg.inv(np.array(armature.matrix_world)[:3, :3])
+    m = np.array(armature.pose.bones[bone].matrix)
+    m[:3, 3] += a_inv @ np.asarray(shift_world, dtype=float)
+    armature.pose.bones[bone].matrix = Matrix(m.tolist())
+    context.view_layer.update()
+
+
+def _below(armature, leg, joint) -> str | None:
+    """The bone whose head is the leg's ``joint`` (a :class:`.balance.Leg` point): the
+    point's own bone where it is a head, else the child of that bone on the way to the
+    ankle or its foot (a joint read at a bone's tail); None where none hangs there (a
+    Quaternius foot hangs from the root, not from the shank)."""
+    name, end = joint
+    if end == "head":
+        return name
+    for start in (leg.ankle[0],) + tuple(leg.foot_bones):
+        b = armature.data.bones[start]
+        while b.parent is not None and b.parent.name != name:
+            b = b.parent
+        if b.parent is not None and b.name != name:
+            return b.name
+    return None
+
+
+def pose_shift(context, armature, legs, hips: str, shift_world, up, forward) -> float:
+    """Pose the hips moved by ``shift_world`` (and down as far as the legs need,
+    :func:`~..core.hips.hips_drop`) with both feet where they are (see the module
+    docstring). The knees bend the way they are bent where that is forward of the leg
+    (``forward``: the body's), else straight forward: a leg held straight has no bend of its
+    own to follow, and a knee bends only forward (the Knight, in a T-pose, bent its knees
+    backward until this). Returns how far the hips came down (world units)."""
+    point = balance._point
+    up = np.asarray(up, dtype=float)
+    feet = [_below(armature, leg, leg.ankle) for leg in legs]
+    before = [(point(armature, leg.hip), point(armature, leg.knee), point(armature, leg.ankle),
+               None if foot is None else np.array(armature.pose.bones[foot].matrix))
+              for leg, foot in zip(legs, feet)]
+    shift = np.asarray(shift_world, dtype=float)
+    drop = max(hips_drop(h + shift, a, float(np.linalg.norm(k - h)),
+                         float(np.linalg.norm(a - k)), up) for h, k, a, _m in before)
+    _move(context, armature, hips, shift - drop * up)
+    for leg, name, (h, k, a, foot) in zip(legs, feet, before):
+        thigh, shank = float(np.linalg.norm(k - h)), float(np.linalg.norm(a - k))
+        hip_now = point(armature, leg.hip)
+        line = a - h
+        pole = (k - h) - ((k - h) @ line) / float(line @ line) * line
+        ahead = np.asarray(forward, dtype=float)
+        if float(np.linalg.norm(pole)) < 0.05 * thigh or float(pole @ ahead) <= 0.0:
+            pole = ahead
+        knee = two_bone_knee(hip_now, a, thigh, shank, pole)
+        _turn(context, armature, leg.hip[0], hip_now,
+              _least_rotation(point(armature, leg.knee) - hip_now, knee - hip_now))
+        knee_now = point(armature, leg.knee)
+        shank_bone = _below(armature, leg, leg.knee)
+        if shank_bone is None:
+            raise ValueError(f"no bone below the knee '{leg.knee[0]}'")
+        _turn(context, armature, shank_bone, knee_now,
+              _least_rotation(point(armature, leg.ankle) - knee_now, a - knee_now))
+        if foot is not None:           # the foot keeps its place and its tilt
+            from mathutils import Matrix
+            armature.pose.bones[name].matrix = Matrix(foot.tolist())
+            context.view_layer.update()
+    return float(drop)
+
+
+#: The share of the body's mass the hips' shift leaves in place: both shanks and feet
+#: (:data:`~..core.balance.WINTER`: 2 × (0.0465 + 0.0145)).
+PLANTED_SHARE = 2 * (0.0465 + 0.0145)
+
+
+def leg_bones(armature, legs) -> list:
+    """The bones :func:`pose_shift` turns, parent before child: each leg's thigh, shank
+    and (where the shank carries it) foot."""
+    out = []
+    for leg in legs:
+        for name in (leg.hip[0], _below(armature, leg, leg.knee), _below(armature, leg, leg.ankle)):
+            if name is not None and name not in out:
+                out.append(name)
+    return out
+
+
+class Posed:
+    """A context manager that puts back the channel matrices of ``bones`` on exit."""
+
+    def __init__(self, context, armature, bones):
+        self.context, self.armature, self.bones = context, armature, list(bones)
+
+    def __enter__(self):
+        pbs = self.armature.pose.bones
+        self.kept = [(n, pbs[n].matrix_basis.copy()) for n in self.bones]
+        return self
+
+    def __exit__(self, *exc):
+        for n, m in self.kept:
+            self.armature.pose.bones[n].matrix_basis = m
+        self.context.view_layer.update()
+        return False
