@@ -144,6 +144,14 @@ def leg_bones(armature, legs) -> list:
     return out
 
 
+def lower_bones(armature, hips: str, lean: str) -> set:
+    """The bones whose skin the hips' shift moves and the lean does not carry: the hips
+    bone and every bone it carries, less the ``lean`` bone and what it carries."""
+    bones = armature.data.bones
+    below = {hips} | {b.name for b in bones[hips].children_recursive}
+    return below - ({lean} | {b.name for b in bones[lean].children_recursive})
+
+
 class Posed:
     """A context manager that puts back the channel matrices of ``bones`` on exit."""
 

@@ -30,7 +30,7 @@ from mathutils import Matrix
 from ..core import NEEDS_LEAN, Planner
 from ..core import balance as core_balance
 from ..core import hips as core_hips
-from ..core.lean import TrunkSkin
+from ..core.lean import TrunkSkin, skin_hit
 from ..core.whole_body import LeanPhase, lean_then_reach
 from . import balance, skin
 from . import hips as hips_mod
@@ -222,7 +222,8 @@ def plan(context, armature, info, planner, keyed):
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
         target = np.asarray(task.targets[0], dtype=float)
-        check = BalanceCheck(context, armature, info, legs, bone, target)
+        check = BalanceCheck(context, armature, info, legs, bone, target,
+                             planner.generator.checker)
         keyed_own = None if check.hips is None else hips_keyed(armature, check.hips, legs)
         body = None if check.hips is None or keyed_own else BalanceBody(
             context, armature, info, legs, bone, check.hips, planner.settings, check)
@@ -304,10 +305,11 @@ class BalanceCheck:
     (on the Quaternius alien the estimate put the centre of mass 0.04 arm lengths too far
     forward: its chest turns 55° and brings the other arm back)."""
 
-    def __init__(self, context, armature, info, legs, bone, target=None):
+    def __init__(self, context, armature, info, legs, bone, target=None, checker=None):
         self.context, self.armature, self.info, self.legs, self.bone = \
             context, armature, info, legs, bone
         self.target = None if target is None else np.asarray(target, dtype=float)
+        self.checker = checker
         self.standing = balance.margin_now(armature, info.bones, legs,
                                            np.asarray(info.frame.up, float))
         self.hips = hips_mod.hips_bone(armature, legs, bone)
@@ -332,9 +334,13 @@ class BalanceCheck:
                 self.correction = com - core_balance.centre_of_mass(
                     reaching_segments(self.armature, self.info, self.legs, self.target))
         self.margins.append(margin)
-        if margin >= min(0.0, self.standing):
-            return None
         length = self.info.arm.arm_length
+        if margin >= min(0.0, self.standing):
+            hit = None if not moved or arm_world is not None else self.lower_hit(lean)
+            return None if hit is None else (
+                f"leaning {lean.angle:.0f}° with the hips "
+                f"{np.linalg.norm(np.asarray(lean.shift)[:2]) / length:.2f} arm lengths back, "
+                f"the {hit[0]} would touch '{hit[1]}'")
         why = (f"leaning {lean.angle:.0f}° would carry the centre of mass "
                + ("" if pose is None else f"(the arm on the reach's frame {pose}) ")
                + f"{-margin / length:.3f} arm lengths past the feet"
@@ -342,6 +348,40 @@ class BalanceCheck:
         if self.standing < 0.0:
             why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"
         return why
+
+    def lower_hit(self, lean):
+        """(part, obstacle) where the skin below the trunk (the hips bone's and every bone
+        it carries that the lean bone does not: the pelvis and the legs, :func:`.hips.
+        lower_bones`) would come within the clearance of an obstacle as the lean moves the
+        hips back (:data:`LOWER_SAMPLES` instants of it, posed as the bake poses them, then
+        :func:`~..core.lean.skin_hit`, exact about crossing between them), else None.
+        A wall just behind the hips is what this finds (the knees come forward little: the
+        legs stay near straight, :data:`~..core.hips.STRAIGHT_SHARE`)."""
+        if self.checker is None or self.hips is None:
+            return None
+        fractions = np.linspace(0.0, 1.0, LOWER_SAMPLES)
+        bases = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, fractions))
+        up = np.asarray(self.info.frame.up, float)
+        names = hips_mod.lower_bones(self.armature, self.hips, self.bone)
+        moved = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
+        world = []
+        for basis, fraction in zip(bases, fractions):
+            with hips_mod.Posed(self.context, self.armature, moved):
+                pose_lean(self.context, self.armature, self.bone, basis)
+                hips_mod.pose_shift(self.context, self.armature, self.legs, self.hips,
+                                    fraction * shift_world(self.info, lean), up,
+                                    np.asarray(self.info.frame.forward, float))
+                world.append(skin.skin_points(self.armature, names, 0.5, True))
+        if not len(world[0]):
+            return None
+        hit = skin_hit(np.array(world), self.checker)
+        return None if hit is None else ("lower body", hit[1])
+
+
+#: The instants of a lean at which the skin below the trunk is read for its obstacle test
+#: (:meth:`BalanceCheck.lower_hit`); between them the test adds its own where a point
+#: moves more than the clearance allows.
+LOWER_SAMPLES = 9
 
 
 class BalanceBody:

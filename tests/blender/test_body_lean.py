@@ -278,3 +278,41 @@ def test_hips_with_keys_of_their_own_stay_where_the_user_keyed_them(addon, rig_f
         assert result.stats["com_margin_min"] >= 0.0, result.stats
     else:
         assert f"bone '{hips}' has keys of its own" in result.message, result.message
+
+
+def test_hips_that_would_move_back_into_a_wall_keep_the_body_clear(addon, rig_file):  # noqa: F811
+    """The whole body is checked: a wall stands just behind Quaternius' hips (its face 0.02
+    arm lengths behind the skin, from 0.3 arm lengths under the hip joints to 0.3 over
+    them), and the 1.3-arm-length lean, which moves its hips 0.14 arm lengths back where
+    they are free, must keep every vertex of the skin (less the reaching arm's) out of the
+    wall at every frame and three instants between, as Blender evaluates them: reached
+    another way, or refused with the lower body named."""
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
+    shoulder, forward, outward, up, length = everyday.body_axes(info)
+    hips = np.array([addon.blender.balance._point(armature, leg.hip) for leg in legs])
+    hip_up = float(((hips - shoulder) @ up).mean()) / length
+    rel = (skin_vertices(armature, set()) - shoulder) / length
+    band = (rel @ up >= hip_up - 0.3) & (rel @ up <= hip_up + 0.3)
+    back = float((rel[band] @ forward).min())
+    wall = everyday.box(info, "Wall", (back - 0.5, -0.8, hip_up - 0.3),
+                        (back - 0.02, 0.8, hip_up + 0.3))
+    _target, _table, outcome = run(addon, armature, info, FAR, True, True)
+    result = outcome.results[0]
+    print(f"WALL: {result.success} {result.stats.get('lean_deg')} "
+          f"{result.stats.get('lean_hips_back')} {result.message}")
+    if not result.success:
+        assert "lower body would touch 'Wall'" in result.message, result.message
+        return
+    a = info.bones.arms["right"]
+    arm_bones = {a.upper_arm, a.forearm, a.hand} | {
+        c.name for c in armature.pose.bones[a.forearm].children_recursive}
+    worst = np.inf
+    for f in range(result.frame_start, result.frame_end + 1):
+        for k in range(INSTANTS if f < result.frame_end else 1):
+            bpy.context.scene.frame_set(f, subframe=k / INSTANTS)
+            skin = skin_vertices(armature, {wall.name}, arm_bones)
+            worst = min(worst, float(box_signed_distance(skin, wall).min()))
+    print(f"WALL worst {worst / length:.4f}")
+    assert worst > 0.0, worst / length
