@@ -5,8 +5,12 @@ one PNG: how the README's before/after pictures are made.
         --row before/demo.blend 85,88,91,94,97,100 --row out/demo.blend 91,95,99,103,107,111
 
 Workbench (studio light, material colours, shadows) at ``--width`` pixels a frame: quick
-and headless, no GPU. The camera, frame and scene are the file's own; nothing is saved
-back to it.
+and headless, no GPU. The camera, frame and scene are the file's own (``--view AXIS``: a
+camera of its own instead, looking along the world axis at every mesh's bounds at the
+first frame, for a test's bake that has none); nothing is saved back to the file.
+
+    .venv/bin/python tools/render_frames.py --out docs/lean-hips-back.png --view +x \
+        --row out/lean-test/far-quaternius.blend 1,24,69 --width 500 --crop 0.2,0,0.75,1
 """
 
 from __future__ import annotations
@@ -20,14 +24,39 @@ import bpy
 import numpy as np
 
 
-def render_row(blend: str, frames: list, width: int, tmp: Path, crop=None) -> list:
-    """The frames of ``blend`` rendered through its scene camera (``crop``: the part of
-    the camera's frame kept, (x0, y0, x1, y1) in shares from the bottom left), each an
-    (h, w, 4) array on white."""
+#: The world axes ``--view`` looks along.
+VIEWS = {"+x": (1, 0, 0), "-x": (-1, 0, 0), "+y": (0, 1, 0), "-y": (0, -1, 0)}
+
+
+def view_camera(scene, axis: str, frame: int) -> None:
+    """Make ``scene``'s camera one looking along the world ``axis`` (:data:`VIEWS`) at the
+    bounds of every mesh at ``frame``, from 1.6 times their size away (35 mm lens)."""
+    from mathutils import Vector
+
+    scene.frame_set(frame)
+    corners = np.array([tuple(ob.matrix_world @ Vector(c)) for ob in scene.objects
+                        if ob.type == "MESH" for c in ob.bound_box])
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    centre = Vector(tuple(0.5 * (lo + hi)))
+    cam = bpy.data.objects.new("render_frames view", bpy.data.cameras.new("render_frames view"))
+    scene.collection.objects.link(cam)
+    cam.location = centre - Vector(VIEWS[axis]) * 1.6 * float((hi - lo).max())
+    cam.rotation_euler = (centre - cam.location).to_track_quat("-Z", "Y").to_euler()
+    cam.data.lens = 35.0
+    scene.camera = cam
+
+
+def render_row(blend: str, frames: list, width: int, tmp: Path, crop=None, view=None) -> list:
+    """The frames of ``blend`` rendered through its scene camera, or ``view``'s
+    (:func:`view_camera`) (``crop``: the part of the camera's frame kept, (x0, y0, x1, y1)
+    in shares from the bottom left), each an (h, w, 4) array on white."""
     bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False)
     scene = bpy.context.scene
+    if view is not None:
+        view_camera(scene, view, frames[0])
     if scene.camera is None:
-        sys.exit(f"render_frames: {blend} has no scene camera; add one and save the file")
+        sys.exit(f"render_frames: {blend} has no scene camera; add one and save the file, "
+                 "or give --view")
     r = scene.render
     r.engine = "BLENDER_WORKBENCH"
     scene.display.shading.light = "STUDIO"
@@ -68,11 +97,13 @@ def main(argv=None) -> int:
     ap.add_argument("--gap", type=int, default=4)
     ap.add_argument("--crop", help="x0,y0,x1,y1: the part of the camera's frame kept, in "
                     "shares from the bottom left")
+    ap.add_argument("--view", choices=sorted(VIEWS),
+                    help="a camera of its own, looking along this world axis")
     a = ap.parse_args(argv)
     crop = None if a.crop is None else tuple(float(v) for v in a.crop.split(","))
     with tempfile.TemporaryDirectory() as tmp:
         rows = [render_row(str(Path(b).resolve()), [int(f) for f in frames.split(",")],
-                           a.width, Path(tmp), crop) for b, frames in a.row]
+                           a.width, Path(tmp), crop, a.view) for b, frames in a.row]
     h = max(t.shape[0] for row in rows for t in row)
     cols = max(len(row) for row in rows)
     w = a.width

@@ -213,12 +213,15 @@ FAR = 1.3
 
 
 @pytest.mark.parametrize("kind", KINDS)
-def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_file, kind):  # noqa: F811
+def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_file, kind,  # noqa: F811
+                                                                  tmp_path):
     """Issue "Reach past the arm", *Lean*: a target :data:`FAR` arm lengths ahead is reached
     by leaning, the hips moving back where the lean alone would tip the body; the feet stay
     (every bone whose head starts in the lowest 15 % of the figure moves less than 2 % of
     an arm length at every frame) and the centre of mass stays over them (the report's
-    least margin, read on the evaluated bones, is not below 0 nor below the rig's own)."""
+    least margin, read on the evaluated bones, is not below 0 nor below the rig's own).
+    The bake is kept as ``far-<rig>.blend`` in the test's temporary folder (the README's
+    picture is rendered from Quaternius')."""
     armature = open_rig(rig_file, kind)
     info = addon.blender.rig.build(armature, "right")
     bpy.context.scene.frame_set(1)
@@ -235,6 +238,7 @@ def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_fil
         bpy.context.scene.frame_set(f)
         now = bone_heads(armature)
         worst = max(worst, max(float(np.linalg.norm(now[n] - start[n])) for n in feet))
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / f"far-{kind}.blend"), copy=True)
     print(f"FAR {kind}: lean {result.stats.get('lean_deg')}°, hips back "
           f"{result.stats.get('lean_hips_back')}, margin {result.stats['com_margin_min']:.4f}, "
           f"feet {worst / length:.6f}")
