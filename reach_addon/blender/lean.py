@@ -96,10 +96,20 @@ def shift_world(info, lean) -> np.ndarray:
 
 def pose_lean(context, armature, bone: str, basis) -> None:
     """Set the lean bone's channel matrix to ``basis`` (4, 4) and evaluate."""
-    from mathutils import Matrix
-
     armature.pose.bones[bone].matrix_basis = Matrix(np.asarray(basis).tolist())
     context.view_layer.update()
+
+
+def pose_leaned(context, armature, info, bone: str, basis, legs=(), hips=None,
+                shift=None) -> None:
+    """Pose the lean bone at ``basis`` and, where ``hips`` is given, the hips moved by the
+    world ``shift`` with the feet planted (:func:`.hips.pose_shift`): the one way the
+    balance, the lower body's test and the bake pose a lean."""
+    pose_lean(context, armature, bone, basis)
+    if hips is not None:
+        hips_mod.pose_shift(context, armature, list(legs), hips, shift,
+                            np.asarray(info.frame.up, float),
+                            np.asarray(info.frame.forward, float))
 
 
 def reaching_segments(armature, info, legs, target=None) -> list:
@@ -318,16 +328,12 @@ class BalanceCheck:
 
     def __call__(self, lean, arm_world=None, turned=None):
         basis = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, [1.0]))[0]
-        up = np.asarray(self.info.frame.up, float)
         moved = bool(np.any(lean.shift))
         bones = [self.bone] + ([self.hips] + hips_mod.leg_bones(self.armature, self.legs)
                                if moved else [])
         with hips_mod.Posed(self.context, self.armature, bones):
-            pose_lean(self.context, self.armature, self.bone, basis)
-            if moved:
-                hips_mod.pose_shift(self.context, self.armature, self.legs, self.hips,
-                                    shift_world(self.info, lean), up,
-                                    np.asarray(self.info.frame.forward, float))
+            pose_leaned(self.context, self.armature, self.info, self.bone, basis, self.legs,
+                        self.hips if moved else None, shift_world(self.info, lean))
             margin, pose, com = margin_reaching(self.armature, self.info, self.legs,
                                                 arm_world, turned)
             if pose is not None and not moved and self.target is not None:
@@ -361,16 +367,13 @@ class BalanceCheck:
             return None
         fractions = np.linspace(0.0, 1.0, LOWER_SAMPLES)
         bases = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, fractions))
-        up = np.asarray(self.info.frame.up, float)
         names = hips_mod.lower_bones(self.armature, self.hips, self.bone)
         moved = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
         world = []
         for basis, fraction in zip(bases, fractions):
             with hips_mod.Posed(self.context, self.armature, moved):
-                pose_lean(self.context, self.armature, self.bone, basis)
-                hips_mod.pose_shift(self.context, self.armature, self.legs, self.hips,
-                                    fraction * shift_world(self.info, lean), up,
-                                    np.asarray(self.info.frame.forward, float))
+                pose_leaned(self.context, self.armature, self.info, self.bone, basis,
+                            self.legs, self.hips, fraction * shift_world(self.info, lean))
                 world.append(skin.skin_points(self.armature, names, 0.5, True))
         if not len(world[0]):
             return None
@@ -472,16 +475,13 @@ def _hips_bases(context, armature, info, lean: RigLean) -> dict:
     growing with the lean's fraction; the pose is put back after. {} otherwise."""
     if lean.hips is None:
         return {}
-    up = np.asarray(info.frame.up, float)
     shift = shift_world(info, lean.phase.lean)
     names = [lean.hips] + hips_mod.leg_bones(armature, list(lean.legs))
     out: dict = {n: [] for n in names}
     for basis, fraction in zip(lean.bases, lean.phase.fractions):
         with hips_mod.Posed(context, armature, [lean.bone] + names):
-            pose_lean(context, armature, lean.bone, basis)
-            hips_mod.pose_shift(context, armature, list(lean.legs), lean.hips,
-                                float(fraction) * shift, up,
-                                np.asarray(info.frame.forward, float))
+            pose_leaned(context, armature, info, lean.bone, basis, lean.legs, lean.hips,
+                        float(fraction) * shift)
             for n in names:
                 out[n].append(np.array(armature.pose.bones[n].matrix_basis))
     return {n: np.array(v) for n, v in out.items()}

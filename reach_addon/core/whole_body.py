@@ -43,9 +43,9 @@ from .torso import body_rotation_deg, rotate_about_spine
 #: The shares of ``Settings.balance_margin`` a lean with the hips back keeps, tried in
 #: turn (:func:`~.hips.shifted_lean`): the whole margin first; where that lean is refused
 #: (its trunk touching, its arm finding no way), a quarter of it: a smaller shift, so a
-#: smaller lean, still over the feet. On the
-#: Quaternius alien over the stage-1 table the whole margin asked a 3.8° lean whose belly,
-#: turning with the chest, touched the table; a quarter asks 2.6°, which clears it.
+#: smaller lean, still over the feet. On the Quaternius alien over the stage-1 table the
+#: whole margin asked a 3.8° lean whose belly, turning with the chest, touched the table;
+#: a quarter asks 2.6°, which clears it.
 SHIFT_SHARES = (1.0, 0.25)
 
 
@@ -75,9 +75,10 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     the same obstacles and settings; ``acceptable(lean, arm_world=None, turned=None)``:
     why a lean may not be taken (the Blender layer's balance, the arm at its start, or
     with its joints on each pose of the reach at ``arm_world`` and the chest turned by
-    ``turned``: weighed again as the arm reaches, :func:`_balanced_reach`), or None; ``trunk``: the trunk as
-    skinned (:class:`~.lean.TrunkSkin`, canonical frame of ``planner.arm``), which the lean's
-    obstacle tests use instead of the chest's and head's capsules where given; ``body``:
+    ``turned``: weighed again as the arm reaches, :func:`_balanced_reach`), or None;
+    ``trunk``: the trunk as skinned (:class:`~.lean.TrunkSkin`, canonical frame of
+    ``planner.arm``), which the lean's obstacle tests use instead of the chest's and head's
+    capsules where given; ``body``:
     the rig's balance (:func:`~.hips.shifted_lean`), with which a lean that
     ``acceptable`` refuses, before or after its reach, is tried again with the hips moved
     back (``Settings.lean_hips_back``).
