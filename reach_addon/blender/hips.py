@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.hips import hips_drop, two_bone_knee
+from ..core.squat import Leg as LegJoints
+from ..core.squat import knee_pole
 from . import balance
 from .rig_detect import ancestors
 
@@ -107,12 +109,7 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up, forward) -> 
     for leg, name, (h, k, a, foot) in zip(legs, feet, before):
         thigh, shank = float(np.linalg.norm(k - h)), float(np.linalg.norm(a - k))
         hip_now = point(armature, leg.hip)
-        line = a - h
-        pole = (k - h) - ((k - h) @ line) / float(line @ line) * line
-        ahead = np.asarray(forward, dtype=float)
-        if float(np.linalg.norm(pole)) < 0.05 * thigh or float(pole @ ahead) <= 0.0:
-            pole = ahead
-        knee = two_bone_knee(hip_now, a, thigh, shank, pole)
+        knee = two_bone_knee(hip_now, a, thigh, shank, knee_pole(h, k, a, forward))
         _turn(context, armature, leg.hip[0], hip_now,
               _least_rotation(point(armature, leg.knee) - hip_now, knee - hip_now))
         knee_now = point(armature, leg.knee)
@@ -126,6 +123,17 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up, forward) -> 
             armature.pose.bones[name].matrix = Matrix(foot.tolist())
             context.view_layer.update()
     return float(drop)
+
+
+def leg_joints(armature, legs, forward) -> list:
+    """Each leg's joints as it stands now (:class:`~..core.squat.Leg`, world), its knee's
+    pole as :func:`pose_shift` bends it."""
+    point = balance._point
+    out = []
+    for leg in legs:
+        h, k, a = (point(armature, p) for p in (leg.hip, leg.knee, leg.ankle))
+        out.append(LegJoints(h, k, a, knee_pole(h, k, a, forward)))
+    return out
 
 
 #: The share of the body's mass the hips' shift leaves in place: both shanks and feet

@@ -1,5 +1,6 @@
-"""The trunk's lean on a rig (:mod:`..core.whole_body`): the bone that leans it, its pivot,
-the balance the lean leaves, and its keys.
+"""The trunk's lean on a rig (:mod:`..core.whole_body`): the bone that leans it, the plan
+(held to the balance, :mod:`.lean_balance`), its keys (posed by :mod:`.lean_pose`) and its
+report.
 
 **The lean bone** (:func:`lean_bone`) is the highest bone of the chest's chain (the keyed
 chest, its parent, and so on up) that carries neither leg (:func:`.balance.find_legs`):
@@ -7,15 +8,6 @@ turning it turns the chest, both arms and the head and leaves the legs and feet 
 are. Its head is the lean's pivot. On most rigs it is the lowest spine bone above the
 hips (the hips carry the legs); on a generated Rigify rig it is the chest control. A rig
 without legs has none, and does not lean.
-
-**Balance.** The hips do not move back yet, so a lean is refused where it would leave the
-centre of mass past the feet (:func:`.balance.margin_now`), and farther past them than the
-rig stands as posed: a template or a rig whose feet Reach reads poorly may stand past its
-own feet, and is then held to that.
-
-**Posing and keying** (:func:`lean_basis`): a lean is a rotation of the lean bone's pose
-matrix ``M`` about its head, ``M' = T_h R T_h⁻¹ M``; its channel (basis) matrix is then
-``B' = B M⁻¹ M'``, whatever the bone's parents, rotation mode or roll.
 """
 
 from __future__ import annotations
@@ -27,17 +19,18 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from ..core import NEEDS_LEAN, Planner
-from ..core import balance as core_balance
-from ..core import hips as core_hips
-from ..core.lean import TrunkSkin, skin_hit
-from ..core.whole_body import LeanPhase, lean_then_reach
+from ..core import Planner
+from ..core.lean import TrunkSkin
+from ..core.whole_body import LeanPhase, lean_then_reach, wants_body
 from . import balance, skin
 from . import hips as hips_mod
 from . import bake as bake_mod
 from .bake import KeyedPlan
 from .bone_matrices import channel_values
 from .fcurves import Channels, ensure_action, write_channel
+from .lean_balance import BalanceBody, BalanceCheck
+from .lean_pose import (lean_basis, pivot_world, pose_lean, pose_leaned, shift_world,
+                        world_rotations)
 from .rig_detect import ancestors
 
 
@@ -55,119 +48,6 @@ def lean_bone(armature, bmap, legs) -> str | None:
             break
         found = b.name
     return found
-
-
-def pivot_world(armature, bone: str) -> np.ndarray:
-    """The lean bone's head now (world): the lean's pivot."""
-    mw = np.array(armature.matrix_world)
-    return mw[:3, :3] @ np.array(armature.pose.bones[bone].head) + mw[:3, 3]
-
-
-def lean_basis(armature, bone: str, rotations_world) -> np.ndarray:
-    """The lean bone's channel (basis) matrices (F, 4, 4) for the world rotations
-    ``rotations_world`` (F, 3, 3) of the trunk about its head, from its pose now (see the
-    module docstring)."""
-    pb = armature.pose.bones[bone]
-    a = np.array(armature.matrix_world)[:3, :3]
-    a_inv = np.linalg.inv(a)
-    m = np.array(pb.matrix)
-    basis = np.array(pb.matrix_basis)
-    m_inv = np.linalg.inv(m)
-    out = []
-    for r in np.asarray(rotations_world, dtype=float):
-        leaned = m.copy()
-        leaned[:3, :3] = a_inv @ r @ a @ m[:3, :3]
-        out.append(basis @ m_inv @ leaned)
-    return np.array(out)
-
-
-def world_rotations(info, lean, fractions) -> np.ndarray:
-    """The trunk's world rotations (F, 3, 3) at ``fractions`` of ``lean``: the canonical
-    lean (:meth:`~..core.lean.Lean.matrix`) carried into the world, ``M R M⁻¹`` with ``M``
-    the arm's canonical-to-world rotation (a mirror for a left arm)."""
-    m = np.asarray(info.arm.to_world, dtype=float)[:3, :3]
-    return np.array([m @ lean.matrix(f)[:3, :3] @ m.T for f in fractions])
-
-
-def shift_world(info, lean) -> np.ndarray:
-    """The hips' shift of ``lean`` (canonical) in the world."""
-    return np.asarray(info.arm.to_world, dtype=float)[:3, :3] @ np.asarray(lean.shift, float)
-
-
-def pose_lean(context, armature, bone: str, basis) -> None:
-    """Set the lean bone's channel matrix to ``basis`` (4, 4) and evaluate."""
-    armature.pose.bones[bone].matrix_basis = Matrix(np.asarray(basis).tolist())
-    context.view_layer.update()
-
-
-def pose_leaned(context, armature, info, bone: str, basis, legs=(), hips=None,
-                shift=None) -> None:
-    """Pose the lean bone at ``basis`` and, where ``hips`` is given, the hips moved by the
-    world ``shift`` with the feet planted (:func:`.hips.pose_shift`): the one way the
-    balance, the lower body's test and the bake pose a lean."""
-    pose_lean(context, armature, bone, basis)
-    if hips is not None:
-        hips_mod.pose_shift(context, armature, list(legs), hips, shift,
-                            np.asarray(info.frame.up, float),
-                            np.asarray(info.frame.forward, float))
-
-
-def reaching_segments(armature, info, legs, target=None) -> list:
-    """The body's segments now (:func:`.balance.body_segments`), the reaching arm held
-    straight from its shoulder toward ``target`` (world), the wrist at most on it (an
-    estimate of where the arm ends, for the hips' shift); as it is without a target."""
-    out = balance.body_segments(armature, info.bones, legs)
-    if target is None:
-        return out
-    k = 3 * list(info.bones.arms).index(info.side)
-    (_u, s, e), (_f, _e, w), (_h, _w, tip) = out[k:k + 3]
-    s = np.asarray(s, dtype=float)
-    upper, fore, hand = (float(np.linalg.norm(np.asarray(b) - np.asarray(a)))
-                         for a, b in ((s, e), (e, w), (w, tip)))
-    d = np.asarray(target, dtype=float) - s
-    u = d / max(float(np.linalg.norm(d)), 1e-12)
-    w = s + min(float(np.linalg.norm(d)), upper + fore) * u
-    e = s + upper / max(upper + fore, 1e-12) * (w - s)
-    out[k:k + 3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, w + hand * u)]
-    return out
-
-
-def posed_segments(segments, info, joints, turned=None) -> list:
-    """``segments`` (:func:`.balance.body_segments`) with the reaching arm's at the core's
-    ``joints`` (world: sternum, shoulder, elbow, wrist, hand's end), and the other arms'
-    and the head's points mapped by ``turned`` (world points → where the chest's turn takes
-    them) where given."""
-    out = list(segments)
-    k = 3 * list(info.bones.arms).index(info.side)
-    if turned is not None:
-        carried = [i for i in range(3 * len(info.bones.arms)) if not k <= i < k + 3]
-        carried += [i for i, seg in enumerate(out) if seg[0] == "head_neck"]
-        for i in carried:
-            kind, a, b = out[i]
-            a, b = turned(np.array([a, b], dtype=float))
-            out[i] = (kind, a, b)
-    s, e, w, tip = (np.asarray(p, dtype=float) for p in np.asarray(joints)[1:5])
-    out[k:k + 3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, tip)]
-    return out
-
-
-def margin_reaching(armature, info, legs, arm_world=None, turned=None) -> tuple:
-    """(the centre of mass's least margin over the feet now, world units; the pose it is
-    least on; the centre of mass there, world): the arm as it is (pose None) where
-    ``arm_world`` is None, else on each of its poses (P, 5, 3), the chest turned by
-    ``turned(points, k)`` (:func:`posed_segments`)."""
-    up = np.asarray(info.frame.up, float)
-    polygon = balance.support_now(armature, legs, up)[0]
-    segments = balance.body_segments(armature, info.bones, legs)
-    if arm_world is None:
-        com = core_balance.centre_of_mass(segments)
-        return core_balance.balance_margin(com, polygon, up), None, com
-    coms = [core_balance.centre_of_mass(posed_segments(
-        segments, info, joints, None if turned is None else lambda p, k=k: turned(p, k)))
-        for k, joints in enumerate(np.asarray(arm_world, dtype=float))]
-    margins = [core_balance.balance_margin(c, polygon, up) for c in coms]
-    k = int(np.argmin(margins))
-    return float(margins[k]), k, coms[k]
 
 
 def animated(armature, bone: str, channel: str = "rotation") -> bool:
@@ -221,7 +101,7 @@ def plan(context, armature, info, planner, keyed):
         return made[-1]
 
     failed, task = keyed.plan, keyed.plan.task
-    if not planner.settings.lean or failed.reason != NEEDS_LEAN or task.kind != "reach":
+    if not wants_body(planner.settings, task, failed, info.arm):
         return None, keyed
     legs = balance.find_legs(armature, info.bones, info.frame)
     bone = lean_bone(armature, info.bones, legs)
@@ -251,7 +131,7 @@ def plan(context, armature, info, planner, keyed):
         if keyed_own and planner.settings.lean_hips_back:
             why += f" (the hips stay: bone '{keyed_own}' has keys of its own)"
     for seg in failed.segments:
-        if seg.reason == NEEDS_LEAN:
+        if seg.reason == failed.reason:
             seg.message += f"; with Lean on: {why}"
     return None, keyed
 
@@ -300,134 +180,6 @@ def trunk_skin(armature, info, bone) -> TrunkSkin | None:
     return TrunkSkin(info.arm.to_canonical_points(np.concatenate(points)), np.concatenate(turns))
 
 
-class BalanceCheck:
-    """``check(lean, arm_world=None, turned=None)``: why a lean (:class:`~..core.lean.
-    Lean`) may not be taken, or None: the centre of mass's margin over the feet with the
-    trunk at the full lean (the hips moved back by the lean's shift) may not fall below 0
-    nor below the rig's own as it stands (see the module docstring): the arm at its start,
-    or on each pose of the reach planned after the lean (``arm_world``, ``turned``:
-    :func:`margin_reaching`). ``margins``: each lean's margin, in turn.
-
-    ``correction``: where the reach after a lean (its hips not moved) was weighed, its
-    least-balanced pose's centre of mass less :class:`BalanceBody`'s estimate for the same
-    lean (the arm straight toward ``target``, the chest unturned): the estimate's error,
-    which :class:`BalanceBody` adds, so the hips move back by what the planned arm needs
-    (on the Quaternius alien the estimate put the centre of mass 0.04 arm lengths too far
-    forward: its chest turns 55° and brings the other arm back)."""
-
-    def __init__(self, context, armature, info, legs, bone, target=None, checker=None):
-        self.context, self.armature, self.info, self.legs, self.bone = \
-            context, armature, info, legs, bone
-        self.target = None if target is None else np.asarray(target, dtype=float)
-        self.checker = checker
-        self.standing = balance.margin_now(armature, info.bones, legs,
-                                           np.asarray(info.frame.up, float))
-        self.hips = hips_mod.hips_bone(armature, legs, bone)
-        self.margins = []
-        self.correction = None
-
-    def __call__(self, lean, arm_world=None, turned=None):
-        basis = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, [1.0]))[0]
-        moved = bool(np.any(lean.shift))
-        bones = [self.bone] + ([self.hips] + hips_mod.leg_bones(self.armature, self.legs)
-                               if moved else [])
-        with hips_mod.Posed(self.context, self.armature, bones):
-            pose_leaned(self.context, self.armature, self.info, self.bone, basis, self.legs,
-                        self.hips if moved else None, shift_world(self.info, lean))
-            margin, pose, com = margin_reaching(self.armature, self.info, self.legs,
-                                                arm_world, turned)
-            if pose is not None and not moved and self.target is not None:
-                self.correction = com - core_balance.centre_of_mass(
-                    reaching_segments(self.armature, self.info, self.legs, self.target))
-        self.margins.append(margin)
-        length = self.info.arm.arm_length
-        if margin >= min(0.0, self.standing):
-            hit = None if not moved or arm_world is not None else self.lower_hit(lean)
-            return None if hit is None else (
-                f"leaning {lean.angle:.0f}° with the hips "
-                f"{np.linalg.norm(np.asarray(lean.shift)[:2]) / length:.2f} arm lengths back, "
-                f"the {hit[0]} would touch '{hit[1]}'")
-        why = (f"leaning {lean.angle:.0f}° would carry the centre of mass "
-               + ("" if pose is None else f"(the arm on the reach's frame {pose}) ")
-               + f"{-margin / length:.3f} arm lengths past the feet"
-               + ("" if moved else ", the hips not moved back"))
-        if self.standing < 0.0:
-            why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"
-        return why
-
-    def lower_hit(self, lean):
-        """(part, obstacle) where the skin below the trunk (the hips bone's and every bone
-        it carries that the lean bone does not: the pelvis and the legs, :func:`.hips.
-        lower_bones`) would come within the clearance of an obstacle as the lean moves the
-        hips back (:data:`LOWER_SAMPLES` instants of it, posed as the bake poses them, then
-        :func:`~..core.lean.skin_hit`, exact about crossing between them), else None.
-        A wall just behind the hips is what this finds (the knees come forward little: the
-        legs stay near straight, :data:`~..core.hips.STRAIGHT_SHARE`)."""
-        if self.checker is None or self.hips is None:
-            return None
-        fractions = np.linspace(0.0, 1.0, LOWER_SAMPLES)
-        bases = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, fractions))
-        names = hips_mod.lower_bones(self.armature, self.hips, self.bone)
-        moved = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
-        world = []
-        for basis, fraction in zip(bases, fractions):
-            with hips_mod.Posed(self.context, self.armature, moved):
-                pose_leaned(self.context, self.armature, self.info, self.bone, basis,
-                            self.legs, self.hips, fraction * shift_world(self.info, lean))
-                world.append(skin.skin_points(self.armature, names, 0.5, True))
-        if not len(world[0]):
-            return None
-        hit = skin_hit(np.array(world), self.checker)
-        return None if hit is None else ("lower body", hit[1])
-
-
-#: The instants of a lean at which the skin below the trunk is read for its obstacle test
-#: (:meth:`BalanceCheck.lower_hit`); between them the test adds its own where a point
-#: moves more than the clearance allows.
-LOWER_SAMPLES = 9
-
-
-class BalanceBody:
-    """The rig's balance for :func:`~..core.hips.shifted_lean` (world frame): the centre of
-    mass with the trunk leaned (the lean bone posed, measured, put back; the arm straight
-    toward the target, corrected by the ``check``'s :attr:`BalanceCheck.correction` where
-    it has one), the support polygon and up as the rig stands, the planted share, the
-    margin to keep (``Settings.balance_margin`` arm lengths over the ``floor``: 0, or the
-    rig's own where that is below 0), and how far the hips come down for a shift."""
-
-    def __init__(self, context, armature, info, legs, lean_bone, hips, settings,
-                 check: BalanceCheck):
-        self.target, self.check = check.target, check
-        self.context, self.armature, self.info, self.legs = context, armature, info, legs
-        self.lean_bone, self.hips = lean_bone, hips
-        self.up = np.asarray(info.frame.up, dtype=float)
-        self.polygon = balance.support_now(armature, legs, self.up)[0]
-        self.planted_share = hips_mod.PLANTED_SHARE
-        self.floor = min(0.0, check.standing)
-        self.margin = self.floor + settings.balance_margin * info.arm.arm_length
-
-    def com(self, lean) -> np.ndarray:
-        """The centre of mass (world) with the trunk leaned by ``lean`` (its turn only)."""
-        basis = lean_basis(self.armature, self.lean_bone,
-                           world_rotations(self.info, lean, [1.0]))[0]
-        with hips_mod.Posed(self.context, self.armature, [self.lean_bone]):
-            pose_lean(self.context, self.armature, self.lean_bone, basis)
-            com = core_balance.centre_of_mass(
-                reaching_segments(self.armature, self.info, self.legs, self.target))
-        return com if self.check.correction is None else com + self.check.correction
-
-    def drop(self, shift_world) -> float:
-        """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`)."""
-        point = balance._point
-        shift = np.asarray(shift_world, dtype=float)
-        out = 0.0
-        for leg in self.legs:
-            h, k, a = (point(self.armature, p) for p in (leg.hip, leg.knee, leg.ankle))
-            out = max(out, core_hips.hips_drop(h + shift, a, float(np.linalg.norm(k - h)),
-                                     float(np.linalg.norm(a - k)), self.up))
-        return out
-
-
 def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False):
     """Key the lean, then the reach on the leaned trunk (:func:`.bake.bake`, for ``info``'s
     arm on the leaned trunk): the reach is baked with the lean bone posed at the full lean;
@@ -472,16 +224,15 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
 def _hips_bases(context, armature, info, lean: RigLean) -> dict:
     """Where the lean moves the hips back: the channel matrices (F, 4, 4) of the hips bone
     and the legs' bones (:func:`.hips.pose_shift`) on each frame of the lean, the shift
-    growing with the lean's fraction; the pose is put back after. {} otherwise."""
+    growing with the lean (:meth:`~..core.lean.Lean.shift_at`); the pose is put back after. {} otherwise."""
     if lean.hips is None:
         return {}
-    shift = shift_world(info, lean.phase.lean)
     names = [lean.hips] + hips_mod.leg_bones(armature, list(lean.legs))
     out: dict = {n: [] for n in names}
     for basis, fraction in zip(lean.bases, lean.phase.fractions):
         with hips_mod.Posed(context, armature, [lean.bone] + names):
             pose_leaned(context, armature, info, lean.bone, basis, lean.legs, lean.hips,
-                        float(fraction) * shift)
+                        shift_world(info, lean.phase.lean, float(fraction)))
             for n in names:
                 out[n].append(np.array(armature.pose.bones[n].matrix_basis))
     return {n: np.array(v) for n, v in out.items()}
@@ -531,6 +282,11 @@ def _hold(channels, bones, lean_bone, frame_from, frame_to) -> None:
         write_channel(channels, path, values, frames, name)
 
 
+#: How far the hips come down (arm lengths) before the report calls a lean a squat (a
+#: lean with the hips back lowers them a little: the legs straighten no further).
+SQUAT_REPORTED = 0.05
+
+
 def report(results, lean: RigLean | None, length: float) -> None:
     """Put the lean into the reach's result (:class:`.results.TaskResult`), in place: its
     ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone``, ``lean_hips_back`` (arm
@@ -541,11 +297,16 @@ def report(results, lean: RigLean | None, length: float) -> None:
         return
     for r in results:
         r.frame_start = lean.frame_start
-        back = float(np.linalg.norm(np.asarray(lean.phase.lean.shift, float)[:2])) / \
-            lean.phase.arm.arm_length
+        shift = np.asarray(lean.phase.lean.shift, float) / lean.phase.arm.arm_length
+        back, down = float(np.linalg.norm(shift[:2])), max(0.0, -float(shift[2]))
         r.stats.update(lean_deg=round(float(lean.phase.lean.angle), 2),
                        lean_frames=lean.phase.frames, lean_bone=lean.bone,
                        lean_com_margin=round(lean.margin / length, 4),
-                       lean_hips_back=round(back, 4))
-        r.message += f", leaning the trunk {lean.phase.lean.angle:.0f}° at the hips first" + (
-            f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")
+                       lean_hips_back=round(back, 4), lean_hips_down=round(down, 4))
+        angle = lean.phase.lean.angle
+        if down >= SQUAT_REPORTED:
+            r.message += (f", squatting first: the hips {down:.2f} arm lengths down and "
+                          f"{back:.2f} back, leaning the trunk {angle:.0f}°")
+        else:
+            r.message += f", leaning the trunk {angle:.0f}° at the hips first" + (
+                f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")

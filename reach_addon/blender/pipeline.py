@@ -176,13 +176,29 @@ def _chase_range(context, target, frame_start):
     return frame_start, end
 
 
-def reach_bounds(arm, settings: Settings, targets) -> tuple:
+def reach_bounds(arm, settings: Settings, targets, body_extent: float = 0.0) -> tuple:
     """(centre, radius, target positions), world space: what :meth:`.scene.KeptObstacles.get`
     keeps obstacles within — the arm's reach sphere (:func:`~reach_addon.core.arm.reach_sphere`)
     with :data:`~reach_addon.core.arm.REACH_SLACK` and the clearance to spare, and any
-    object holding a target."""
+    object holding a target. With *Lean* on the body moves the shoulder, and the sphere
+    grows by twice ``body_extent`` (:func:`body_extent`: every posture keeps the shoulder
+    tied to the planted feet by the body between, so it stays within that of where it
+    was, and the body itself within it of the shoulder)."""
     centre, radius = reach_sphere(arm, REACH_SLACK + settings.clearance)
+    if settings.lean:
+        radius += 2.0 * float(body_extent)
     return centre, radius, np.array([np.array(t.matrix_world.translation) for t in targets])
+
+
+def body_extent(armature, shoulder) -> float:
+    """The farthest any bone's head or tail lies from the ``shoulder`` (world), as the rig
+    stands: a bound on the body's reach from the shoulder through its own chain."""
+    mw = np.array(armature.matrix_world)
+    pts = np.array([p for pb in armature.pose.bones for p in (pb.head, pb.tail)], dtype=float)
+    if not len(pts):
+        return 0.0
+    world = pts @ mw[:3, :3].T + mw[:3, 3]
+    return float(np.linalg.norm(world - np.asarray(shoulder, dtype=float), axis=1).max())
 
 
 class PipelineRun:
@@ -239,7 +255,8 @@ class PipelineRun:
         self.exclude = character_objects(self.armature, context.scene) | set(self.names)
         self.pieces, self.obstacles, _built = KEPT.get(
             context, self.exclude, self.collection,
-            within=reach_bounds(self.info.arm, self.settings, self.targets))
+            within=reach_bounds(self.info.arm, self.settings, self.targets,
+                                body_extent(self.armature, self.info.joints_world["shoulder"])))
         self.moving = set() if self.request.task == "chase" else \
             _moving_owners(context, self.exclude, self.collection, self.frame_start)
         yield 0.05, f"{self.obstacles.triangle_count} obstacle triangles"

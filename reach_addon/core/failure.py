@@ -75,7 +75,9 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
         else:
             where = (f"{size(d.missing)} below what the arm reaches from the shoulder, and "
                      f"leaning {settings.lean_max:.0f}° does not bring it within reach: "
-                     "only crouching or kneeling would")
+                     "only a squat or a knee down would" + (
+                         "" if settings.lean and settings.squat
+                         else ": turn on Lean and Squat to squat first (a single reach)"))
         return OUT_OF_REACH, (
             f"target '{name}' is out of reach: {where} ({closest}); move the target")
     if d.reason == ARM_DOES_NOT_FIT:

@@ -124,18 +124,35 @@ class Lean:
     angle: float
     shift: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
+    def shift_share(self, fraction: float = 1.0) -> float:
+        """How much of the hips' shift is made at ``fraction`` of the lean: as much as the
+        trunk's forward lean is, :math:`g(f) = \\sin(fθ) / \\sin θ` (``f`` where θ is
+        under a degree). The trunk's weight comes forward as the sine of its lean, and the
+        hips going back by the same share keep the centre of mass where the full posture
+        puts it all the way (by a share ``f`` instead, a 74° squat's trunk came forward
+        faster than the hips went back, and the body was 0.0045 arm lengths past its toes
+        half-way)."""
+        f = float(fraction)
+        if abs(self.angle) < 1.0:
+            return f
+        return math.sin(math.radians(self.angle * f)) / math.sin(math.radians(self.angle))
+
+    def shift_at(self, fraction: float = 1.0) -> np.ndarray:
+        """The hips' shift (canonical) at ``fraction`` of the lean (:meth:`shift_share`)."""
+        return self.shift_share(fraction) * np.asarray(self.shift, dtype=float)
+
     def matrix(self, fraction: float = 1.0) -> np.ndarray:
         """The 4×4 canonical transform of ``fraction`` of the lean: the hips' shift after
-        the turn about the pivot, T(f·shift) · :func:`lean_rotation`."""
+        the turn about the pivot, T(:meth:`shift_at` f) · :func:`lean_rotation`."""
         m = lean_rotation(self.pivot, self.axis, self.angle * float(fraction))
-        m[:3, 3] += float(fraction) * np.asarray(self.shift, dtype=float)
+        m[:3, 3] += self.shift_at(fraction)
         return m
 
     def moved(self, fraction: float = 1.0) -> np.ndarray:
         """The 4×4 canonical transform of what the hips carry below the pivot at
         ``fraction``: the shift alone."""
         m = np.eye(4)
-        m[:3, 3] = float(fraction) * np.asarray(self.shift, dtype=float)
+        m[:3, 3] = self.shift_at(fraction)
         return m
 
 
@@ -191,12 +208,16 @@ def choose_lean(arm, target_c, pivot_c, settings, turns=(0.0,)) -> Lean | None:
 def lean_frames(arm, joints_c, lean: Lean, settings, fps: float) -> np.ndarray:
     """The lean's fraction on each frame of its own phase, before the arm moves: a
     minimum-jerk curve (:func:`~reach_addon.core.torso.minimum_jerk`) over as many frames
-    as the wrist's arc (``lean.angle`` in radians times its distance from the pivot)
-    takes at the automatic duration's speed (:func:`~reach_addon.core.motion.auto_duration`
-    reasoning: ``Settings.mean_speed`` arm lengths a second, at least
-    ``Settings.min_duration``). Frame 0 is the upright start (fraction 0); the last is 1."""
+    as the wrist's path takes at the automatic duration's speed
+    (:func:`~reach_addon.core.motion.auto_duration` reasoning: ``Settings.mean_speed`` arm
+    lengths a second, at least ``Settings.min_duration``). The path is the wrist's arc
+    (``lean.angle`` in radians times its distance from the pivot) and, where the hips move
+    (back, or down in a squat), their travel, the two combined as legs of a right angle
+    (``hypot``): the wrist's turn about the pivot and the hips' drop run nearly across each
+    other. Frame 0 is the upright start (fraction 0); the last is 1."""
     wrist = np.asarray(joints_c, dtype=float)[3]
-    arc = math.radians(lean.angle) * float(np.linalg.norm(wrist - lean.pivot)) / arm.arm_length
+    arc = math.hypot(math.radians(lean.angle) * float(np.linalg.norm(wrist - lean.pivot)),
+                     float(np.linalg.norm(lean.shift))) / arm.arm_length
     seconds = max(settings.min_duration, arc / settings.mean_speed)
     n = max(2, int(math.ceil(seconds * fps)) + 1)
     t = np.linspace(0.0, 1.0, n)

@@ -141,6 +141,33 @@ class Settings:
         0.02, "Balance margin", "How far inside the feet's support polygon the hips' shift "
         "keeps the centre of mass (arm lengths; the rig's own margin as it stands where "
         "that is less than 0)", "body", 0.0, 0.2)
+    squat: bool = _f(
+        True, "Squat", "With Lean on, where no standing lean reaches a low target, squat or "
+        "bend: the hips come down and back, the knees and ankles bend, the trunk leans "
+        "farther, the feet planted (the least effort within the limits below)", "body")
+    bend_max: float = _f(
+        90.0, "Bend limit", "Farthest trunk lean in a squat or bend, from upright. A person "
+        "shares it between the pelvis's tilt at the hips and the spine's flexion; Reach "
+        "leans the trunk at the spine's lowest joint, and holds the lean plus the thigh's "
+        "flexion within Hip limit + Spine limit", "body", 0.0, 90.0, "deg")
+    spine_max: float = _f(
+        80.0, "Spine limit", "The spine's flexion that a squat's lean may take beyond what "
+        "the hips give (see Bend limit): the AAOS average thoracolumbar flexion (1965)",
+        "body", 0.0, 120.0, "deg")
+    knee_max: float = _f(
+        135.0, "Knee limit", "Greatest knee flexion in a squat: the AAOS average (1965)",
+        "body", 0.0, 160.0, "deg")
+    ankle_max: float = _f(
+        38.0, "Ankle limit", "Greatest ankle dorsiflexion in a squat, the shin tipping over "
+        "the planted foot from where it stands: the upper end of what clinicians take as "
+        "normal in the weight-bearing lunge test (30-38°); the AAOS average, 20°, is "
+        "measured off the ground", "body", 0.0, 60.0, "deg")
+    hip_max: float = _f(
+        120.0, "Hip limit", "Greatest hip flexion in a squat, the thigh's angle from the "
+        "pelvis's down: the AAOS average (1965)", "body", 0.0, 150.0, "deg")
+    squat_step: float = _f(
+        0.05, "Squat grid", "Spacing of the grid of hips' drops and shifts a squat is "
+        "chosen from (arm lengths)", "body", 0.005, 0.2)
     chest_phase_delay: float = _f(
         0.25, "Chest delay", "Fraction of a reach's progress toward its target before "
         "the chest starts to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)

@@ -19,10 +19,15 @@ the arm at its start or on any pose of the reach) the hips move back
 (:func:`~.hips.shifted_lean`, stage 3), the lean growing as the shoulder comes back with
 them.
 
-What this stage leaves to later ones, and refuses meanwhile: the lean is not phased with
-the reach (lean first, then reach, as a person does where a blend would touch); only a
-single reach leans (a sequence, a guided reach and a chase still refuse as
-``needs_lean``); and a start in contact does not lean.
+Where no standing lean reaches (a target low in front, refused as ``out_of_reach``, or
+every lean refused) and ``Settings.squat`` is on, the hips come down as well
+(:func:`squat_then_reach`, stage 4, :mod:`.squat`): the same phase, checks and bake.
+
+What these stages leave to later ones, and refuse meanwhile: the lean is not phased with
+the reach (lean first, then reach, as a person does where a blend would touch) and the
+arms ride on the trunk as they stood (they do not hang); only a single reach leans (a
+sequence, a guided reach and a chase still refuse as ``needs_lean``); and a start in
+contact does not lean.
 """
 
 from __future__ import annotations
@@ -32,11 +37,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .arm import ArmModel
-from .errors import NEEDS_LEAN
+from .errors import NEEDS_LEAN, OUT_OF_REACH
 from .hand_shape import with_shape
 from .hips import shifted_lean
 from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean_frames, lean_hit,
                    leaned_arm, skin_hit)
+from .squat import squat_leans
 from .torso import body_rotation_deg, rotate_about_spine
 
 
@@ -88,19 +94,22 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     is not acceptable or finds no way, the least lean with the chest turned as far as the
     planner may turn it (:func:`~.lean.chest_turns`: a smaller lean, a larger twist)."""
     s, arm = planner.settings, planner.arm
-    if not s.lean or task.kind != "reach" or failed.reason != NEEDS_LEAN:
+    if not wants_body(s, task, failed, arm):
         return None, None
     target_c = arm.to_canonical_points(np.asarray(task.targets[0], dtype=float))
     table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
     turns = [(table1,), chest_turns(s)]
     leans = [choose_lean(arm, target_c, pivot_c, s, t) for t in turns]
-    if leans[1] is None:
-        return None, f"no lean up to {s.lean_max:.0f}° at the hips brings it within reach"
-    if leans[0] is None or leans[0].angle <= leans[1].angle + 0.5:
-        leans, turns = leans[1:], turns[1:]
     whys = []
+    if leans[1] is None:
+        whys.append(f"no lean up to {s.lean_max:.0f}° at the hips brings it within reach")
+        leans, turns_tried = [], []
+    elif leans[0] is None or leans[0].angle <= leans[1].angle + 0.5:
+        leans, turns_tried = leans[1:], turns[1:]
+    else:
+        turns_tried = turns
     shifting = body is not None and s.lean_hips_back
-    for lean, turn in zip(leans, turns):
+    for lean, turn in zip(leans, turns_tried):
         why = acceptable(lean) if acceptable is not None else None
         if why is None:
             phase, why = _balanced_reach(planner, task, lean, make_planner, trunk, acceptable)
@@ -117,7 +126,71 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
                 if phase is not None:
                     return phase, why
         whys.append(why)
+    if shifting and s.squat:
+        phase, why = squat_then_reach(planner, task, target_c, pivot_c, turns, body,
+                                      make_planner, trunk, acceptable)
+        if phase is not None:
+            return phase, why
+        whys.append(why)
     return None, "; ".join(whys)
+
+
+def wants_body(settings, task, failed, arm) -> bool:
+    """Whether ``failed`` (a reach's plan) is one the body may reach where the arm cannot:
+    a single reach with ``Settings.lean`` on, refused as ``needs_lean``, or (with
+    ``Settings.squat``) as ``out_of_reach`` for a target below the shoulder and beyond the
+    arm (a squat may bring it within reach; one within the arm's length but past its joint
+    limits, or above it, stays refused)."""
+    if not settings.lean or task.kind != "reach":
+        return False
+    if failed.reason == NEEDS_LEAN:
+        return True
+    if failed.reason != OUT_OF_REACH or not settings.squat:
+        return False
+    d = arm.to_canonical_points(np.asarray(task.targets[0], dtype=float)) - arm.shoulder
+    return float(np.linalg.norm(d)) > arm.arm_length and float(d[2]) < 0.0
+
+
+#: How many squats :func:`squat_then_reach` tries, best first, each at least
+#: :data:`SQUAT_APART` grid steps from those tried in the hips' drop or shift.
+SQUAT_TRIES = 4
+SQUAT_APART = 2
+
+
+def squat_then_reach(planner, task, target_c, pivot_c, turns, body, make_planner, trunk,
+                     acceptable):
+    """Stage 4: the squat or bend (:func:`~.squat.squat_leans`) with the chest turned as
+    Table 1 has it, else as far as the planner may turn it (``turns``, as
+    :func:`lean_then_reach` tries them), then the reach on it, each posture held to
+    ``acceptable`` as a lean is (:func:`_balanced_reach`): (:class:`LeanPhase`, the reach's
+    plan) or (None, why not). Of the postures found, up to :data:`SQUAT_TRIES` are tried
+    in their order, skipping those near one tried (the checks that refuse one, a body
+    touching or tipping, refuse its neighbours too)."""
+    s = planner.settings
+    squats = []
+    for group in turns:
+        squats = squat_leans(planner.arm, target_c, pivot_c, s, group, body)
+        if squats:
+            break
+    if not squats:
+        return None, (f"no squat or bend (trunk up to {s.bend_max:.0f}°, knees "
+                      f"{s.knee_max:.0f}°, ankles {s.ankle_max:.0f}°, hips {s.hip_max:.0f}°) "
+                      "brings it within reach with the body over its feet")
+    step = s.squat_step * planner.arm.arm_length
+    tried, why = [], None
+    for q in squats:
+        if len(tried) >= SQUAT_TRIES:
+            break
+        if any(np.abs(q.lean.shift - t).max() < SQUAT_APART * step - 1e-9 for t in tried):
+            continue
+        tried.append(np.asarray(q.lean.shift, dtype=float))
+        why = acceptable(q.lean) if acceptable is not None else None
+        if why is None:
+            phase, why = _balanced_reach(planner, task, q.lean, make_planner, trunk,
+                                         acceptable)
+            if phase is not None:
+                return phase, why
+    return None, f"squatting: {why}"
 
 
 def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable):
