@@ -1,7 +1,7 @@
 """``make fuzz``: the fuzz campaign's runner and its command line.
 
 ``python bench/fuzz.py [--count N] [--seed0 S] [--jobs J] [--out FILE] [--subframes N]
-[--timeout S] [--cross-check-budget S] [--quick] [--standard-rigs] [--resume DIR]`` runs
+[--timeout S] [--cross-check-budget S] [--quick] [--standard-rigs] [--lean] [--resume DIR]`` runs
 seeds ``S`` … ``S + N - 1`` on ``J`` worker processes
 (:func:`verification.fuzz.campaign.run_campaign`), prints its progress and writes their
 summary (:func:`verification.fuzz.summary.summarize`) to ``--out`` (``out/fuzz.json``;
@@ -63,6 +63,9 @@ def main(argv=None) -> int:
                              "and run only the seeds it lacks")
     parser.add_argument("--quick", action="store_true",
                         help="the cheaper scenes of the tests' subset (smaller search budgets)")
+    parser.add_argument("--lean", action="store_true",
+                        help="every scene with Lean on (and with it Squat): the body reaches "
+                             "past the arm where it can")
     args = parser.parse_args(argv)
 
     seeds = list(range(args.seed0, args.seed0 + args.count))
@@ -79,7 +82,7 @@ def main(argv=None) -> int:
     commit = git_commit()       # before the run: what the workers import from disk
     settings = {"subframes": args.subframes, "quick": args.quick,
                 "cross_check_budget_s": args.cross_check_budget,
-                "rig_shapes": not args.standard_rigs}
+                "rig_shapes": not args.standard_rigs, "lean": args.lean}
     runs, sessions = None, []
     if args.resume:
         runs = campaign_folder(Path(args.resume), settings)
@@ -92,7 +95,7 @@ def main(argv=None) -> int:
     try:
         results = run_campaign(seeds, args.jobs, args.subframes, args.timeout, progress,
                                args.quick, args.cross_check_budget, not args.standard_rigs,
-                               runs)
+                               runs, args.lean)
     finally:
         if runs is not None:
             sessions.append({"commit": commit, "jobs": args.jobs,
@@ -131,9 +134,10 @@ def _run_kept(args, seeds) -> int:
     results_path = keep / "results.jsonl"
     results_path.unlink(missing_ok=True)
     worker(seeds, results_path, args.subframes, keep=keep, quick=args.quick,
-           cross_check_s=args.cross_check_budget, shapes=not args.standard_rigs)
+           cross_check_s=args.cross_check_budget, shapes=not args.standard_rigs, lean=args.lean)
     for seed in seeds:
-        print(json.dumps(generate(seed, args.quick, not args.standard_rigs), indent=1))
+        print(json.dumps(generate(seed, args.quick, not args.standard_rigs, args.lean),
+                         indent=1))
     for line in results_path.read_text().splitlines():
         rec = json.loads(line)
         if "category" in rec:

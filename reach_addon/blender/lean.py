@@ -21,6 +21,7 @@ from mathutils import Matrix
 
 from ..core import Planner
 from ..core.lean import TrunkSkin
+from ..core.squat import leg_angles
 from ..core.whole_body import LeanPhase, lean_then_reach, wants_body
 from . import balance, skin
 from . import hips as hips_mod
@@ -86,14 +87,19 @@ class RigLean:
     #: the hips bone and the legs it moves where the lean moves the hips back, else None
     hips: str | None = None
     legs: tuple = ()
+    #: the worst knee flexion, ankle dorsiflexion and thigh flexion over both legs at the
+    #: full lean (degrees, :func:`~..core.squat.leg_angles`), where the hips move
+    leg_angles: tuple | None = None
 
 
 def plan(context, armature, info, planner, keyed):
     """Try a lean where ``keyed`` (the :class:`.bake.KeyedPlan` of a single reach) was refused
-    as ``needs_lean`` and ``Settings.lean`` is on (:func:`~..core.whole_body.
-    lean_then_reach`), among ``planner``'s obstacles and settings, each lean held to the
-    balance (:class:`BalanceCheck`). Returns (:class:`RigLean`, the reach's KeyedPlan on
-    the leaned trunk); or (None, ``keyed``) with its message saying why no lean was planned."""
+    as ``needs_lean`` (or as ``out_of_reach`` below the arm, for a squat:
+    :func:`~..core.whole_body.wants_body`) and ``Settings.lean`` is on
+    (:func:`~..core.whole_body.lean_then_reach`), among ``planner``'s obstacles and
+    settings, each lean held to the balance (:class:`.lean_balance.BalanceCheck`). Returns
+    (:class:`RigLean`, the reach's KeyedPlan on the leaned trunk); or (None, ``keyed``)
+    with its message saying why no lean was planned."""
     made = []
 
     def make_planner(arm):
@@ -123,9 +129,12 @@ def plan(context, armature, info, planner, keyed):
             bases = lean_basis(armature, bone, world_rotations(info, phase.lean, phase.fractions))
             first = keyed.first_frame
             moved = bool(np.any(phase.lean.shift))
+            angles = None if not moved or body is None else tuple(float(a) for a in np.max(
+                [leg_angles(j, shift_world(info, phase.lean), np.asarray(info.frame.up, float))
+                 for j in body.leg_joints], axis=0))
             return RigLean(phase, bone, bases, first, check.margins[-1],
                            check.hips if moved else None,
-                           tuple(legs) if moved else ()), KeyedPlan(
+                           tuple(legs) if moved else (), angles), KeyedPlan(
                 reach_or_why, first + phase.frames, (made[-1].generator.checker,), True)
         why = reach_or_why
         if keyed_own and planner.settings.lean_hips_back:
@@ -289,10 +298,12 @@ SQUAT_REPORTED = 0.05
 
 def report(results, lean: RigLean | None, length: float) -> None:
     """Put the lean into the reach's result (:class:`.results.TaskResult`), in place: its
-    ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone``, ``lean_hips_back`` (arm
-    lengths) and ``lean_com_margin`` (arm lengths: the least :class:`BalanceCheck` weighed
-    for the lean taken, over the reach's poses), its message says so, and its frames start
-    with the lean's."""
+    ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone``, ``lean_hips_back`` and
+    ``lean_hips_down`` (arm lengths), ``lean_com_margin`` (arm lengths: the least
+    :class:`.lean_balance.BalanceCheck` weighed for the lean taken, over the reach's poses)
+    and, where the hips move, ``lean_knee_deg``, ``lean_ankle_deg`` and ``lean_thigh_deg``
+    (the worst leg's flexion, dorsiflexion and thigh flexion at the full lean); its message
+    says so, and its frames start with the lean's."""
     if lean is None:
         return
     for r in results:
@@ -303,10 +314,15 @@ def report(results, lean: RigLean | None, length: float) -> None:
                        lean_frames=lean.phase.frames, lean_bone=lean.bone,
                        lean_com_margin=round(lean.margin / length, 4),
                        lean_hips_back=round(back, 4), lean_hips_down=round(down, 4))
+        if lean.leg_angles is not None:
+            knee, ankle, thigh = (round(a, 1) for a in lean.leg_angles)
+            r.stats.update(lean_knee_deg=knee, lean_ankle_deg=ankle, lean_thigh_deg=thigh)
         angle = lean.phase.lean.angle
         if down >= SQUAT_REPORTED:
             r.message += (f", squatting first: the hips {down:.2f} arm lengths down and "
-                          f"{back:.2f} back, leaning the trunk {angle:.0f}°")
+                          f"{back:.2f} back, leaning the trunk {angle:.0f}°") + (
+                "" if lean.leg_angles is None else
+                f", the knees bent {lean.leg_angles[0]:.0f}°")
         else:
             r.message += f", leaning the trunk {angle:.0f}° at the hips first" + (
                 f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")

@@ -16,7 +16,8 @@ with the planner:
 - the centre of mass stays over the feet at every frame (the report's least margin, read
   on the evaluated bones, is not below 0 nor, by more than :data:`PAST_FEET`, below the
   rig's own where it stands past its feet);
-- the report says it squatted: the hips came down.
+- the report says it squatted (the hips came down) and gives the legs' angles, within
+  their limits.
 
 Without *Squat* the same target is refused, with the reason it was before.
 """
@@ -122,6 +123,10 @@ def test_a_target_near_the_floor_is_reached_by_a_squat_or_bend(addon, rig_file, 
     length = info.arm.arm_length
     stats = result.stats
     assert stats["lean_hips_down"] > 0.0 or stats["lean_deg"] > settings.lean_max, stats
+    assert 0.0 < stats["lean_knee_deg"] <= settings.knee_max, stats
+    assert stats["lean_ankle_deg"] <= settings.ankle_max, stats
+    assert stats["lean_thigh_deg"] <= settings.hip_max, stats
+    assert stats["lean_deg"] + stats["lean_thigh_deg"] <= settings.hip_max + settings.spine_max
     up = np.asarray(info.frame.up, dtype=float)
     heights = {n: float(p @ up) for n, p in start.items()}
     low, high = min(heights.values()), max(heights.values())

@@ -22,7 +22,8 @@ def run(kind, name):
 
 def test_bundled_presets_are_visible(fresh, addon):
     assert {"Paper_Defaults", "Cautious", "Relaxed"} <= set(menu_files("strength"))
-    assert {"AAOS_Adult", "Reduced_Mobility", "No_Body_Rotation"} <= set(menu_files("body"))
+    assert {"AAOS_Adult", "Reduced_Mobility", "No_Body_Rotation", "Feet_Planted"} <= \
+        set(menu_files("body"))
     assert {"Mixamo", "Unreal_Mannequin", "VRM_Humanoid"} <= set(menu_files("rigs"))
 
 
@@ -35,6 +36,9 @@ def test_strength_and_body_presets_set_the_planner_settings(fresh, addon):
     assert settings.preferred_level_v == pytest.approx(strength.strength_vertical(45.0), abs=1e-4)
     run("body", "No_Body_Rotation")
     assert settings.chest_rotation is False
+    run("body", "Feet_Planted")                   # the whole body: lean, hips back, squat
+    assert settings.lean and settings.squat and settings.lean_hips_back
+    assert settings.chest_rotation is True
     run("strength", "Paper_Defaults")
     run("body", "AAOS_Adult")
     restored = addon.ui.properties.settings_from(settings)   # Blender keeps 32-bit floats

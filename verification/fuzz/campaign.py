@@ -50,15 +50,16 @@ class StoppedError(Exception):
 
 def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
               subframes: int = SUBFRAMES, quick: bool = False,
-              cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> dict:
+              cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True,
+              lean: bool = False) -> dict:
     """Generate, build, bake twice and check one scene, its refusals cross-checked
     (:func:`cross_check`, OMPL given ``cross_check_s`` seconds each; 0 skips it); returns
-    its result (JSON). ``quick``, ``shapes``: as :func:`generate` takes them. Raises
+    its result (JSON). ``quick``, ``shapes``, ``lean``: as :func:`generate` takes them. Raises
     :class:`StoppedError` where a signal stopped a bake."""
     import bpy
 
     t0 = time.perf_counter()
-    spec = generate(seed, quick, shapes)
+    spec = generate(seed, quick, shapes, lean)
     result = {"seed": int(seed), "features": spec["features"], "task": spec["task"],
               "rig": spec["rig"]["kind"] if spec["rig"]["kind"] != "synthetic"
               else f"synthetic/{spec['rig']['map']}"}
@@ -124,7 +125,7 @@ def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
 
 def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
            quick: bool = False, cross_check_s: float = CROSS_CHECK_BUDGET_S,
-           shapes: bool = True) -> None:
+           shapes: bool = True, lean: bool = False) -> None:
     """Run ``seeds`` one after another in this process, appending to ``results`` a line
     ``{"seed": s, "event": "start"}`` before each scene and its result after it."""
     os.environ["BLENDER_USER_RESOURCES"] = tempfile.mkdtemp(prefix="reach-fuzz-user-")
@@ -146,7 +147,7 @@ def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
                 out.flush()
                 try:
                     result = run_scene(int(seed), scene_dir, cache, library, subframes, quick,
-                                       cross_check_s, shapes)
+                                       cross_check_s, shapes, lean)
                 except StoppedError:
                     break          # no result: the scene runs again on resume
                 out.write(json.dumps(result) + "\n")
@@ -157,11 +158,13 @@ def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,
 
 
 def _worker_command(seeds: list, results: Path, subframes: int, quick: bool,
-                    cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True) -> list:
+                    cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True,
+                    lean: bool = False) -> list:
     return [sys.executable, "-m", "verification.fuzz.campaign", "--results", str(results),
             "--subframes", str(subframes), "--seeds", ",".join(str(s) for s in seeds),
             "--cross-check-budget", repr(float(cross_check_s))] + \
-        (["--quick"] if quick else []) + ([] if shapes else ["--standard-rigs"])
+        (["--quick"] if quick else []) + ([] if shapes else ["--standard-rigs"]) + \
+        (["--lean"] if lean else [])
 
 
 #: This module, left out of :func:`code_digest`.
@@ -209,12 +212,12 @@ def _read_results(path: Path) -> tuple:
 def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: float = 600.0,
                  progress=None, quick: bool = False,
                  cross_check_s: float = CROSS_CHECK_BUDGET_S, shapes: bool = True,
-                 runs: Path | None = None) -> list:
+                 runs: Path | None = None, lean: bool = False) -> list:
     """Run ``seeds`` on ``jobs`` worker processes, each taking a contiguous range; returns
     the results in seed order. A worker that dies or stalls past ``timeout_s`` on one
     scene gives that seed ``escaped_exception`` or ``timeout`` and is restarted on the
     seeds after it. ``cross_check_s``: OMPL's seconds per refusal of the cross-check (0:
-    none); ``quick``, ``shapes``: as :func:`generate` takes them. ``runs``: a folder that
+    none); ``quick``, ``shapes``, ``lean``: as :func:`generate` takes them. ``runs``: a folder that
     keeps the workers' result files; the seeds whose results it already holds
     (:func:`kept_results`) are not run again. The caller makes sure they came from the same
     code and settings (``bench/fuzz.py --resume``)."""
@@ -239,7 +242,7 @@ def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: fl
         path = out_dir / f"worker-{k}-{len(queue)}-{queue[0]}.jsonl"
         log = open(tmp / f"worker-{k}.log", "ab")
         proc = subprocess.Popen(_worker_command(queue, path, subframes, quick, cross_check_s,
-                                                shapes),
+                                                shapes, lean),
                                 cwd=ROOT,
                                 stdout=subprocess.DEVNULL, stderr=log, start_new_session=True)
         workers[k] = {"proc": proc, "path": path, "queue": queue, "log": log,
@@ -272,7 +275,7 @@ def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: fl
                     tail = (tmp / f"worker-{k}.log").read_text(errors="replace").strip().splitlines()
                     why = (f"no result within {timeout_s:.0f} s" if stalled else
                            f"the process died (status {rc}): " + (tail[-1] if tail else ""))
-                    spec = generate(lost, quick, shapes)
+                    spec = generate(lost, quick, shapes, lean)
                     results[lost] = {"seed": lost, "features": spec["features"], "task": spec["task"],
                                      "rig": spec["rig"]["kind"],
                                      "category": "timeout" if stalled else "escaped_exception",
@@ -294,7 +297,7 @@ def run_campaign(seeds, jobs: int = 2, subframes: int = SUBFRAMES, timeout_s: fl
 
 def main(argv=None) -> int:
     """A worker process: ``python -m verification.fuzz.campaign --results FILE --seeds
-    1,2,3 [--subframes N] [--cross-check-budget S] [--quick] [--standard-rigs]``
+    1,2,3 [--subframes N] [--cross-check-budget S] [--quick] [--standard-rigs] [--lean]``
     (:func:`worker`)."""
     parser = argparse.ArgumentParser(description="one worker of the fuzz campaign")
     parser.add_argument("--results", required=True)
@@ -303,10 +306,11 @@ def main(argv=None) -> int:
     parser.add_argument("--cross-check-budget", type=float, default=CROSS_CHECK_BUDGET_S)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--standard-rigs", action="store_true")
+    parser.add_argument("--lean", action="store_true")
     args = parser.parse_args(argv)
     worker([int(s) for s in args.seeds.split(",")], Path(args.results), args.subframes,
            quick=args.quick, cross_check_s=args.cross_check_budget,
-           shapes=not args.standard_rigs)
+           shapes=not args.standard_rigs, lean=args.lean)
     return 0
 
 

@@ -201,7 +201,7 @@ def _obstacle(rng, features: set, index: int) -> dict:
     return o
 
 
-def generate(seed: int, quick: bool = False, shapes: bool = True) -> dict:
+def generate(seed: int, quick: bool = False, shapes: bool = True, lean: bool = False) -> dict:
     """The scene of ``seed``: plain data (JSON), the same for the same seed on every
     machine. Positions are in the reaching shoulder's body frame (side, forward, up), in
     the rig's arm lengths; :func:`build` makes them world positions.
@@ -212,7 +212,10 @@ def generate(seed: int, quick: bool = False, shapes: bool = True) -> dict:
 
     ``shapes`` False: the synthetic rigs of the campaigns before their shapes varied (A
     pose, the elbow bent 30° forward, one hand bone, the standard proportions), so that a
-    seed those campaigns found replays its own scene; every other draw is the same."""
+    seed those campaigns found replays its own scene; every other draw is the same.
+
+    ``lean``: *Lean* on (and with it *Squat*): a target beyond the arm is reached by the
+    body where it can be; every other draw is the same."""
     rng = np.random.default_rng(seed)
     features: set = set()
     spec: dict = {"seed": int(seed)}
@@ -385,6 +388,8 @@ def generate(seed: int, quick: bool = False, shapes: bool = True) -> dict:
     # parts — from a stream of its own, so every other draw keeps its scene
     if rig["kind"] == "synthetic" and shapes:
         rig["shape"] = _rig_shape(np.random.default_rng([seed, 3]), rig, features)
+    if lean:            # a campaign's setting, not a scene feature (every scene has it)
+        spec["settings"]["lean"] = True
     spec["quick"] = quick
     spec["features"] = sorted(features)
     return spec

@@ -1,0 +1,35 @@
+import bpy
+reach = bpy.context.scene.reach.settings
+
+# The whole body, feet planted: the trunk leans, the hips move back and the body squats
+# or bends for what the arm alone cannot reach (no step); the AAOS ranges.
+
+reach.alpha_min = -60.0
+reach.alpha_max = 180.0
+reach.beta_min = -60.0
+reach.beta_max = 180.0
+reach.gamma_min = -90.0
+reach.gamma_max = 90.0
+reach.elbow_min = 0.0
+reach.elbow_max = 150.0
+reach.wrist_bend_max = 70.0
+reach.wrist_side_max = 25.0
+reach.elevation_max = 170.0
+reach.chest_rotation = True
+reach.chest_rotation_max = 60.0
+reach.table1_arm_length_m = 0.58
+reach.table1_hand_point = 1.0
+reach.lean_max = 45.0
+reach.lean = True
+reach.lean_reach = 0.98
+reach.lean_hips_back = True
+reach.lean_hips_max = 0.3
+reach.balance_margin = 0.02
+reach.squat = True
+reach.bend_max = 90.0
+reach.spine_max = 80.0
+reach.knee_max = 135.0
+reach.ankle_max = 38.0
+reach.hip_max = 120.0
+reach.squat_step = 0.05
+reach.chest_phase_delay = 0.25
