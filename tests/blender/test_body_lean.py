@@ -134,6 +134,43 @@ def bone_heads(armature):
     return {pb.name: mw[:3, :3] @ np.array(pb.head) + mw[:3, 3] for pb in armature.pose.bones}
 
 
+def feet_of(info, heads, share=0.15):
+    """The bones whose heads (``heads``: name → world point) lie in the lowest ``share``
+    of the figure's height."""
+    heights = {n: float(p @ info.frame.up) for n, p in heads.items()}
+    low, high = min(heights.values()), max(heights.values())
+    feet = [n for n, h in heights.items() if h <= low + share * (high - low)]
+    assert feet
+    return feet
+
+
+def walk(addon, armature, info, result, box, start, kind):
+    """Every frame of ``result``'s bake and :data:`INSTANTS` instants between, as Blender
+    evaluates them: the reaching arm held to the planner's clearance (``clearance.Arm``,
+    which fails the test where it is not), the farthest the feet (:func:`feet_of` the
+    bone heads ``start``) moved from there, and the least signed distance of the rest of
+    the skin to ``box``. Returns (feet's farthest move, skin's least distance, the bone
+    heads at the last instant, the feet's bones)."""
+    feet = feet_of(info, start)
+    a = info.bones.arms["right"]
+    arm_bones = {a.upper_arm, a.forearm, a.hand} | {
+        c.name for c in armature.pose.bones[a.forearm].children_recursive}
+    arm = clearance.Arm(armature, info)
+    tris = obstacle_triangles(addon, armature)
+    worst_feet, worst_skin, now = 0.0, np.inf, start
+    for f in range(result.frame_start, result.frame_end + 1):
+        for k in range(INSTANTS if f < result.frame_end else 1):
+            bpy.context.scene.frame_set(f, subframe=k / INSTANTS)
+            now = bone_heads(armature)
+            worst_feet = max(worst_feet, max(float(np.linalg.norm(now[n] - start[n]))
+                                             for n in feet))
+            arm.check(tris, f"{kind} frame {f} + {k}/{INSTANTS}")
+            skin = skin_vertices(armature, {box.name}, arm_bones)
+            if len(skin):                  # the metarig, a template, has none
+                worst_skin = min(worst_skin, float(box_signed_distance(skin, box).min()))
+    return worst_feet, worst_skin, now, feet
+
+
 def bake(addon, rig_file, kind, ahead, lean):  # noqa: F811
     armature = open_rig(rig_file, kind)
     info = addon.blender.rig.build(armature, "right")
@@ -150,29 +187,9 @@ def test_a_target_past_the_arm_is_reached_by_leaning_the_trunk(addon, rig_file, 
     assert "leaning the trunk" in result.message
     length = info.arm.arm_length
     scene_ = bpy.context.scene
-    frames = range(result.frame_start, result.frame_end + 1)
     scene_.frame_set(result.frame_start)
     start = bone_heads(armature)
-    heights = {n: float(p @ info.frame.up) for n, p in start.items()}
-    low, high = min(heights.values()), max(heights.values())
-    feet = [n for n, h in heights.items() if h <= low + 0.15 * (high - low)]
-    assert feet
-    worst_feet, worst_skin = 0.0, np.inf
-    a = info.bones.arms["right"]
-    arm_bones = {a.upper_arm, a.forearm, a.hand} | {
-        c.name for c in armature.pose.bones[a.forearm].children_recursive}
-    arm = clearance.Arm(armature, info)
-    tris = obstacle_triangles(addon, armature)
-    for f in frames:
-        for k in range(INSTANTS if f < result.frame_end else 1):
-            scene_.frame_set(f, subframe=k / INSTANTS)
-            now = bone_heads(armature)
-            worst_feet = max(worst_feet, max(float(np.linalg.norm(now[n] - start[n]))
-                                             for n in feet))
-            arm.check(tris, f"{kind} frame {f} + {k}/{INSTANTS}")
-            skin = skin_vertices(armature, {table.name}, arm_bones)
-            if len(skin):                  # the metarig, a template, has none
-                worst_skin = min(worst_skin, float(box_signed_distance(skin, table).min()))
+    worst_feet, worst_skin, now, feet = walk(addon, armature, info, result, table, start, kind)
     movers = sorted(((float(np.linalg.norm(now[n] - start[n])), n) for n in feet), reverse=True)
     assert worst_feet <= 5e-4 * length, (kind, worst_feet / length, movers[:5])
     assert worst_skin > 0.0, (kind, worst_skin / length)
@@ -230,9 +247,7 @@ def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_fil
     result = outcome.results[0]
     assert result.success, result.message
     length = info.arm.arm_length
-    heights = {n: float(p @ info.frame.up) for n, p in start.items()}
-    low, high = min(heights.values()), max(heights.values())
-    feet = [n for n, h in heights.items() if h <= low + 0.15 * (high - low)]
+    feet = feet_of(info, start)
     worst = 0.0
     for f in range(result.frame_start, result.frame_end + 1):
         bpy.context.scene.frame_set(f)

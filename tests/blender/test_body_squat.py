@@ -27,18 +27,15 @@ from __future__ import annotations
 import bpy
 import numpy as np
 import pytest
-import clearance
 import everyday
-from test_body_lean import (INSTANTS, attach_loose_parts, bone_heads, box_signed_distance,
-                            open_rig, skin_vertices)
-from test_every_rig import KINDS, obstacle_triangles, rig_file  # noqa: F401  (the fixture)
+from test_body_lean import (attach_loose_parts, bone_heads, box_signed_distance, open_rig,
+                            skin_vertices, walk)
+from test_every_rig import KINDS, rig_file  # noqa: F401  (the fixture)
 
 #: The target's height over the floor (arm lengths): the issue's.
 ABOVE = 0.12
 #: How far ahead of the shoulder the target stands (arm lengths): the issue's.
 AHEAD = 0.5
-#: Every bone below this share of the figure's height is a foot's.
-FEET = 0.15
 #: How far a foot may move (arm lengths): the issue's.
 FEET_HOLD = 0.02
 #: How far the skin may go below the floor's top (arm lengths): the heel's skin, which
@@ -128,31 +125,15 @@ def test_a_target_near_the_floor_is_reached_by_a_squat_or_bend(addon, rig_file, 
     assert stats["lean_thigh_deg"] <= settings.hip_max, stats
     assert stats["lean_deg"] + stats["lean_thigh_deg"] <= settings.hip_max + settings.spine_max
     up = np.asarray(info.frame.up, dtype=float)
-    heights = {n: float(p @ up) for n, p in start.items()}
-    low, high = min(heights.values()), max(heights.values())
-    feet = [n for n, h in heights.items() if h <= low + FEET * (high - low)]
-    assert feet
     top = float(np.array(floor.matrix_world)[:3, 3] @ up) + 0.1 * length
     a = info.bones.arms["right"]
-    arm_bones = {a.upper_arm, a.forearm, a.hand} | {
-        c.name for c in armature.pose.bones[a.forearm].children_recursive}
-    arm = clearance.Arm(armature, info)
-    tris = obstacle_triangles(addon, armature)
     scene_ = bpy.context.scene
     scene_.frame_set(result.frame_start)
-    standing = skin_vertices(armature, {floor.name}, arm_bones)
+    standing = skin_vertices(armature, {floor.name}, {a.upper_arm, a.forearm, a.hand} | {
+        c.name for c in armature.pose.bones[a.forearm].children_recursive})
     soles = float(box_signed_distance(standing, floor).min()) if len(standing) else 0.0
-    worst_feet, worst_skin = 0.0, np.inf
-    for f in range(result.frame_start, result.frame_end + 1):
-        for k in range(INSTANTS if f < result.frame_end else 1):
-            scene_.frame_set(f, subframe=k / INSTANTS)
-            now = bone_heads(armature)
-            worst_feet = max(worst_feet, max(float(np.linalg.norm(now[n] - start[n]))
-                                             for n in feet))
-            arm.check(tris, f"{kind} frame {f} + {k}/{INSTANTS}")
-            skin = skin_vertices(armature, {floor.name}, arm_bones)
-            if len(skin):
-                worst_skin = min(worst_skin, float(box_signed_distance(skin, floor).min()))
+    worst_feet, worst_skin, _now, _feet = walk(addon, armature, info, result, floor, start,
+                                               kind)
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / f"squat-{kind}.blend"), copy=True)
     print(f"SQUAT {kind}: lean {stats['lean_deg']}°, hips down {stats['lean_hips_down']}, "
           f"back {stats['lean_hips_back']}, margin {stats['com_margin_min']:.4f}, feet "
