@@ -57,7 +57,7 @@ class Leg:
     foot_bones: tuple = ()
 
 
-def _point(armature, where) -> np.ndarray:
+def point_of(armature, where) -> np.ndarray:
     """World position of a bone point (:class:`Leg`) in the evaluated pose."""
     name, end = where
     b = armature.pose.bones[name]
@@ -229,7 +229,7 @@ def hands_now(armature, bmap) -> dict:
     out = {}
     mw = np.array(armature.matrix_world)
     for a in bmap.arms.values():
-        e, w = (_point(armature, (n, "head")) for n in (a.forearm, a.hand))
+        e, w = (point_of(armature, (n, "head")) for n in (a.forearm, a.hand))
         axis, length, _spread = hand_shape(armature, a.hand, float(np.linalg.norm(w - e)))
         rotation = mw[:3, :3] @ np.array(armature.pose.bones[a.hand].matrix)[:3, :3]
         out[a.hand] = (np.linalg.solve(rotation, axis), float(length))
@@ -241,7 +241,7 @@ def body_segments(armature, bmap, legs, hands=None) -> list:
     [(kind, proximal, distal)] for :func:`~..core.balance.centre_of_mass` (see the module
     docstring). ``hands``: :func:`hands_now` read before (default: now)."""
     def at(where):
-        return _point(armature, where)
+        return point_of(armature, where)
 
     hands = hands if hands is not None else hands_now(armature, bmap)
     mw = np.array(armature.matrix_world)
@@ -281,17 +281,17 @@ def support_now(armature, legs, up) -> tuple:
     points = skin.skin_points(armature, names) if names else np.zeros((0, 3))
     if len(points) >= 3:
         heights = points @ (np.asarray(up, dtype=float) / np.linalg.norm(up))
-        hip, ankle = _point(armature, legs[0].hip), _point(armature, legs[0].ankle)
+        hip, ankle = point_of(armature, legs[0].hip), point_of(armature, legs[0].ankle)
         band = SOLE_BAND * float(np.linalg.norm(hip - ankle))
         sole = points[heights <= heights.min() + band]
         polygon = core_balance.polygon_of(sole, up)
         if len(polygon) >= 3:
             return polygon, "skin"
-    feet = [(_point(armature, leg.ankle), _point(armature, leg.toe)) for leg in legs]
+    feet = [(point_of(armature, leg.ankle), point_of(armature, leg.toe)) for leg in legs]
     rectangles = core_balance.support_polygon(feet, up)
     # and the joints of the feet's bones (a heel bone marks where the heel is)
-    ankle_height = min(float(_point(armature, leg.ankle) @ up) for leg in legs)
-    joints = [_point(armature, (n, end)) for n in names for end in ("head", "tail")]
+    ankle_height = min(float(point_of(armature, leg.ankle) @ up) for leg in legs)
+    joints = [point_of(armature, (n, end)) for n in names for end in ("head", "tail")]
     joints = [p for p in joints if float(p @ up) <= ankle_height]
     if not joints:
         return rectangles, "bones"

@@ -96,7 +96,7 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up, forward) -> 
     (``forward``: the body's), else straight forward: a leg held straight has no bend of its
     own to follow, and a knee bends only forward (the Knight, in a T-pose, bent its knees
     backward until this). Returns how far the hips came down (world units)."""
-    point = balance._point
+    point = balance.point_of
     up = np.asarray(up, dtype=float)
     feet = [_below(armature, leg, leg.ankle) for leg in legs]
     before = [(point(armature, leg.hip), point(armature, leg.knee), point(armature, leg.ankle),
@@ -128,7 +128,7 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up, forward) -> 
 def leg_joints(armature, legs, forward) -> list:
     """Each leg's joints as it stands now (:class:`~..core.squat.Leg`, world), its knee's
     pole as :func:`pose_shift` bends it."""
-    point = balance._point
+    point = balance.point_of
     out = []
     for leg in legs:
         h, k, a = (point(armature, p) for p in (leg.hip, leg.knee, leg.ankle))

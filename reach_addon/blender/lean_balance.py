@@ -18,6 +18,7 @@ import numpy as np
 from ..core import balance as core_balance
 from ..core import hips as core_hips
 from ..core.lean import skin_hit
+from ..core.whole_body import BALANCE, TOUCH, Why
 from . import balance, skin
 from . import hips as hips_mod
 from .lean_pose import lean_basis, pose_lean, pose_leaned, shift_world, world_rotations
@@ -83,7 +84,8 @@ def margin_reaching(armature, info, legs, arm_world=None, turned=None) -> tuple:
 
 class BalanceCheck:
     """``check(lean, arm_world=None, turned=None)``: why a lean (:class:`~..core.lean.
-    Lean`) may not be taken, or None: the centre of mass's margin over the feet with the
+    Lean`) may not be taken (a :class:`~..core.whole_body.Why`: its balance, or the body
+    below the trunk touching), or None: the centre of mass's margin over the feet with the
     trunk at the full lean (the hips moved back by the lean's shift) may not fall below 0
     nor below the rig's own as it stands (see the module docstring): the arm at its start,
     or on each pose of the reach planned after the lean (``arm_world``, ``turned``:
@@ -127,9 +129,9 @@ class BalanceCheck:
                 return None
             hit, least, fraction = self.along(lean)
             if hit is not None:
-                return (f"leaning {lean.angle:.0f}° with the hips "
-                        f"{np.linalg.norm(np.asarray(lean.shift)[:2]) / length:.2f} arm "
-                        f"lengths back, the {hit[0]} would touch '{hit[1]}'")
+                return Why(f"leaning {lean.angle:.0f}° with the hips "
+                           f"{np.linalg.norm(np.asarray(lean.shift)[:2]) / length:.2f} arm "
+                           f"lengths back, the {hit[0]} would touch '{hit[1]}'", TOUCH)
             if least >= min(0.0, self.standing):
                 return None
             margin, pose = least, None
@@ -143,7 +145,7 @@ class BalanceCheck:
                    + ("" if moved else ", the hips not moved back"))
         if self.standing < 0.0:
             why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"
-        return why
+        return Why(why, BALANCE)
 
     def along(self, lean):
         """The body on the way to a lean that moves the hips, at :data:`BALANCE_SAMPLES`
@@ -192,7 +194,7 @@ class BalanceCheck:
             return None
         world = np.array(world)
         up = np.asarray(self.info.frame.up, dtype=float)
-        ankles = max(float(balance._point(self.armature, leg.ankle) @ up) for leg in self.legs)
+        ankles = max(float(balance.point_of(self.armature, leg.ankle) @ up) for leg in self.legs)
         feet = world[0] @ up <= ankles
         feet_checker = SimpleNamespace(obstacles=self.checker.obstacles,
                                        margin=FEET_CLEARANCE * self.checker.margin)
@@ -271,7 +273,7 @@ class BalanceBody:
 
     def drop(self, shift_world) -> float:
         """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`)."""
-        point = balance._point
+        point = balance.point_of
         shift = np.asarray(shift_world, dtype=float)
         out = 0.0
         for leg in self.legs:

@@ -46,12 +46,33 @@ from .squat import squat_leans
 from .torso import body_rotation_deg, rotate_about_spine
 
 
+#: The cause of a refusal (:class:`Why`) where the centre of mass falls past the feet.
+BALANCE = "balance"
+#: The cause of a refusal where a part of the body touches an obstacle.
+TOUCH = "touch"
+
+
+class Why(str):
+    """A refusal's sentence with its ``cause`` (:data:`BALANCE`, :data:`TOUCH`, or "" where
+    not said), as the Blender layer's ``acceptable`` gives it: a string everywhere one is
+    read, and the recruitment tells the causes apart (a lean with the hips back that tips
+    the body is not tried again with a smaller shift, which tips it farther)."""
+
+    cause: str
+
+    def __new__(cls, text: str, cause: str = ""):
+        out = super().__new__(cls, text)
+        out.cause = cause
+        return out
+
+
 #: The shares of ``Settings.balance_margin`` a lean with the hips back keeps, tried in
 #: turn (:func:`~.hips.shifted_lean`): the whole margin first; where that lean is refused
 #: (its trunk touching, its arm finding no way), a quarter of it: a smaller shift, so a
 #: smaller lean, still over the feet. On the Quaternius alien over the stage-1 table the
 #: whole margin asked a 3.8° lean whose belly, turning with the chest, touched the table;
-#: a quarter asks 2.6°, which clears it.
+#: a quarter asks 2.6°, which clears it. A lean refused for its balance is not tried
+#: with a quarter (:class:`Why`).
 SHIFT_SHARES = (1.0, 0.25)
 
 
@@ -125,6 +146,8 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
                                              acceptable)
                 if phase is not None:
                     return phase, why
+            if getattr(why, "cause", "") == BALANCE:
+                break              # a smaller shift leaves the body farther past its feet
         whys.append(why)
     if shifting and s.squat:
         phase, why = squat_then_reach(planner, task, target_c, pivot_c, turns, body,

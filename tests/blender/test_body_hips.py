@@ -53,7 +53,7 @@ def test_the_hips_move_back_and_the_feet_stay(addon, rig_file, kind):  # noqa: F
     assert np.linalg.norm(now[hips] - start[hips] - expected) < 1e-4 * length
     # and the knees bend forward, ahead of the line from hip to ankle
     for leg in legs:
-        h, k, a = (blender.balance._point(armature, p) for p in (leg.hip, leg.knee, leg.ankle))
+        h, k, a = (blender.balance.point_of(armature, p) for p in (leg.hip, leg.knee, leg.ankle))
         line = (a - h) / np.linalg.norm(a - h)
         off = (k - h) - ((k - h) @ line) * line
         assert float(off @ forward) > 0.0, f"{kind}: a knee bends backward"

@@ -310,7 +310,7 @@ def test_hips_that_would_move_back_into_a_wall_keep_the_body_clear(addon, rig_fi
     info = addon.blender.rig.build(armature, "right")
     legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
     shoulder, forward, outward, up, length = everyday.body_axes(info)
-    hips = np.array([addon.blender.balance._point(armature, leg.hip) for leg in legs])
+    hips = np.array([addon.blender.balance.point_of(armature, leg.hip) for leg in legs])
     hip_up = float(((hips - shoulder) @ up).mean()) / length
     rel = (skin_vertices(armature, set()) - shoulder) / length
     band = (rel @ up >= hip_up - 0.3) & (rel @ up <= hip_up + 0.3)

@@ -31,12 +31,12 @@ LEGS_AT = np.array([0.0, 0.0, 0.45])
 PLANTED = 0.12
 
 
-def body(arm, margin=0.02):
+def body(arm, margin=0.02, feet=FEET):
     def com(lean):
         m = np.asarray(arm.to_world, float) @ lean.matrix(1.0)
         return TRUNK_SHARE * (m[:3, :3] @ TRUNK_C + m[:3, 3]) + (1 - TRUNK_SHARE) * LEGS_AT
 
-    return SimpleNamespace(up=UP, polygon=polygon_of(FEET, UP), com=com,
+    return SimpleNamespace(up=UP, polygon=polygon_of(feet, UP), com=com,
                            planted_share=PLANTED, margin=margin, floor=0.0, leg_joints=LEGS)
 
 

@@ -122,3 +122,39 @@ def test_a_leaned_arm_carries_the_chest_and_head_and_leaves_the_pelvis():
             assert w1[1, 1] < w0[1, 1]
         else:
             assert np.allclose(w0, w1), before.name
+
+
+def test_a_shifted_lean_that_tips_the_body_is_not_tried_with_a_smaller_shift():
+    """Where the Blender layer refuses a lean with the hips back for its balance
+    (``Why(..., BALANCE)``), a quarter of the margin (a smaller shift, so a body farther
+    past its feet) is not tried; where it refuses it for a touch, it is."""
+    from test_squat import body
+
+    from reach_addon.core.whole_body import BALANCE, TOUCH, Why
+
+    arm = standard_arm()
+    settings = Settings().replace(lean=True, squat=False)
+    target = ahead(arm, 1.35, down=0.10)
+    planner = Planner(arm, obstacles({}), settings)
+    task = Task("reach", target[None], HANGING, names=("Cup",))
+    failed = planner.plan(task)
+    # short feet: the toes 0.03 ahead of the ankles, so the lean tips the body forward
+    figure = body(arm, feet=[(-0.15, 0.10, 0.0), (0.15, 0.10, 0.0), (0.15, -0.03, 0.0),
+                             (-0.15, -0.03, 0.0)])
+    figure.drop = lambda shift: 0.0
+    counts = {}
+    for cause in (BALANCE, TOUCH):
+        shifted = []
+
+        def acceptable(lean, arm_world=None, turned=None, shifted=shifted, cause=cause):
+            if np.any(lean.shift):
+                shifted.append(lean)
+            return Why("refused", cause)
+
+        phase, why = lean_then_reach(planner, task, failed, arm.waist,
+                                     lambda a: Planner(a, obstacles({}), settings),
+                                     acceptable, None, figure)
+        assert phase is None and "refused" in why
+        counts[cause] = len(shifted)
+    # each lean tried with the whole margin; a touch tries a quarter of it as well
+    assert counts[BALANCE] >= 1 and counts[TOUCH] == 2 * counts[BALANCE], counts
