@@ -6,8 +6,9 @@ The points of a grid in the reaching shoulder's (forward, outward, up) frame
 :data:`CLASSES`: ``f_R 0`` / ``f_R 1`` / ``f_R 2``, the strength category of the strongest
 legal pose clear there, hand included (:func:`exhaustive`); ``chest``, reachable only
 because the chest turns; ``blocked``, within reach but with no room for the arm or hand
-(:func:`~reach_addon.core.diagnosis.diagnose_target`); ``out``, no legal arm pose puts the
-wrist there at any chest rotation of the range. It classifies the *end* pose: a point in a
+(:func:`~reach_addon.core.diagnosis.diagnose_target`); ``lean`` (with ``Settings.lean``
+on, below); ``out``, no legal arm pose puts the wrist there at any chest rotation of the
+range. It classifies the *end* pose: a point in a
 closed box with room inside is reachable here and ``no_path`` for Plan. And it classifies
 the point itself at the search's swivel step (``Settings.swivel_step``), while a search
 asks its last tries before it refuses (:func:`~reach_addon.core.search.last_tries`: the
@@ -16,6 +17,11 @@ only clear swivel window is narrower than the step (or, with it, find a stronger
 the envelope's), and one classed ``blocked`` or ``out`` within the tolerance of a clear
 pose (5 of the 125 points of the Blender test's plate grid). Asking those tries at every
 point cost the envelope's tests about fifteen times their time.
+
+With ``Settings.lean`` on, a point no arm pose reaches is ``lean`` where a lean of the
+trunk brings it within reach (:func:`leanable`: as the ``needs_lean`` refusal reads it,
+about the arm model's waist, at most ``Settings.lean_max``, the chest turned as the
+planner may turn it; the balance, which the Blender layer weighs on the rig, is not).
 """
 
 from __future__ import annotations
@@ -29,16 +35,19 @@ import numpy as np
 
 from . import ik
 from .generator import CHEST_FIT_STEP
+from .lean import chest_turns, choose_lean
 
 #: The classes, in the order of their codes (0 … 5).
-CLASSES = ("f_R 0", "f_R 1", "f_R 2", "chest", "blocked", "out")
-CHEST, BLOCKED, OUT = 3, 4, 5
+CLASSES = ("f_R 0", "f_R 1", "f_R 2", "chest", "blocked", "lean", "out")
+CHEST, BLOCKED, LEAN, OUT = 3, 4, 5, 6
 #: Display colours (linear RGBA) per class: green, yellow, red for the three strength
-#: categories, blue for chest rotation, grey for blocked; out-of-reach points are not drawn.
+#: categories, blue for chest rotation, grey for blocked, purple for a lean; out-of-reach
+#: points are not drawn.
 COLOURS = ((0.10, 0.75, 0.15, 1.0), (0.95, 0.80, 0.05, 1.0), (0.90, 0.12, 0.08, 1.0),
-           (0.15, 0.45, 0.95, 1.0), (0.45, 0.45, 0.45, 1.0), (0.0, 0.0, 0.0, 0.0))
+           (0.15, 0.45, 0.95, 1.0), (0.45, 0.45, 0.45, 1.0), (0.60, 0.25, 0.85, 1.0),
+           (0.0, 0.0, 0.0, 0.0))
 LABELS = ("Strong (f_R 0)", "Fair (f_R 1)", "Weak (f_R 2)", "Chest turn only", "Blocked",
-          "Out of reach")
+          "By a lean", "Out of reach")
 
 
 def grid_coordinates(resolution: int, extent: float) -> np.ndarray:
@@ -121,7 +130,19 @@ def classify_point(generator, point, legal: bool | None = None) -> tuple:
         legal = bool(legal_anywhere(generator, point[None])[0])
     if legal or generator.obstacles.point_inside(generator.arm.to_world_points(point)):
         return BLOCKED, -1
-    return OUT, -1
+    return (LEAN if leanable(generator.arm, point, generator.settings) else OUT), -1
+
+
+def leanable(arm, point, settings) -> bool:
+    """Whether ``Settings.lean`` is on and a lean of the trunk about the arm model's waist,
+    at most ``Settings.lean_max``, brings the canonical ``point`` within
+    ``Settings.lean_reach`` of the shoulder, the chest turned as the planner may turn it
+    (:func:`~.lean.choose_lean`)."""
+    if not settings.lean:
+        return False
+    lean = choose_lean(arm, np.asarray(point, dtype=float), arm.waist, settings,
+                       chest_turns(settings))
+    return lean is not None and lean.angle > 0.0
 
 
 def legal_anywhere(generator, points) -> np.ndarray:
@@ -158,6 +179,9 @@ def envelope_steps(generator, points, chunk: int = 64):
     legal = legal_anywhere(generator, points)
     inside = [generator.obstacles.point_inside(w) for w in arm.to_world_points(points[~legal])]
     classes[np.flatnonzero(~legal)[np.array(inside, bool)]] = BLOCKED
+    for i in np.flatnonzero(classes == OUT):
+        if leanable(arm, points[i], generator.settings):
+            classes[i] = LEAN
     todo = np.flatnonzero(legal)
     spent = time.perf_counter() - t0
     for k, i in enumerate(todo):

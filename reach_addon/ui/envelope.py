@@ -76,6 +76,7 @@ class REACH_PG_envelope(bpy.types.PropertyGroup):
     colour_2: _colour(2)
     colour_3: _colour(3)
     colour_4: _colour(4)
+    colour_5: _colour(5)
 
 
 class REACH_OT_envelope(_Run, bpy.types.Operator):

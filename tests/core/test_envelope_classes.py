@@ -109,3 +109,50 @@ def test_the_same_however_it_is_consumed_and_run_again(arm):
     single = [envelope.classify_point(planner.generator, p) for p in env.points]
     np.testing.assert_array_equal(np.array(single)[:, 0], env.classes)
     assert sum(env.counts().values()) == len(env.points) == 7 ** 3
+
+
+def lean_reaches(arm, settings, point, slack):
+    """Brute force, sharing no code with the planner: "upright" where a chest turn (every
+    1° of the range) alone brings the shoulder within Lean to (+ ``slack``) arm lengths of
+    ``point``, "leaning" where a lean toward it about the waist (every 0.25° up to Lean
+    limit) is needed too, else "no"."""
+    limit = settings.chest_rotation_max
+    turns = np.radians(np.arange(-limit, limit + 0.5, 1.0))
+    thetas = np.radians(np.arange(0.0, settings.lean_max + 1e-9, 0.25))
+    s = np.asarray(arm.shoulder, float)
+    shoulders = np.stack([s[0] * np.cos(turns) - s[1] * np.sin(turns),
+                          s[0] * np.sin(turns) + s[1] * np.cos(turns),
+                          np.full_like(turns, s[2])], axis=1)
+    w = np.asarray(arm.waist, float)
+    h = (np.asarray(point, float) - w) * np.array([1.0, 1.0, 0.0])
+    h /= np.linalg.norm(h)
+    k = np.cross([0.0, 0.0, 1.0], h)
+    v = shoulders - w                                           # (T, 3)
+    c, sn = np.cos(thetas)[:, None, None], np.sin(thetas)[:, None, None]
+    leaned = w + v * c + np.cross(k, v) * sn + k * (v @ k)[None, :, None] * (1 - c)
+    reach = (settings.lean_reach + slack) * arm.arm_length
+    within = (np.linalg.norm(leaned - np.asarray(point, float), axis=2) <= reach).any(axis=1)
+    return "upright" if within[0] else "leaning" if within.any() else "no"
+
+
+def test_with_lean_on_the_points_a_lean_reaches_are_their_own_class(arm):
+    """With Lean on, a point beyond every arm pose is ``lean`` exactly where a lean is
+    needed to bring it within Lean to of the shoulder, the chest turned as it may be (by
+    brute force, :func:`lean_reaches`), and the rest of the grid is classed as with Lean
+    off."""
+    settings = Settings().replace(lean=True)
+    _planner, plain = envelope_of(arm, None, resolution=7)
+    planner, leaned = envelope_of(arm, None, settings, resolution=7)
+    changed = np.flatnonzero(plain.classes != leaned.classes)
+    assert len(changed) and np.all(plain.classes[changed] == envelope.OUT)
+    assert np.all(leaned.classes[changed] == envelope.LEAN)
+    for i in np.flatnonzero(plain.classes == envelope.OUT):
+        p = plain.points[i]
+        wide, narrow = (lean_reaches(arm, settings, p, d) for d in (0.002, -0.002))
+        if wide != narrow:
+            continue                    # within a rounding of a boundary: either will do
+        # a point the shoulder is near enough upright (joint limits keep the arm off it)
+        # is no nearer for a lean: "out"
+        assert (leaned.classes[i] == envelope.LEAN) == (wide == "leaning"), (p, wide)
+    assert envelope.classify_point(planner.generator, leaned.points[changed[0]]) == \
+        (envelope.LEAN, -1)
