@@ -1,4 +1,5 @@
-"""The paper's four tasks on a sample workplace, with the statistics of Table 2.
+"""The paper's four tasks on a sample workplace, with the statistics of Table 2 (and, in
+Blender, a whole-body fifth: a cup on the floor, Lean on).
 
 :func:`core_demo` uses the core alone (the standard figure, furniture as triangle meshes)
 and prints our Table 2 beside the paper's.
@@ -26,6 +27,14 @@ WORKPLACE = {
     "Crate": [((-0.62, -0.37, 0.93), (0.02, -0.31, 1.10))],
     "Shelf": shelf((-0.62, -0.55), 0.5, 0.3, (1.05, 1.38), back_y_sign=-1),
 }
+
+
+#: The demo's whole-body task, after the paper's four: a cup on the floor beside her,
+#: (x, y) in the workplace (metres: 0.36 outward of the right shoulder, 0.05 ahead), the
+#: wrist ``WHOLE_BODY_ABOVE`` arm lengths over the floor (the issue's squat-or-bend height;
+#: more where the hand's capsule needs it), reached with Lean on.
+WHOLE_BODY_AT = (-0.55, -0.05)
+WHOLE_BODY_ABOVE = 0.12
 
 
 def demo_tasks(fps: float = 24.0):
@@ -167,7 +176,11 @@ def build_scene():
 
     for name, parts in WORKPLACE.items():
         _box_object(name, parts, COLOURS[name])
-    floor = _box_object("Floor", [((-2.0, -2.0, -0.02), (2.0, 2.0, 0.0))], COLOURS["Floor"])
+    # the floor's top under her soles (scaled to the standard figure, they stand 5.5 cm
+    # lower than its feet)
+    top = _soles(armature)
+    floor = _box_object("Floor", [((-2.0, -2.0, top - 0.02), (2.0, 2.0, top))],
+                        COLOURS["Floor"])
     floor.hide_select = True
     cam_data = bpy.data.cameras.new("Camera")
     cam_data.lens = 30
@@ -182,6 +195,24 @@ def build_scene():
     sun.rotation_euler = (0.6, 0.2, -0.5)
     scene.render.fps = 24
     return armature
+
+
+def _soles(armature) -> float:
+    """The height of the lowest vertex of the meshes ``armature`` deforms, as Blender
+    evaluates them now: where the floor's top goes."""
+    import bpy
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    low = np.inf
+    for ob in bpy.context.scene.objects:
+        if ob.type == "MESH" and any(m.type == "ARMATURE" and m.object == armature
+                                     for m in ob.modifiers):
+            ev = ob.evaluated_get(depsgraph)
+            co = np.empty(len(ev.data.vertices) * 3)
+            ev.data.vertices.foreach_get("co", co)
+            m = np.array(ev.matrix_world)
+            low = min(low, float((co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3])[:, 2].min()))
+    return low if np.isfinite(low) else 0.0
 
 
 def _arms_down(armature, info):
@@ -240,8 +271,9 @@ def _key_rest(armature, rest, frame):
 
 
 def scene_demo(out_dir, render: bool = True, out=None) -> int:
-    """``make demo``: the paper's four tasks on a real character in Blender, baked, saved
-    to ``out_dir/demo.blend``, rendered (a still per task with the red trajectory, one MP4)
+    """``make demo``: the paper's four tasks on a real character in Blender, then a
+    whole-body one (a cup on the floor beside her, Lean on: :data:`WHOLE_BODY_AT`), baked,
+    saved to ``out_dir/demo.blend``, rendered (a still per task with the red trajectory, one MP4)
     unless ``render`` is off, reported (``report.json``) and compared with Table 2; progress
     lines to ``out`` (default stdout). Returns 0 if every task reached, else 1."""
     import sys
@@ -281,8 +313,27 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
         _keep_display(scene, name)
         _key_rest(armature, rest, end + GAP)
         frame = end + GAP + 1
+    # the whole body: Lean on, a cup on the floor beside her (not in the paper's Table 2),
+    # as high over it as her hand's and forearm's capsules let a wrist come
+    model = rig_mod.build(armature, "right").arm
+    above = max(WHOLE_BODY_ABOVE,
+                max(model.hand_radius, model.forearm_radius) / model.arm_length + 0.03)
+    floor = above * model.arm_length + _soles(armature)
+    cup = Task("reach", np.array([[*WHOLE_BODY_AT, floor]]), HANGING, 24.0,
+               names=("on the floor",))
+    outcome, end, (_n, body_ok, _s), report = _demo_task(
+        armature, "whole_body", cup, frame, out, Settings().replace(lean=True))
+    reports.append(report)
+    if render:
+        from .blender.render import render_outcome
+
+        renders["whole_body"] = render_outcome(bpy.context, outcome, out_dir,
+                                               still="whole_body.png", video=None)["still"]
+        print(f"{'':15s} rendered whole_body.png", file=out, flush=True)
+    _keep_display(scene, "whole_body")
+    frame = end + 1
     _finish(armature, outcome, frame - 1, out_dir, render, rows, reports, renders, t_start, out)
-    return 0 if all(ok for _n, ok, _s in rows) else 1
+    return 0 if body_ok and all(ok for _n, ok, _s in rows) else 1
 
 
 def _demo_target_names(task, frame) -> list:
@@ -297,9 +348,10 @@ def _demo_target_names(task, frame) -> list:
     return [_empty(f"Target {label}", p).name for label, p in zip(task.names, task.targets)]
 
 
-def _demo_task(armature, name, task, frame, out):
-    """Bake one of the demo's tasks from ``frame`` on with the right arm and print its
-    line; returns (outcome, last frame, Table 2 row (name, ok, stats), report entry)."""
+def _demo_task(armature, name, task, frame, out, settings=None):
+    """Bake one of the demo's tasks from ``frame`` on with the right arm (and ``settings``,
+    default the defaults) and print its line; returns (outcome, last frame, Table 2 row
+    (name, ok, stats), report entry)."""
     import time
 
     import bpy
@@ -308,7 +360,8 @@ def _demo_task(armature, name, task, frame, out):
 
     request = pipeline.Request(
         armature=armature.name, targets=_demo_target_names(task, frame), task=task.kind,
-        side="right", frame_start=frame, show_guides=(name == "guided"))
+        side="right", frame_start=frame, show_guides=(name == "guided"),
+        settings=settings or Settings())
     t0 = time.perf_counter()
     outcome = pipeline.run(bpy.context, request, bake=True)
     results = outcome.results

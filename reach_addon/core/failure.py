@@ -59,7 +59,7 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
             f"target '{name}' is out of reach by {size(d.missing)} without leaning "
             f"({d.distance / length:.2f} arm lengths from the shoulder): leaning the trunk "
             f"about {d.lean_deg:.0f}° would reach it ({closest}); " + (
-                "Reach leans only in a single reach (one target's Plan or Bake)"
+                "with Lean on a single reach leans (one target's Plan or Bake)"
                 if settings.lean else
                 "turn on Lean to lean first (a single reach's Plan or Bake)") +
             ", or move the target or the character closer")
@@ -78,7 +78,7 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
             where = (f"{size(d.missing)} below what the arm reaches from the shoulder, and "
                      f"leaning {settings.lean_max:.0f}° does not bring it within reach: "
                      "only a squat or a knee down would" + (
-                         ": Reach squats only in a single reach" if settings.lean and
+                         ": with Lean and Squat on a single reach squats" if settings.lean and
                          settings.squat else
                          ": turn on Lean and Squat to squat first (a single reach)"))
         return OUT_OF_REACH, (
