@@ -272,12 +272,8 @@ class BalanceBody:
         return com if self.check.correction is None else com + self.check.correction
 
     def drop(self, shift_world) -> float:
-        """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`)."""
-        point = balance.point_of
+        """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`),
+        on the legs as they stand (:attr:`leg_joints`)."""
         shift = np.asarray(shift_world, dtype=float)
-        out = 0.0
-        for leg in self.legs:
-            h, k, a = (point(self.armature, p) for p in (leg.hip, leg.knee, leg.ankle))
-            out = max(out, core_hips.hips_drop(h + shift, a, float(np.linalg.norm(k - h)),
-                                     float(np.linalg.norm(a - k)), self.up))
-        return out
+        return max([0.0] + [core_hips.hips_drop(j.hip + shift, j.ankle, j.thigh, j.shank, self.up)
+                            for j in self.leg_joints])

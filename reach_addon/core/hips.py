@@ -179,6 +179,24 @@ def two_bone_knee(hip, ankle, thigh: float, shank: float, pole) -> np.ndarray:
     return hip + a * u + math.sqrt(max(0.0, l1 * l1 - a * a)) * v
 
 
+def body_frame(arm, body) -> tuple:
+    """The body (:func:`shifted_lean`'s ``body``, world) in the arm's canonical frame, where
+    :func:`~.lean.least_lean` works (z up): (the canonical-to-world rotation, its scale,
+    ``canonical(p)`` mapping a world point, the support polygon in canonical
+    :func:`~.balance.polygon_of` coordinates)."""
+    m = np.asarray(arm.to_world, dtype=float)
+    rot, inv, origin = m[:3, :3], np.linalg.inv(m[:3, :3]), m[:3, 3]
+    scale = abs(float(np.linalg.det(rot))) ** (1.0 / 3.0)
+
+    def canonical(p):
+        return inv @ (np.asarray(p, dtype=float) - origin)
+
+    up_w = np.asarray(body.up, dtype=float)
+    polygon = polygon_of([canonical(ground_basis(up_w).T @ np.asarray(c, dtype=float))
+                          for c in body.polygon], UP)
+    return rot, scale, canonical, polygon
+
+
 def shifted_lean(arm, target_c, pivot_c, settings, turns, body, share: float = 1.0
                  ) -> Lean | None:
     """The least lean with the hips moved back (:func:`lean_and_shift`) that brings
@@ -196,17 +214,7 @@ def shifted_lean(arm, target_c, pivot_c, settings, turns, body, share: float = 1
     units, ≤ ``margin``) and ``drop(shift_world)``. ``share``: how much of the way from
     ``floor`` to ``margin`` the centre of mass is kept (1: the whole margin; less, a
     smaller shift and a smaller lean)."""
-    m = np.asarray(arm.to_world, dtype=float)
-    rot, inv = m[:3, :3], np.linalg.inv(m[:3, :3])
-    scale = abs(float(np.linalg.det(rot))) ** (1.0 / 3.0)
-
-    def canonical(p):
-        return inv @ (np.asarray(p, dtype=float) - m[:3, 3])
-
-    up_w = np.asarray(body.up, dtype=float)
-    corners = [canonical(ground_basis(up_w).T @ np.asarray(c, dtype=float))
-               for c in body.polygon]
-    polygon = polygon_of(corners, UP)
+    rot, scale, canonical, polygon = body_frame(arm, body)
     axis = lean_axis(pivot_c, target_c)
     length = arm.arm_length
     found = []

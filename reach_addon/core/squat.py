@@ -56,8 +56,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .balance import balance_margin, ground_basis, polygon_of
-from .hips import STRAIGHT_SHARE, horizontal_toward, shifted_centre, two_bone_knee
+from .balance import balance_margin
+from .hips import STRAIGHT_SHARE, body_frame, horizontal_toward, shifted_centre, two_bone_knee
 from .lean import UP, Lean, lean_axis, least_lean
 from .torso import rotate_about_spine
 
@@ -211,12 +211,8 @@ class _Grid:
     estimated centre of mass moved by ``correction`` (canonical)."""
 
     def __init__(self, arm, target_c, pivot_c, settings, body):
-        m = np.asarray(arm.to_world, dtype=float)
-        self.rot, self.inv, self.origin = m[:3, :3], np.linalg.inv(m[:3, :3]), m[:3, 3]
-        self.scale = abs(float(np.linalg.det(self.rot))) ** (1.0 / 3.0)
+        self.rot, self.scale, self.canonical, self.polygon = body_frame(arm, body)
         self.up_w = np.asarray(body.up, dtype=float)
-        self.polygon = polygon_of([self.canonical(ground_basis(self.up_w).T @ np.asarray(c, float))
-                                   for c in body.polygon], UP)
         self.arm, self.settings, self.body = arm, settings, body
         self.target = np.asarray(target_c, dtype=float)
         self.pivot = np.asarray(pivot_c, dtype=float)
@@ -228,9 +224,6 @@ class _Grid:
         self.steps = np.arange(0.0, deepest + 0.5 * step, step)
         self.com_at = com_table(lambda lean: self.canonical(body.com(lean)), self.pivot,
                                 self.axis, settings.bend_max)
-
-    def canonical(self, p):
-        return self.inv @ (np.asarray(p, dtype=float) - self.origin)
 
     def rank(self, turn: float, correction) -> list:
         s, h, legs = self.settings, self.h, self.legs
