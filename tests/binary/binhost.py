@@ -32,8 +32,8 @@ def run(cmd, *, env=None, timeout, cwd=None) -> subprocess.CompletedProcess:
     group is killed (``xvfb-run`` starts Xvfb and Blender as children) and the test fails
     with the output so far."""
     cmd = [str(c) for c in cmd]
-    with subprocess.Popen(cmd, env=env, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                          text=True, start_new_session=True) as proc:
+    with subprocess.Popen(cmd, env=env, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True, start_new_session=True) as proc:
         try:
             out, err = proc.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
@@ -72,9 +72,19 @@ class Profile:
         return run([self.blender, *args], env=self.env, timeout=timeout, cwd=cwd)
 
     def blender_run_gui(self, *args, timeout=300):
-        """Blender with its interface on a private X display (``xvfb-run -a``)."""
-        return run(["xvfb-run", "-a", "-s", f"-screen 0 {SCREEN}x24", self.blender, *args],
-                   env=self.env, timeout=timeout)
+        """Blender with its interface on a private X display (``xvfb_run``)."""
+        return run([*xvfb_run(self.root, SCREEN), self.blender, *args], env=self.env,
+                   timeout=timeout)
+
+
+def xvfb_run(folder: Path, screen: str) -> list:
+    """``xvfb-run`` on a free display, its X authority file in ``folder`` (ours to keep):
+    left to itself, xvfb-run makes a temporary folder for it and exits 5, whatever Blender
+    returned, when removing that folder fails at the end (it did once under CI, with the
+    session recorded and Blender quit cleanly)."""
+    auth = folder / f"xauthority-{os.getpid()}"
+    auth.touch()
+    return ["xvfb-run", "-a", "-f", str(auth), "-s", f"-screen 0 {screen}x24"]
 
 
 ENABLE = """

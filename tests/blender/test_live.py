@@ -473,9 +473,12 @@ def test_live_in_blenders_own_event_loop(tmp_path):
     (tmp_path / "tmp").mkdir()
     env.update(BLENDER_USER_CONFIG=str(tmp_path / "config"),
                BLENDER_USER_SCRIPTS=str(tmp_path / "scripts"), TMPDIR=str(tmp_path / "tmp"))
-    proc = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", "blender",
-                           "--factory-startup", "--python", str(script), "--", str(out)],
-                          capture_output=True, text=True, timeout=420, env=env)
+    auth = tmp_path / "xauthority"       # ours, not xvfb-run's own temporary folder
+    auth.touch()
+    proc = subprocess.run(["xvfb-run", "-a", "-f", str(auth), "-s", "-screen 0 1280x800x24",
+                           "blender", "--factory-startup", "--python", str(script), "--",
+                           str(out)], stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                          timeout=420, env=env)
     if "No module named 'numpy'" in proc.stdout + proc.stderr:
         missing(["numpy"])
     assert out.is_file(), proc.stdout[-3000:] + proc.stderr[-3000:]
