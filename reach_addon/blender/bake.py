@@ -28,12 +28,21 @@ class KeyedPlan:
     ``first_frame`` on; ``checkers``, the collision checkers of the obstacles it was
     planned among (one per pose, or one for all; empty: its instants between keys are not
     checked, :mod:`.straighten`); ``keyable``, whether a Bake keys it (it succeeded, or
-    the user bakes the closest approach)."""
+    the user bakes the closest approach); ``moving``, the same plan on the trunk as the rig
+    moves at its frames, where the bake is posed otherwise (a ready reach before a lean is
+    keyed on the leaned trunk and moves on the upright one): the instants between its keys
+    are checked on it."""
 
     plan: Plan
     first_frame: int
     checkers: tuple = ()
     keyable: bool = True
+    moving: Plan | None = None
+
+    @property
+    def checked(self) -> Plan:
+        """The plan whose world joints the instants between keys are checked against."""
+        return self.plan if self.moving is None else self.moving
 
     @property
     def pair(self) -> tuple:
@@ -64,14 +73,16 @@ class BakeResult:
     close_spans: list = field(default_factory=list)
 
 
-def bake(context, armature, info, plans, new_action=False) -> BakeResult:
+def bake(context, armature, info, plans, new_action=False, then=None) -> BakeResult:
     """Write keys for ``plans`` on ``armature``, whose arm ``info`` (:class:`.rig.RigInfo`)
     describes: one key per frame on each keyed bone's rotation channels, the hand's palm
     siblings and the chest (when a plan turns it) included, and the IK/FK switch set to
     FK. ``plans``: :class:`KeyedPlan` records (or (Plan, first frame) pairs: no checkers),
     in frame order; where every one has checkers, the instants between keys are checked
     as Blender interpolates them (:func:`.straighten.straighten`). ``new_action``: key a
-    copy of the armature's action. Raises ReachError if a keyed bone is missing. Returns a
+    copy of the armature's action. ``then(result)``: called with the :class:`BakeResult`
+    once the plans are keyed, before that check (a lean keys the trunk there, so the check
+    sees the trunk move). Raises ReachError if a keyed bone is missing. Returns a
     :class:`BakeResult`."""
     plans = [KeyedPlan.of(p) for p in plans]
     bmap = info.bones
@@ -100,7 +111,7 @@ def bake(context, armature, info, plans, new_action=False) -> BakeResult:
     # measured)
     baked, residual = [], 0.0
     for plan, frame0 in (k.pair for k in plans):
-        targets = target_matrices(info, plan, start_world, chest_head)
+        targets = target_matrices(info, plan, start_world, chest_head, plans[0].plan)
         targets_arm = {role: mw_inv[None] @ m for role, m in targets.items()}
         locals_ = local_matrices(armature, keyed, targets_arm, start_pose)
         residual = max(residual, settle(context, armature, keyed, reference, targets_arm,
@@ -124,6 +135,8 @@ def bake(context, armature, info, plans, new_action=False) -> BakeResult:
     order = [n for r in ROLE_ORDER if r in keyed
              for n in (hand_group(armature, keyed[r]) if r == "hand" else (keyed[r],))]
     result = BakeResult(action.name, order, (first, last), residual)
+    if then is not None:
+        then(result)
     if all(k.checkers for k in plans):
         curves = [channels.bag.fcurves.find(path, index=i) for path, i in dict.fromkeys(curves)]
         result.linear_spans, result.close_spans = straighten(

@@ -46,46 +46,33 @@ def _frames(a, b):
     return np.stack([a, b, np.cross(a, b)], -1)
 
 
-def target_matrices(info, plan, start_world, chest_head_world):
+def target_matrices(info, plan, start_world, chest_head_world, first=None):
     """World-space target matrices (F, 4, 4) per role for every frame of ``plan``.
 
     ``start_world``: role → the 4×4 world matrix of that role's reference bone in the
-    start pose. ``chest_head_world``: the chest bone's head (the rotation pivot)."""
+    start pose. ``chest_head_world``: the chest bone's head (the rotation pivot).
+    ``first``: the plan whose first pose the rig stands in at the start, where ``plan``
+    starts elsewhere (a reach after a ready reach and a lean: :func:`.lean.bake`); each
+    segment is turned from that pose's frame, the chest from its turn."""
     arm = info.arm
-    joints = plan.world_joints()                      # (F, 5, 3)
-    bends = plan.world_bends()                        # (F, 3)
     m = arm.to_world[:3, :3]
-    upper = joints[:, 2] - joints[:, 1]
-    fore = joints[:, 3] - joints[:, 2]
-    hand = joints[:, 4] - joints[:, 3]
-    hinge = np.cross(_unit(upper), bends)
-    frames = {
-        "upper_arm": _frames(upper, bends),
-        "forearm": _frames(fore, hinge),
-        "hand": _frames(hand, hinge),
-    }
-    rolls = np.array([p.roll for p in plan.poses])
-    if rolls.any():
-        # the plan's roll is about d in the canonical frame; a world frame's third column
-        # (a cross product) flips where the canonical frame is mirrored (a left arm), and
-        # the roll with it: F_w R_x(det(M) ψ)
-        sign = float(np.sign(np.linalg.det(m)))
-        frames["hand"] = roll_frames(frames["hand"], sign * rolls)
-        frames["forearm"] = roll_frames(frames["forearm"], sign * FOREARM_SHARE * rolls)
+    frames = _arm_frames(plan, m)
+    ref = frames if first is None or first is plan else _arm_frames(first, m, 1)
+    joints = plan.world_joints()                      # (F, 5, 3)
     joint_of = {"upper_arm": 1, "forearm": 2, "hand": 3}
     out = {}
     n = len(plan.poses)
     for role, f in frames.items():
         if role not in start_world:
             continue
-        rot = f @ np.swapaxes(f[0], -1, -2)[None]     # carries frame 0 to frame k
+        rot = f @ np.swapaxes(ref[role][0], -1, -2)[None]   # carries the start's frame to k
         s = start_world[role]
         d = np.repeat(s[None], n, 0)
         d[:, :3, :3] = rot @ s[:3, :3]
         d[:, :3, 3] = joints[:, joint_of[role]]
         out[role] = d
     body = np.array([p.config.body_rotation for p in plan.poses])
-    body = body - body[0]
+    body = body - (first or plan).poses[0].config.body_rotation
     chest_rot = m @ spine_rotation_matrix(body) @ m.T          # (F, 3, 3), world
     for role in ("chest", "clavicle"):
         if role in start_world:
@@ -95,6 +82,32 @@ def target_matrices(info, plan, start_world, chest_head_world):
             d[:, :3, 3] = (chest_rot @ (s[:3, 3] - chest_head_world)) + chest_head_world
             out[role] = d
     return out
+
+
+def _arm_frames(plan, m, count=None) -> dict:
+    """The upper arm's, forearm's and hand's world frames (F, 3, 3) on ``plan``'s poses (its
+    first ``count``), as :func:`target_matrices` turns the bones by; ``m``: the arm model's
+    rotation to the world."""
+    joints = plan.world_joints()[:count]              # (F, 5, 3)
+    bends = plan.world_bends()[:count]                # (F, 3)
+    upper = joints[:, 2] - joints[:, 1]
+    fore = joints[:, 3] - joints[:, 2]
+    hand = joints[:, 4] - joints[:, 3]
+    hinge = np.cross(_unit(upper), bends)
+    frames = {
+        "upper_arm": _frames(upper, bends),
+        "forearm": _frames(fore, hinge),
+        "hand": _frames(hand, hinge),
+    }
+    rolls = np.array([p.roll for p in plan.poses])[:count]
+    if rolls.any():
+        # the plan's roll is about d in the canonical frame; a world frame's third column
+        # (a cross product) flips where the canonical frame is mirrored (a left arm), and
+        # the roll with it: F_w R_x(det(M) ψ)
+        sign = float(np.sign(np.linalg.det(m)))
+        frames["hand"] = roll_frames(frames["hand"], sign * rolls)
+        frames["forearm"] = roll_frames(frames["forearm"], sign * FOREARM_SHARE * rolls)
+    return frames
 
 
 def local_matrices(armature, keyed, targets_arm, start_pose):

@@ -90,6 +90,19 @@ class RigLean:
     #: the worst knee flexion, ankle dorsiflexion and thigh flexion over both legs at the
     #: full lean (degrees, :func:`~..core.squat.leg_angles`), where the hips move
     leg_angles: tuple | None = None
+    #: the ready reach before the lean (:attr:`~..core.whole_body.LeanPhase.ready`) as the
+    #: bake keys it: on the leaned trunk, checked on the upright one; None without one
+    ready: KeyedPlan | None = None
+
+    @property
+    def lean_first(self) -> int:
+        """The lean's first frame (after the ready reach, where there is one)."""
+        return self.frame_start + self.phase.ready_frames
+
+    @property
+    def reach_first(self) -> int:
+        """The reach's first frame (the lean's last)."""
+        return self.lean_first + self.phase.frames
 
 
 def plan(context, armature, info, planner, keyed):
@@ -102,8 +115,8 @@ def plan(context, armature, info, planner, keyed):
     with its message saying why no lean was planned."""
     made = []
 
-    def make_planner(arm):
-        made.append(Planner(arm, planner.obstacles, planner.settings))
+    def make_planner(arm, settings=None):
+        made.append(Planner(arm, planner.obstacles, settings or planner.settings))
         return made[-1]
 
     failed, task = keyed.plan, keyed.plan.task
@@ -132,10 +145,15 @@ def plan(context, armature, info, planner, keyed):
             angles = None if not moved or body is None else tuple(float(a) for a in np.max(
                 [leg_angles(j, shift_world(info, phase.lean), np.asarray(info.frame.up, float))
                  for j in body.leg_joints], axis=0))
-            return RigLean(phase, bone, bases, first, check.margins[-1],
-                           check.hips if moved else None,
-                           tuple(legs) if moved else (), angles), KeyedPlan(
-                reach_or_why, first + phase.frames, (made[-1].generator.checker,), True)
+            checker = planner.generator.checker
+            ready = None if phase.ready is None else KeyedPlan(
+                dataclasses.replace(phase.ready, arm=phase.arm), first, (checker,), True,
+                moving=phase.ready)
+            lean = RigLean(phase, bone, bases, first, check.margins[-1],
+                           check.hips if moved else None, tuple(legs) if moved else (), angles,
+                           ready)
+            return lean, KeyedPlan(reach_or_why, lean.reach_first,
+                                   (made[-1].generator.checker,), True)
         why = reach_or_why
         if keyed_own and planner.settings.lean_hips_back:
             why += f" (the hips stay: bone '{keyed_own}' has keys of its own)"
@@ -190,13 +208,15 @@ def trunk_skin(armature, info, bone) -> TrunkSkin | None:
 
 
 def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False):
-    """Key the lean, then the reach on the leaned trunk (:func:`.bake.bake`, for ``info``'s
-    arm on the leaned trunk): the reach is baked with the lean bone posed at the full lean;
-    then the lean bone is keyed on the lean's frames (continuous with what the bake keyed
-    on it, where it keyed it: the chest may be the lean bone) and held at the full lean
-    through the reach, and every bone and switch the bake keyed holds its first key through
-    the lean. Returns the bake's :class:`.bake.BakeResult`, its frame range from the lean's
-    first frame."""
+    """Key the ready reach where there is one, the lean, then the reach on the leaned trunk
+    (:func:`.bake.bake`, for ``info``'s arm on the leaned trunk): the plans are baked with
+    the lean bone posed at the full lean (the ready reach's poses, relative to the trunk,
+    key the same local rotations on either trunk); then, before the instants between keys
+    are checked, the lean bone is keyed on the lean's frames (continuous with what the bake
+    keyed on it, where it keyed it: the chest may be the lean bone), upright before them and
+    held at the full lean through the reach, and every bone and switch the bake keyed holds
+    its key at the reach's first frame through the lean (:func:`_key_lean`). Returns the
+    bake's :class:`.bake.BakeResult`, its frame range from the first frame keyed."""
     pb = armature.pose.bones[lean.bone]
     before = pb.matrix_basis.copy()
     hips_keys = _hips_bases(context, armature, info, lean)
@@ -204,30 +224,43 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
     for name, bases in hips_keys.items():
         armature.pose.bones[name].matrix_basis = Matrix(bases[-1].tolist())
     context.view_layer.update()
+    ready = [] if lean.ready is None else [lean.ready]
     try:
         result = bake_mod.bake(context, armature, dataclasses.replace(info, arm=lean.phase.arm),
-                               plans, new_action)
+                               ready + list(plans), new_action,
+                               then=lambda r: _key_lean(context, armature, info, lean, r,
+                                                        hips_keys))
     except Exception:
         pb.matrix_basis = before
         context.view_layer.update()
         raise
-    first, last = lean.frame_start, result.frames[1]
-    reach_first = first + lean.phase.frames
+    result.frames = (lean.frame_start, result.frames[1])
+    return result
+
+
+def _key_lean(context, armature, info, lean: RigLean, result, hips_keys) -> None:
+    """:func:`bake`'s keys of the lean, once the plans are keyed (``result``)."""
+    pb = armature.pose.bones[lean.bone]
+    last, lean_first, reach_first = result.frames[1], lean.lean_first, lean.reach_first
     channels = Channels(armature, ensure_action(armature, False))
     switches = [b for side, (b, _prop) in info.bones.ik_fk.items() if side == info.side]
-    _hold(channels, set(result.bones) | set(switches), lean.bone, first, reach_first)
+    _hold(channels, set(result.bones) | set(switches), lean.bone, lean_first, reach_first)
     path, values = _channel_values_into(pb, channels, lean.bases, reach_first)
-    frames = first + np.arange(len(lean.bases), dtype=float)
-    write_channel(channels, f'pose.bones["{lean.bone}"].{path}', values, frames, lean.bone)
+    full = f'pose.bones["{lean.bone}"].{path}'
+    frames = lean_first + np.arange(len(lean.bases), dtype=float)
+    write_channel(channels, full, values, frames, lean.bone)
     if last > reach_first and lean.bone not in result.bones:
-        write_channel(channels, f'pose.bones["{lean.bone}"].{path}', values[[-1, -1]],
-                      np.array([reach_first, last], float), lean.bone)
+        write_channel(channels, full, values[[-1, -1]], np.array([reach_first, last], float),
+                      lean.bone)
+    if lean.bone in result.bones and lean_first > lean.frame_start:
+        # the chest is the lean bone and the ready reach keyed it on the leaned trunk:
+        # upright there (the ready reach holds the chest)
+        ready = np.arange(lean.frame_start, lean_first, dtype=float)
+        write_channel(channels, full, values[[0] * len(ready)], ready, lean.bone)
     for name, bases in hips_keys.items():
         _key_bone(channels, armature.pose.bones[name], bases, frames,
                   [reach_first, last] if last > reach_first else [], name == lean.hips)
     context.view_layer.update()
-    result.frames = (first, last)
-    return result
 
 
 def _hips_bases(context, armature, info, lean: RigLean) -> dict:
@@ -312,6 +345,7 @@ def report(results, lean: RigLean | None, length: float) -> None:
         back, down = float(np.linalg.norm(shift[:2])), max(0.0, -float(shift[2]))
         r.stats.update(lean_deg=round(float(lean.phase.lean.angle), 2),
                        lean_frames=lean.phase.frames, lean_bone=lean.bone,
+                       lean_ready_frames=lean.phase.ready_frames,
                        lean_com_margin=round(lean.margin / length, 4),
                        lean_hips_back=round(back, 4), lean_hips_down=round(down, 4))
         if lean.leg_angles is not None:
@@ -326,3 +360,5 @@ def report(results, lean: RigLean | None, length: float) -> None:
         else:
             r.message += f", leaning the trunk {angle:.0f}° at the hips first" + (
                 f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")
+        if lean.phase.ready is not None:
+            r.message += ", the arm raised toward it before the lean"

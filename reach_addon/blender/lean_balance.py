@@ -139,8 +139,10 @@ class BalanceCheck:
                    f"of mass {-margin / length:.3f} arm lengths past the feet "
                    f"{fraction:.0%} of the way")
         else:
-            why = (f"leaning {lean.angle:.0f}° would carry the centre of mass "
-                   + ("" if pose is None else f"(the arm on the reach's frame {pose}) ")
+            why = ((f"leaning {lean.angle:.0f}°" if lean.angle > 0.0 else "upright")
+                   + " would carry the centre of mass "
+                   + ("" if pose is None else "(the arm on the "
+                      + ("" if lean.angle > 0.0 else "ready ") + f"reach's frame {pose}) ")
                    + f"{-margin / length:.3f} arm lengths past the feet"
                    + ("" if moved else ", the hips not moved back"))
         if self.standing < 0.0:

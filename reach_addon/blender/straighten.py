@@ -157,7 +157,7 @@ def _straighten_plans(plans, keys, carried, local, turned, chest_head) -> tuple:
     """:func:`straighten`'s loop over every span of every plan."""
     linear, close = [], []
     for keyed in plans:
-        plan, frame0, own = keyed.plan, keyed.first_frame, list(keyed.checkers)
+        plan, frame0, own = keyed.checked, keyed.first_frame, list(keyed.checkers)
         linear.append(0)
         close.append(0)
         settings = plan.settings

@@ -129,6 +129,12 @@ class Settings:
         "lengths): people reaching by a lean extend the arm nearly straight (the functional "
         "reach test); 0.98 leaves the elbow bent about 23° on equal arm segments", "body",
         0.5, 1.0)
+    lean_ready: float = _f(
+        0.8, "Ready reach", "Where the arm, held as it stands, would touch or find no way "
+        "as the trunk leans, it first reaches on the upright trunk this far (a share of "
+        "the way from the shoulder) toward where the target will be once leaned, then the "
+        "trunk leans, then the arm reaches the rest: people raise the arm before they "
+        "lean. 0: never (such a lean is refused)", "body", 0.0, 1.0)
     lean_hips_back: bool = _f(
         True, "Hips back", "Where a lean would carry the centre of mass past the feet (or "
         "within Balance margin of their edge), move the hips back, the feet planted and the "

@@ -23,25 +23,31 @@ Where no standing lean reaches (a target low in front, refused as ``out_of_reach
 every lean refused) and ``Settings.squat`` is on, the hips come down as well
 (:func:`squat_then_reach`, stage 4, :mod:`.squat`): the same phase, checks and bake.
 
-What these stages leave to later ones, and refuse meanwhile: the lean is not phased with
-the reach (lean first, then reach, as a person does where a blend would touch) and the
-arms ride on the trunk as they stood (they do not hang); only a single reach leans (a
-sequence, a guided reach and a chase still refuse as ``needs_lean``); and a start in
-contact does not lean.
+Where the arm, held at its start, would touch as the trunk leans or find no way after it,
+the arm goes first (``Settings.lean_ready``, :func:`_ready_lean_reach`): a reach on the
+upright trunk toward where the target will be, the lean with the arm there, then the reach.
+
+What these stages leave to later ones, and refuse meanwhile: the ready reach, the lean and
+the reach run one after the other (not blended), and the other arm rides on the trunk as
+it stood (it does not hang); only a single reach leans (a sequence, a guided reach and a
+chase still refuse as ``needs_lean``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
-from .arm import ArmModel
+from .arm import ArmModel, hand_frame
 from .errors import NEEDS_LEAN, OUT_OF_REACH
 from .hand_shape import with_shape
 from .hips import shifted_lean
 from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean_frames, lean_hit,
                    leaned_arm, skin_hit)
+from .orient import hand_locals
+from .results import Plan
 from .squat import squat_leans
 from .torso import body_rotation_deg, rotate_about_spine
 
@@ -80,16 +86,24 @@ SHIFT_SHARES = (1.0, 0.25)
 class LeanPhase:
     """A planned lean: the ``lean``, its ``fractions`` (one a frame, 0 on the first, 1 on
     the last: :func:`~.lean.lean_frames`) and the ``arm`` on the leaned trunk that the
-    reach after it was planned for."""
+    reach after it was planned for; ``ready``, where the arm first reached toward the
+    target on the upright trunk (:func:`_ready_lean_reach`), that reach's plan (for the
+    upright arm; its last pose is the lean's and the reach's first)."""
 
     lean: Lean
     fractions: np.ndarray
     arm: ArmModel
+    ready: Plan | None = None
 
     @property
     def frames(self) -> int:
         """Frames the lean takes before the reach's first (its last is the reach's start)."""
         return len(self.fractions) - 1
+
+    @property
+    def ready_frames(self) -> int:
+        """Frames the ready reach takes before the lean's first (its last is the lean's)."""
+        return 0 if self.ready is None else len(self.ready.poses) - 1
 
 
 def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None,
@@ -98,8 +112,9 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     was refused as ``needs_lean``: returns (:class:`LeanPhase`, the reach's plan on the
     leaned trunk), or (None, why not: a sentence) where no lean is planned; (None, None)
     where none was asked for. ``pivot_c``: the hips' pivot (canonical frame of
-    ``planner.arm``); ``make_planner(arm)``: a :class:`~.planner.Planner` for an arm among
-    the same obstacles and settings; ``acceptable(lean, arm_world=None, turned=None)``:
+    ``planner.arm``); ``make_planner(arm, settings=None)``: a :class:`~.planner.Planner`
+    for an arm among the same obstacles and settings (or ``settings``);
+    ``acceptable(lean, arm_world=None, turned=None)``:
     why a lean may not be taken (the Blender layer's balance, the arm at its start, or
     with its joints on each pose of the reach at ``arm_world`` and the chest turned by
     ``turned``: weighed again as the arm reaches, :func:`_balanced_reach`), or None;
@@ -222,7 +237,7 @@ def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable):
     and ``turned(points, k)``, world points the chest carries where its turn on pose k
     takes them, so the other arm and the head turn back as the reaching shoulder comes
     forward): (phase, the reach's plan), or (None, why not)."""
-    phase, reach = _lean_and_reach(planner, task, lean, make_planner, trunk)
+    phase, reach = _lean_and_reach(planner, task, lean, make_planner, trunk, acceptable)
     if phase is None or acceptable is None:
         return phase, reach
     arm = phase.arm
@@ -237,12 +252,29 @@ def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable):
     return (phase, reach) if why is None else (None, why)
 
 
-def _lean_and_reach(planner, task, lean, make_planner, trunk=None):
-    """(:class:`LeanPhase`, the reach's plan) for one ``lean``, or (None, why not)."""
-    s, arm = planner.settings, planner.arm
+def _lean_and_reach(planner, task, lean, make_planner, trunk=None, acceptable=None):
+    """(:class:`LeanPhase`, the reach's plan) for one ``lean``, or (None, why not): the arm
+    held at its start as the trunk leans, then the reach; where that is refused, the arm
+    first reaching toward the target on the upright trunk (:func:`_ready_lean_reach`, its
+    poses weighed by ``acceptable`` as :func:`lean_then_reach` takes it)."""
     start = planner.generator.config_pose(task.start, task.start_hand)
-    fractions = lean_frames(arm, start.joints, lean, s, task.fps)
-    hit = lean_hit(arm, with_shape(arm, start.joints, start.bend, start.roll), lean, fractions,
+    phase, reach = _leaned_reach(planner, task, lean, make_planner, trunk, start)
+    if phase is not None or planner.settings.lean_ready <= 0.0:
+        return phase, reach
+    ready_phase, ready_reach = _ready_lean_reach(planner, task, lean, make_planner, trunk,
+                                                 acceptable)
+    if ready_phase is not None:
+        return ready_phase, ready_reach
+    return None, f"{reach} (and with the arm raised first: {ready_reach})"
+
+
+def _leaned_reach(planner, task, lean, make_planner, trunk, held, ready=None):
+    """The lean with the arm held at the pose ``held`` (the task's start, or the ready
+    reach's end), then the reach ``task`` on the leaned trunk: (:class:`LeanPhase`, the
+    reach's plan), or (None, why not)."""
+    s, arm = planner.settings, planner.arm
+    fractions = lean_frames(arm, held.joints, lean, s, task.fps)
+    hit = lean_hit(arm, with_shape(arm, held.joints, held.bend, held.roll), lean, fractions,
                    planner.generator.checker, trunk)
     if hit is not None:
         fraction, part, obstacle = hit
@@ -257,7 +289,51 @@ def _lean_and_reach(planner, task, lean, make_planner, trunk=None):
         frame, part, obstacle = hit
         return None, (f"leaning {lean.angle:.0f}°, the {part} would touch '{obstacle}' on "
                       f"the reach's frame {frame}")
-    return LeanPhase(lean, fractions, leaned), reach
+    return LeanPhase(lean, fractions, leaned, ready), reach
+
+
+def ready_point(arm, lean, target_world, share) -> np.ndarray:
+    """The ready reach's goal (world): ``share`` of the way from the shoulder to where the
+    target will be relative to the trunk once it has leaned by ``lean``,
+    :math:`s + f (L^{-1} t - s)` in the upright arm's canonical frame (``L`` the lean's
+    transform, :func:`~.lean.leaned_arm`), so the lean carries the hand toward the target
+    and the reach after it covers the rest."""
+    t = leaned_arm(arm, lean).to_canonical_points(np.asarray(target_world, dtype=float))
+    s = np.asarray(arm.shoulder, dtype=float)
+    return arm.to_world_points(s + float(share) * (t - s))
+
+
+def _ready_lean_reach(planner, task, lean, make_planner, trunk, acceptable=None):
+    """Arm first, then the lean (``Settings.lean_ready``): a reach on the upright trunk to
+    :func:`ready_point` (the paper's planner unchanged; the chest held, as it is held
+    through a lean: the reach after it turns it as Table 1 has it), the lean with the arm
+    there, then the reach from that pose, its hand's palm and fingers carried on from the
+    task's start (:func:`~.orient.hand_locals`). The ready reach's poses are weighed on the
+    upright body (``acceptable`` with no lean): a raised arm carries the centre of mass
+    forward. A start whose chest is turned is not tried."""
+    s, arm = planner.settings, planner.arm
+    if abs(float(task.start.body_rotation)) > 1e-9:
+        return None, "its chest starts turned"
+    goal = ready_point(arm, lean, task.targets[0], s.lean_ready)
+    ready_task = dataclasses.replace(task, targets=goal[None], names=("the ready point",),
+                                     duration_s=None, orientations=None)
+    ready = make_planner(arm, dataclasses.replace(s, chest_rotation=False)).plan(ready_task)
+    if not ready.success:
+        return None, f"raising the arm toward it finds no way: {ready.message}"
+    if acceptable is not None:
+        upright = dataclasses.replace(lean, angle=0.0, shift=np.zeros(3))
+        why = acceptable(upright, arm.to_world_points(np.array([p.joints for p in ready.poses])))
+        if why is not None:
+            return None, f"raising the arm toward it first: {why}"
+    end = ready.poses[-1]
+    start = planner.generator.config_pose(task.start, task.start_hand)
+    finger, palm = hand_locals(start, task.start_palm, task.start_fingers)
+    frame = hand_frame(end)
+    reach_task = dataclasses.replace(
+        task, start=end.config, start_hand=tuple(end.hand),
+        start_palm=None if task.start_palm is None else frame @ palm,
+        start_fingers=None if task.start_fingers is None else frame @ finger)
+    return _leaned_reach(planner, reach_task, lean, make_planner, trunk, end, ready)
 
 
 def body_hit(arm, poses, checker, trunk: TrunkSkin | None = None):

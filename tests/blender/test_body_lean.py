@@ -348,12 +348,7 @@ def test_hips_that_would_move_back_into_a_wall_keep_the_body_clear(addon, rig_fi
 TABLE_TOP, TABLE_EDGE, TABLE_TARGET, OVER = -0.85, 0.35, 1.25, 0.15
 
 #: Rigs the issue's table does not yet let reach, with the cause measured.
-TABLE_XFAIL = {
-    "gomakehuman": "the hand starts against the table (it hangs 0.31 to 0.64 arm lengths "
-                   "ahead of the shoulder, its fingers 0.06 under the top, over the table's "
-                   "corner) and a lean carries it in from its first degree: the arm must "
-                   "rise before the trunk leans (the lean phased with the reach, not built)",
-}
+TABLE_XFAIL: dict = {}
 #: Rigs the issue's table does not apply to: the robot's forearm, 2.4 times its upper arm,
 #: hangs through the table's top as it stands (its start is inside the table).
 TABLE_NOT_APPLICABLE = ("robot",)

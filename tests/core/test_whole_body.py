@@ -37,7 +37,7 @@ def plan_with_lean(arm, scene, target, settings):
     task = Task("reach", target[None], HANGING, names=("Cup",))
     failed = planner.plan(task)
     phase, reach = lean_then_reach(planner, task, failed, arm.waist,
-                                   lambda a: Planner(a, obst, settings))
+                                   lambda a, s=None: Planner(a, obst, s or settings))
     return failed, phase, reach
 
 
@@ -74,6 +74,47 @@ def test_a_target_beyond_the_arm_is_reached_by_a_lean_clear_at_every_instant():
                 assert segment_clearance(a, b, tris) >= c.radius - 2e-3, (f, c.name)
     for joints in reach.world_joints():
         assert arm_penetration(arm, joints, tris) >= margin - 2e-3
+
+
+#: A desk whose top (4 cm thick, 0.91 m up) reaches back over the hanging hand: its near
+#: edge 0.15 m ahead of the shoulder, the hanging forearm within the clearance under it.
+DESK = {"Desk": [((-0.70, -1.20, 0.87), (0.40, -0.15, 0.91))]}
+
+
+def test_a_hand_under_a_desk_rises_before_the_trunk_leans():
+    """Arm first, then the lean (``Settings.lean_ready``): held as it hangs, the forearm
+    would be carried into the desk from the lean's first degree, so that lean is refused;
+    with a ready reach the arm first rises on the upright trunk toward where the target
+    will be, the trunk leans with the arm there, then the reach ends on the target. Every
+    instant is measured by the oracle: the ready reach leaves the desk (the hanging forearm
+    starts 2 cm into it) going no deeper, the lean and the reach keep the clearance; the
+    chest holds through the ready reach and the reach starts where it ended."""
+    arm = standard_arm()
+    target = ahead(arm, 1.25) + np.array([0.0, 0.0, 0.91 + 0.15 * arm.arm_length
+                                          - ahead(arm, 1.25)[2]])
+    held = Settings().replace(lean=True, lean_ready=0.0)
+    failed, phase, why = plan_with_lean(arm, DESK, target, held)
+    assert failed.reason == NEEDS_LEAN and phase is None
+    assert "forearm against 'Desk'" in why, why
+    settings = Settings().replace(lean=True)
+    failed, phase, reach = plan_with_lean(arm, DESK, target, settings)
+    assert phase is not None and phase.ready is not None, reach
+    assert reach.success and phase.ready.success, reach.message
+    ready, tris = phase.ready, tris_of(DESK)
+    margin = settings.clearance * arm.arm_length
+    assert all(p.config.body_rotation == 0.0 for p in ready.poses)
+    assert np.allclose(ready.poses[-1].config.as_array(), reach.poses[0].config.as_array())
+    depths = [arm_penetration(arm, joints, tris) for joints in ready.world_joints()]
+    assert depths[0] < 0.0                  # the hanging forearm starts touching the desk
+    assert min(depths) >= depths[0] - 2e-3 and depths[-1] >= margin - 2e-3
+    end = ready.poses[-1].joints
+    for f in np.linspace(0.0, 1.0, 41):
+        lean_m = arm.to_world @ phase.lean.matrix(f)
+        assert arm_penetration(arm, end @ lean_m[:3, :3].T + lean_m[:3, 3], tris) >= margin - 2e-3
+    for joints in reach.world_joints():
+        assert arm_penetration(arm, joints, tris) >= margin - 2e-3
+    wrist = reach.world_joints()[-1, 3]
+    assert np.linalg.norm(wrist - target) <= settings.goal_tolerance * arm.arm_length + 1e-9
 
 
 def test_the_lean_is_off_unless_asked_for():
