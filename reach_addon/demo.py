@@ -1,5 +1,5 @@
 """The paper's four tasks on a sample workplace, with the statistics of Table 2 (and, in
-Blender, a whole-body fifth: a cup on the floor, Lean on).
+Blender, a whole-body fifth: a cup on the floor, Lean and Look at target on).
 
 :func:`core_demo` uses the core alone (the standard figure, furniture as triangle meshes)
 and prints our Table 2 beside the paper's.
@@ -32,7 +32,7 @@ WORKPLACE = {
 #: The demo's whole-body task, after the paper's four: a cup on the floor beside her,
 #: (x, y) in the workplace (metres: 0.36 outward of the right shoulder, 0.05 ahead), the
 #: wrist ``WHOLE_BODY_ABOVE`` arm lengths over the floor (the issue's squat-or-bend height;
-#: more where the hand's capsule needs it), reached with Lean on.
+#: more where the hand's capsule needs it), reached with Lean on, the head looking at it.
 WHOLE_BODY_AT = (-0.55, -0.05)
 WHOLE_BODY_ABOVE = 0.12
 
@@ -322,7 +322,7 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     cup = Task("reach", np.array([[*WHOLE_BODY_AT, floor]]), HANGING, 24.0,
                names=("on the floor",))
     outcome, end, (_n, body_ok, _s), report = _demo_task(
-        armature, "whole_body", cup, frame, out, Settings().replace(lean=True))
+        armature, "whole_body", cup, frame, out, Settings().replace(lean=True, gaze=True))
     reports.append(report)
     if render:
         from .blender.render import render_outcome

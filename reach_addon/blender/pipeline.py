@@ -27,6 +27,7 @@ from ..core.chase import chase_steps
 from ..core.sweep import plan_among_moving
 from . import bake as bake_mod
 from . import body as body_mod
+from . import gaze as gaze_mod
 from . import lean as lean_mod
 from . import rig as rig_mod
 from . import viz
@@ -227,6 +228,7 @@ class PipelineRun:
             else int(request.frame_start)
         self.warnings = []            # what a Bake of this preview would refuse
         self.lean = None              # a lean planned before the reach (.lean.RigLean)
+        self.gaze = {}                # the head's turn, as the report gives it (.gaze.key)
         self.outcome = None
 
     def read_rig(self):
@@ -367,10 +369,14 @@ class PipelineRun:
         if self.to_key and self.lean is not None:
             self.baked = lean_mod.bake(self.context, self.armature, self.info, self.lean,
                                        self.to_key, self.request.new_action)
-            return
-        if self.to_key:
+        elif self.to_key:
             self.baked = bake_mod.bake(self.context, self.armature, self.info, self.to_key,
                                        self.request.new_action)
+        if self.to_key:
+            if self.settings.gaze:
+                self.gaze = gaze_mod.key(self.context, self.armature, self.info, self.to_key,
+                                         self.baked.frames, self.settings,
+                                         self.planner.generator.checker, self.tasks[0].fps)
             return
         # Nothing the user asked for can be baked: leave the scene as it was.
         failed = next(k.plan for k in self.plans if not k.plan.success)
@@ -393,6 +399,12 @@ class PipelineRun:
         outcome.results = task_results(self.info, self.plans, baked.bones if baked else [],
                                        self.request, baked)
         lean_mod.report(outcome.results, self.lean, self.info.arm.arm_length)
+        for r in outcome.results:
+            r.stats.update(self.gaze)
+            if "gaze_note" in self.gaze:
+                r.message += f"; the head does not turn: {self.gaze['gaze_note']}"
+            elif self.gaze.get("gaze_share", 1.0) < 1.0:
+                r.message += ", the head turned half way toward it (farther would touch)"
         if outcome.baked:
             measure_baked(self.context, self.armature, self.info, outcome.results,
                           self.settings, self.obstacles)

@@ -174,6 +174,27 @@ class Settings:
     squat_step: float = _f(
         0.05, "Squat grid", "Spacing of the grid of hips' drops and shifts a squat is "
         "chosen from (arm lengths)", "body", 0.005, 0.2)
+    gaze: bool = _f(
+        False, "Look at target", "Turn the head toward each target (at the neck, within its "
+        "limits), ahead of the hand, and keep it there as the body moves. Off by default "
+        "with the rest of the whole body", "body")
+    gaze_turn_max: float = _f(
+        60.0, "Neck turn limit", "Farthest the neck turns the head left or right: the "
+        "AAOS average cervical rotation (1965)", "body", 0.0, 90.0, "deg")
+    gaze_down_max: float = _f(
+        45.0, "Neck flexion limit", "Farthest the neck tips the head down: the AAOS average "
+        "cervical flexion (1965)", "body", 0.0, 90.0, "deg")
+    gaze_up_max: float = _f(
+        45.0, "Neck extension limit", "Farthest the neck tips the head up: the AAOS average "
+        "cervical extension (1965)", "body", 0.0, 90.0, "deg")
+    gaze_time: float = _f(
+        0.4, "Head turn time", "Seconds the head takes to turn toward a new target (a "
+        "minimum-jerk turn; head movements of a 40-60° gaze shift take 0.3-0.5 s)", "body",
+        0.05, 2.0, "s")
+    gaze_speed: float = _f(
+        250.0, "Head turn speed", "Fastest the head turns, degrees a second, on each of its "
+        "two angles (within the peak head velocities of large gaze shifts)", "body",
+        30.0, 720.0, "deg/s")
     chest_phase_delay: float = _f(
         0.25, "Chest delay", "Fraction of a reach's progress toward its target before "
         "the chest starts to turn (joints are recruited in turn, arm first)", "body", 0.0, 0.9)

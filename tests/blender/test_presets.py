@@ -36,8 +36,8 @@ def test_strength_and_body_presets_set_the_planner_settings(fresh, addon):
     assert settings.preferred_level_v == pytest.approx(strength.strength_vertical(45.0), abs=1e-4)
     run("body", "No_Body_Rotation")
     assert settings.chest_rotation is False
-    run("body", "Feet_Planted")                   # the whole body: lean, hips back, squat
-    assert settings.lean and settings.squat and settings.lean_hips_back
+    run("body", "Feet_Planted")             # the whole body: lean, hips back, squat, gaze
+    assert settings.lean and settings.squat and settings.lean_hips_back and settings.gaze
     assert settings.chest_rotation is True
     run("strength", "Paper_Defaults")
     run("body", "AAOS_Adult")

@@ -2,7 +2,8 @@ import bpy
 reach = bpy.context.scene.reach.settings
 
 # The whole body, feet planted: the trunk leans, the hips move back and the body squats
-# or bends for what the arm alone cannot reach (no step); the AAOS ranges.
+# or bends for what the arm alone cannot reach (no step), the head looks at the target;
+# the AAOS ranges.
 
 reach.alpha_min = -60.0
 reach.alpha_max = 180.0
@@ -33,4 +34,10 @@ reach.knee_max = 135.0
 reach.ankle_max = 38.0
 reach.hip_max = 120.0
 reach.squat_step = 0.05
+reach.gaze = True
+reach.gaze_turn_max = 60.0
+reach.gaze_down_max = 45.0
+reach.gaze_up_max = 45.0
+reach.gaze_time = 0.4
+reach.gaze_speed = 250.0
 reach.chest_phase_delay = 0.25

@@ -1,0 +1,186 @@
+"""The head's gaze on a rig (:mod:`..core.gaze`): once the motion is keyed, the neck bone
+is keyed so the head looks at each target in turn (``Settings.gaze``).
+
+**The bone** is the rig's neck (:attr:`.rig_detect.BoneMap.neck`, the spine above the
+chest): turning it carries the head and everything on it, the cervical spine taken as one
+joint at its base. Not keyed, with the reason in the report: a rig without one, a neck
+that has keys of its own, and a generated Rigify rig (its head control may keep its own
+orientation, ``head_follow``: not read yet).
+
+**The aim** is read on every frame as Blender evaluates the keyed motion (the lean, the
+chest's turn): the neck's forward and up are the body's at the start frame, carried by the
+neck's turn since; the eyes are taken :data:`EYES` of the way from the neck's base to the
+top of the head (the highest point of its skin, else the farthest bone end above the
+neck), and the aim is the one whose line of sight from there meets the target
+(:func:`~..core.gaze.gaze_angles`). Each frame looks at the target of the plan's segment it belongs
+to (a chase's target at that frame; the first target through a lean before the reach).
+
+**Clear of obstacles**: the head's skin (the vertices the neck's bones move) is carried by
+the neck's turn on every frame and checked against the obstacles as a lean's trunk is
+(:func:`~..core.lean.skin_hit`); where the turn brings it within the clearance, the turn
+is halved, then left out (said in the report).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.gaze import clip_gaze, gaze_angles, gaze_blend, gaze_rotation
+from ..core.lean import skin_hit
+from .bone_matrices import channel_values
+from .fcurves import Channels, ensure_action, write_channel
+from .lean import animated
+from .skin import skin_points
+
+#: Where the eyes are, as a share of the way from the neck's base to the top of the head.
+EYES = 0.6
+#: The shares of the aimed turn tried in turn where the head's skin would touch.
+SHARES = (1.0, 0.5)
+
+
+def neck_of(armature, info) -> tuple:
+    """(the neck bone's name, None), or (None, why the head does not turn)."""
+    neck = info.bones.neck
+    if neck is None or neck not in armature.pose.bones:
+        return None, "Reach finds no neck on this rig"
+    if info.bones.key_chest:
+        return None, "a generated Rigify rig's head control is not read yet"
+    if animated(armature, neck):
+        return None, f"bone '{neck}' has keys of its own"
+    return neck, None
+
+
+def targets_by_frame(plans, first: int, last: int) -> tuple:
+    """(world target (F, 3), the frame index its target was taken up on (F,)) for the
+    frames ``first``..``last`` of ``plans`` (:class:`.bake.KeyedPlan`, in frame order):
+    each segment's target over its frames, a chase's target at each frame; frames before a
+    plan (a lean) look at its first target, frames after its last segment keep to that."""
+    n = last - first + 1
+    target, start = np.zeros((n, 3)), np.zeros(n, dtype=int)
+    marks = []                                   # (frame index, target or chase targets)
+    for keyed in plans:
+        plan, f0 = keyed.plan, keyed.first_frame
+        if plan.task.kind == "chase":
+            marks.append((f0 - first, np.asarray(plan.task.targets, dtype=float)))
+            continue
+        for seg in plan.segments:
+            marks.append((f0 + seg.frame_start - first, np.asarray(seg.target, dtype=float)))
+    marks.sort(key=lambda m: m[0])
+    for i, (at, aim) in enumerate(marks):
+        lo = 0 if i == 0 else max(0, at)
+        hi = n if i + 1 == len(marks) else max(lo, min(n, marks[i + 1][0]))
+        if aim.ndim == 2:
+            k = np.clip(np.arange(lo, hi) - at, 0, len(aim) - 1)
+            target[lo:hi] = aim[k]
+        else:
+            target[lo:hi] = aim
+        start[lo:hi] = lo
+    return target, start
+
+
+def key(context, armature, info, plans, frames, settings, checker, fps: float) -> dict:
+    """Key the neck over ``frames`` (first, last) so the head looks at the targets of
+    ``plans`` (see the module docstring), the head's skin kept clear by ``checker``.
+    Returns the report's figures: ``gaze_bone``, ``gaze_deg`` (the largest turn keyed),
+    ``gaze_share`` (of the aimed turn), or ``gaze_note`` where the head does not turn."""
+    neck, why = neck_of(armature, info)
+    if neck is None:
+        return {"gaze_note": why}
+    first, last = int(frames[0]), int(frames[1])
+    scene = context.scene
+    now = (scene.frame_current, scene.frame_subframe)
+    try:
+        aims, starts, mats, (forward, up), skin = _aims(context, armature, info, neck, plans,
+                                                        first, last, settings)
+    finally:
+        scene.frame_set(now[0], subframe=now[1])
+    turns = gaze_blend(aims, starts, fps, settings)
+    pb = armature.pose.bones[neck]
+    mw = np.array(armature.matrix_world)
+    for share in SHARES:
+        rotations = np.array([gaze_rotation(forward, up, *(share * t)) for t in turns])
+        hit = None if skin is None else skin_hit(_carried(skin, mats, rotations, mw), checker)
+        if hit is None:
+            break
+    else:
+        return {"gaze_note": f"turning the head would bring it against '{hit[1]}' on the "
+                f"motion's frame {first + hit[0]}"}
+    basis = np.array(pb.matrix_basis)
+    bases = np.repeat(basis[None], len(rotations), 0)
+    bases[:, :3, :3] = basis[:3, :3] @ rotations
+    channels = Channels(armature, ensure_action(armature, False))
+    path, values = channel_values(pb, bases)
+    write_channel(channels, f'pose.bones["{neck}"].{path}', values,
+                  np.arange(first, last + 1, dtype=float), neck)
+    context.view_layer.update()
+    return {"gaze_bone": neck, "gaze_share": share,
+            "gaze_deg": round(float(np.abs(share * turns).max(initial=0.0)), 1)}
+
+
+def _aims(context, armature, info, neck, plans, first, last, settings) -> tuple:
+    """The clipped aim (yaw, pitch) on each frame (F, 2), its target's start frames, the
+    neck's armature-space matrices (F, 4, 4), its frame (forward, up, in its own axes) and
+    the head's skin (:func:`_head_skin`), each frame evaluated as keyed."""
+    scene = context.scene
+    pb = armature.pose.bones[neck]
+    mw = np.array(armature.matrix_world)
+    to_arm = np.linalg.inv(mw)
+    target_w, starts = targets_by_frame(plans, first, last)
+    targets = target_w @ to_arm[:3, :3].T + to_arm[:3, 3]
+    scene.frame_set(first)
+    m0 = np.array(pb.matrix)
+    r0 = m0[:3, :3] / np.linalg.norm(m0[:3, :3], axis=0)
+    up = r0.T @ _unit(to_arm[:3, :3] @ np.asarray(info.frame.up, dtype=float))
+    forward = r0.T @ _unit(to_arm[:3, :3] @ np.asarray(info.frame.forward, dtype=float))
+    forward = _unit(forward - (forward @ up) * up)
+    skin = _head_skin(armature, neck, m0)
+    top = _head_top(armature, neck, m0, skin, up)
+    eyes0 = np.linalg.solve(m0, np.append(m0[:3, 3] + EYES * (top - m0[:3, 3]), 1.0))[:3]
+    aims, mats = [], []
+    for k, f in enumerate(range(first, last + 1)):
+        scene.frame_set(f)
+        m = np.array(pb.matrix)
+        local = np.linalg.solve(m, np.append(targets[k], 1.0))[:3]   # the neck's own axes
+        aims.append(clip_gaze(*gaze_angles(local, forward, up, eyes0), settings))
+        mats.append(m)
+    return np.array(aims), starts, np.array(mats), (forward, up), skin
+
+
+def _head_top(armature, neck, m0, skin, up) -> np.ndarray:
+    """The top of the head (armature space, as posed at the first frame, ``m0`` the neck's
+    matrix then): the highest point of its skin along ``up`` (the neck's own axes), else
+    the farthest bone end from the neck's base among the neck's bones (a head's bones may
+    reach well past its skin: the Alien's do)."""
+    if skin is not None:
+        local = skin[int(np.argmax(skin @ up))]
+        return m0[:3, :3] @ local + m0[:3, 3]
+    pbs = [armature.pose.bones[neck]] + list(armature.pose.bones[neck].children_recursive)
+    base = np.array(pbs[0].head)
+    return max((np.array(b.tail) for b in pbs), key=lambda t: float(np.linalg.norm(t - base)))
+
+
+def _head_skin(armature, neck, m0) -> np.ndarray | None:
+    """The head's skin (the vertices the neck's bones move) in the neck's own axes at the
+    first frame (``m0``, its armature-space matrix then), or None where it has none."""
+    names = {neck} | {b.name for b in armature.pose.bones[neck].children_recursive}
+    pts = skin_points(armature, names, share=True)
+    if not len(pts):
+        return None
+    mw = np.array(armature.matrix_world)
+    local = np.linalg.inv(mw @ m0)
+    return pts @ local[:3, :3].T + local[:3, 3]
+
+
+def _carried(skin, mats, rotations, mw) -> np.ndarray:
+    """The head's skin (neck axes) on each frame (F, n, 3, world): turned by the gaze in the
+    neck's axes, carried by the neck's matrix at that frame."""
+    out = []
+    for m, r in zip(mats, rotations):
+        w = mw @ m
+        out.append((skin @ r.T) @ w[:3, :3].T + w[:3, 3])
+    return np.array(out)
+
+
+def _unit(v):
+    v = np.asarray(v, dtype=float)
+    return v / max(float(np.linalg.norm(v)), 1e-12)
