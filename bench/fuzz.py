@@ -119,6 +119,9 @@ def main(argv=None) -> int:
 
     atomic.write_text(Path(args.out), json.dumps(summary, indent=1, ensure_ascii=False) + "\n")
     cats = ", ".join(f"{k} {v['count']}" for k, v in summary["categories"].items() if v["count"])
+    if summary["body"]:
+        print("fuzz: the whole body reached " + ", ".join(f"{n} by {k}" for k, n in
+                                                           summary["body"].items()))
     print(f"fuzz: {summary['passed']}/{len(results)} passed ({cats}); refusals cross-checked "
           f"{summary['refusals_cross_checked']}, false refusals {summary['false_refusals']}, "
           f"undecided {summary['refusals_not_decided']} ({summary['cross_check_seconds']:.0f} s "

@@ -432,3 +432,20 @@ def test_a_scene_a_signal_stopped_is_not_recorded_and_runs_again(tmp_path, monke
     campaign.worker([1, 2, 3], results, subframes=1, keep=tmp_path / "scene")
     assert ran == [1, 2]
     assert sorted(campaign.kept_results(tmp_path)) == [1]
+
+
+def test_the_summary_counts_what_the_whole_body_did():
+    """A scene's report says what the body did for each task (``lean_deg``,
+    ``lean_hips_down``, ``lean_ready_frames``); the campaign reads it
+    (``campaign.body_outcomes``) and fuzz.json counts each outcome."""
+    report = {"tasks": [{"reason": None, "stats": {"lean_deg": 30.0, "lean_hips_down": 0.01}},
+                        {"reason": None, "stats": {"lean_deg": 80.0, "lean_hips_down": 0.4,
+                                                   "lean_ready_frames": 20}},
+                        {"reason": None, "stats": {"frames": 30}},
+                        {"reason": "needs_lean", "stats": {}}]}
+    assert campaign.body_outcomes(report) == ["lean", "squat+ready"]
+    base = {"features": [], "task": "reach", "rig": "synthetic/mixamo", "time_s": 1.0,
+            "category": "success", "detail": ""}
+    results = [{**base, "seed": 1, "body": ["lean"]}, {**base, "seed": 2},
+               {**base, "seed": 3, "body": ["lean", "squat+ready"]}]
+    assert summary.summarize(results, {})["body"] == {"lean": 2, "squat+ready": 1}

@@ -120,7 +120,29 @@ def run_scene(seed: int, scene_dir: Path, cache: RigCache, library: Path,
                   time_s=round(time.perf_counter() - t0, 3))
     if runs[0]["report"] is not None:
         result["reasons"] = [t["reason"] for t in runs[0]["report"]["tasks"]]
+        body = body_outcomes(runs[0]["report"])
+        if body:
+            result["body"] = body
     return result
+
+
+#: How far down (arm lengths) the hips must come for the fuzz to count a lean a squat (the
+#: report's own threshold, ``blender.lean.SQUAT_REPORTED``).
+SQUAT_DOWN = 0.05
+
+
+def body_outcomes(report: dict) -> list:
+    """What the whole body did for each task of a bake's ``report`` that it did something
+    for: "lean" or "squat" (the hips down by :data:`SQUAT_DOWN` arm lengths or more), with
+    "+ready" where the arm rose first (``lean_ready_frames``)."""
+    out = []
+    for t in report.get("tasks", ()):
+        stats = t.get("stats") or {}
+        if not stats.get("lean_deg"):
+            continue
+        kind = "squat" if stats.get("lean_hips_down", 0.0) >= SQUAT_DOWN else "lean"
+        out.append(kind + ("+ready" if stats.get("lean_ready_frames") else ""))
+    return out
 
 
 def worker(seeds: list, results: Path, subframes: int, keep: Path | None = None,

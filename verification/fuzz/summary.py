@@ -104,7 +104,11 @@ def summarize(results: list, meta: dict) -> dict:
     slowest = sorted((r for r in results if r.get("time_s") is not None),
                      key=lambda r: -r["time_s"])[:5]
     cross = cross_check_summary(results)
-    return {**meta, "scenes": len(results),
+    body: dict = {}
+    for r in results:
+        for outcome in r.get("body", ()):
+            body[outcome] = body.get(outcome, 0) + 1
+    return {**meta, "scenes": len(results), "body": dict(sorted(body.items())),
             "passed": sum(r["category"] in GOOD for r in results),
             "seconds_per_scene_median": round(float(np.median(times)), 3) if times else None,
             "categories": categories,
