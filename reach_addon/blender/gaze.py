@@ -23,6 +23,8 @@ is halved, then left out (said in the report).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..core.gaze import clip_gaze, gaze_angles, gaze_blend, gaze_rotation
@@ -90,12 +92,13 @@ def key(context, armature, info, plans, frames, settings, checker, fps: float) -
     scene = context.scene
     now = (scene.frame_current, scene.frame_subframe)
     try:
-        aims, starts, mats, (forward, up), skin = _aims(context, armature, info, neck, plans,
-                                                        first, last, settings)
+        aims, starts, mats, ref = _aims(context, armature, info, neck, plans, first, last,
+                                        settings)
     finally:
         scene.frame_set(now[0], subframe=now[1])
     turns = gaze_blend(aims, starts, fps, settings)
     pb = armature.pose.bones[neck]
+    forward, up, skin = ref.forward, ref.up, ref.skin
     mw = np.array(armature.matrix_world)
     for share in SHARES:
         rotations = np.array([gaze_rotation(forward, up, *(share * t)) for t in turns])
@@ -105,7 +108,7 @@ def key(context, armature, info, plans, frames, settings, checker, fps: float) -
     else:
         return {"gaze_note": f"turning the head would bring it against '{hit[1]}' on the "
                 f"motion's frame {first + hit[0]}"}
-    basis = np.array(pb.matrix_basis)
+    basis = ref.basis
     bases = np.repeat(basis[None], len(rotations), 0)
     bases[:, :3, :3] = basis[:3, :3] @ rotations
     channels = Channels(armature, ensure_action(armature, False))
@@ -117,17 +120,26 @@ def key(context, armature, info, plans, frames, settings, checker, fps: float) -
             "gaze_deg": round(float(np.abs(share * turns).max(initial=0.0)), 1)}
 
 
-def _aims(context, armature, info, neck, plans, first, last, settings) -> tuple:
-    """The clipped aim (yaw, pitch) on each frame (F, 2), its target's start frames, the
-    neck's armature-space matrices (F, 4, 4), its frame (forward, up, in its own axes) and
-    the head's skin (:func:`_head_skin`), each frame evaluated as keyed."""
-    scene = context.scene
+@dataclass(frozen=True)
+class NeckFrame:
+    """The neck as it stands at a reference pose (the motion's first frame, or Live's
+    start): its ``name``, its channel matrix ``basis`` and armature-space matrix ``matrix``
+    then, the body's ``forward`` and ``up`` and the ``eyes`` in its own axes, and the head's
+    ``skin`` (:func:`_head_skin`, its own axes; None without skin)."""
+
+    name: str
+    basis: np.ndarray
+    matrix: np.ndarray
+    forward: np.ndarray
+    up: np.ndarray
+    eyes: np.ndarray
+    skin: np.ndarray | None
+
+
+def neck_frame(armature, info, neck) -> NeckFrame:
+    """The :class:`NeckFrame` of ``neck`` as the rig is evaluated now."""
     pb = armature.pose.bones[neck]
-    mw = np.array(armature.matrix_world)
-    to_arm = np.linalg.inv(mw)
-    target_w, starts = targets_by_frame(plans, first, last)
-    targets = target_w @ to_arm[:3, :3].T + to_arm[:3, 3]
-    scene.frame_set(first)
+    to_arm = np.linalg.inv(np.array(armature.matrix_world))
     m0 = np.array(pb.matrix)
     r0 = m0[:3, :3] / np.linalg.norm(m0[:3, :3], axis=0)
     up = r0.T @ _unit(to_arm[:3, :3] @ np.asarray(info.frame.up, dtype=float))
@@ -135,15 +147,60 @@ def _aims(context, armature, info, neck, plans, first, last, settings) -> tuple:
     forward = _unit(forward - (forward @ up) * up)
     skin = _head_skin(armature, neck, m0)
     top = _head_top(armature, neck, m0, skin, up)
-    eyes0 = np.linalg.solve(m0, np.append(m0[:3, 3] + EYES * (top - m0[:3, 3]), 1.0))[:3]
+    eyes = np.linalg.solve(m0, np.append(m0[:3, 3] + EYES * (top - m0[:3, 3]), 1.0))[:3]
+    return NeckFrame(neck, np.array(pb.matrix_basis), m0, forward, up, eyes, skin)
+
+
+def aim_from(ref: NeckFrame, matrix, target_arm, settings) -> tuple:
+    """The clipped (yaw, pitch) toward ``target_arm`` (armature space) from the neck at the
+    armature-space ``matrix`` (its reference turn, without a gaze)."""
+    local = np.linalg.solve(matrix, np.append(np.asarray(target_arm, dtype=float), 1.0))[:3]
+    return clip_gaze(*gaze_angles(local, ref.forward, ref.up, ref.eyes), settings)
+
+
+def _aims(context, armature, info, neck, plans, first, last, settings) -> tuple:
+    """The clipped aim (yaw, pitch) on each frame (F, 2), its target's start frames, the
+    neck's armature-space matrices (F, 4, 4) and its :class:`NeckFrame` at the first frame,
+    each frame evaluated as keyed."""
+    scene = context.scene
+    pb = armature.pose.bones[neck]
+    to_arm = np.linalg.inv(np.array(armature.matrix_world))
+    target_w, starts = targets_by_frame(plans, first, last)
+    targets = target_w @ to_arm[:3, :3].T + to_arm[:3, 3]
+    scene.frame_set(first)
+    ref = neck_frame(armature, info, neck)
     aims, mats = [], []
     for k, f in enumerate(range(first, last + 1)):
         scene.frame_set(f)
         m = np.array(pb.matrix)
-        local = np.linalg.solve(m, np.append(targets[k], 1.0))[:3]   # the neck's own axes
-        aims.append(clip_gaze(*gaze_angles(local, forward, up, eyes0), settings))
+        aims.append(aim_from(ref, m, targets[k], settings))
         mats.append(m)
-    return np.array(aims), starts, np.array(mats), (forward, up), skin
+    return np.array(aims), starts, np.array(mats), ref
+
+
+def look_now(context, armature, ref: NeckFrame, target_world, settings, checker) -> float:
+    """Live: turn the neck (its rotation channels, no keys) so the head looks at
+    ``target_world`` from the pose on screen, the head's skin held clear as a bake holds
+    it (the turn halved, then none, where it would touch). Returns the share taken."""
+    pb = armature.pose.bones[ref.name]
+    mw = np.array(armature.matrix_world)
+    # the neck's matrix without the turn it has now: M = A B, so A B_ref = M B⁻¹ B_ref
+    m = np.array(pb.matrix) @ np.linalg.inv(np.array(pb.matrix_basis)) @ ref.basis
+    target = np.linalg.solve(mw, np.append(np.asarray(target_world, dtype=float), 1.0))[:3]
+    aim = np.array(aim_from(ref, m, target, settings))
+    mats = np.array([m, m])
+    share = 0.0
+    for tried in SHARES:
+        turn = gaze_rotation(ref.forward, ref.up, *(tried * aim))
+        if ref.skin is None or skin_hit(_carried(ref.skin, mats, [np.eye(3), turn], mw),
+                                        checker) is None:
+            share = tried
+            break
+    basis = ref.basis.copy()
+    basis[:3, :3] = ref.basis[:3, :3] @ gaze_rotation(ref.forward, ref.up, *(share * aim))
+    path, values = channel_values(pb, basis[None])
+    setattr(pb, path, tuple(float(v) for v in values[-1]))
+    return share
 
 
 def _head_top(armature, neck, m0, skin, up) -> np.ndarray:

@@ -45,7 +45,7 @@ import numpy as np
 from ..core import Plan, ReachError, Stats
 from ..core.live import DEFAULT_BUDGET_S, LiveSession, LiveStatus
 from . import bake as bake_mod
-from . import bone_matrices, pipeline
+from . import bone_matrices, gaze, pipeline
 from . import rig as rig_mod
 from .fcurves import Channels, write_channel
 from .settle import settle
@@ -99,6 +99,9 @@ class LiveState:
     rebuild: bool = False
     frame_changed: bool = False
     timings: list = field(default_factory=list)
+    #: the neck as it stood before Live turned it, where the head looks at the target
+    #: (``Settings.gaze``, :func:`.gaze.look_now`)
+    neck: gaze.NeckFrame | None = None
 
 
 _state: LiveState | None = None
@@ -145,7 +148,31 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
     chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
     return LiveState(scene.name, request, armature.name, target.name, info, session, cache,
                      mw, np.linalg.inv(mw), session.pose,
-                     start_pose, start_world, chest_head, keyed, reference, budget_s)
+                     start_pose, start_world, chest_head, keyed, reference, budget_s,
+                     neck=_neck_reference(context, armature, info, request.settings))
+
+
+def _neck_reference(context, armature, info, settings):
+    """The :class:`.gaze.NeckFrame` the head turns from in Live (``Settings.gaze``): read
+    with the neck as it was before Live turned it (a session reopened after an undo or a
+    moved armature finds it turned on screen), or None."""
+    if not settings.gaze:
+        return None
+    neck, _why = gaze.neck_of(armature, info)
+    if neck is None:
+        return None
+    pb = armature.pose.bones[neck]
+    was = (_before.get(armature.name) or {}).get("channels", {}).get(neck)
+    now = _channels(pb)
+    try:
+        for channel, value in (was or {}).items():
+            setattr(pb, channel, value)
+        context.view_layer.update()
+        return gaze.neck_frame(armature, info, neck)
+    finally:
+        for channel, value in now.items():
+            setattr(pb, channel, value)
+        context.view_layer.update()
 
 
 def start(context, request: pipeline.Request, budget_s: float | None = None) -> LiveState:
@@ -316,6 +343,13 @@ def _apply(st: LiveState, armature) -> None:
     for name, mats in locals_.items():
         path, values = bone_matrices.channel_values(pose[name], mats)
         setattr(pose[name], path, tuple(float(v) for v in values[-1]))
+    if st.neck is not None:
+        bpy.context.view_layer.update()
+        target = bpy.data.objects[st.target].matrix_world.translation
+        gaze.look_now(bpy.context, armature, st.neck, np.array(target), st.session.settings,
+                      st.session.planner.generator.checker)
+        if before is not None:
+            before["posed"].add(st.neck.name)
 
 
 def key_pose(context=None) -> bake_mod.BakeResult:
@@ -336,14 +370,22 @@ def key_pose(context=None) -> bake_mod.BakeResult:
     start = st.info.start.body_rotation
     if abs(pose.config.body_rotation - start) > 1e-9:
         name = st.info.bones.keyed_chest
-        pb = armature.pose.bones[name]
-        channels = Channels(armature, armature.animation_data.action)
-        path, values = bone_matrices.channel_values(pb, [np.array(pb.matrix_basis)])
-        write_channel(channels, f'pose.bones["{name}"].{path}', values,
-                               np.array([float(frame)]), name)
+        _key_as_posed(armature, name, frame)
         result.bones = [name] + [b for b in result.bones if b != name]
-        context.view_layer.update()
+    if st.neck is not None:                  # the head, turned toward the target
+        _key_as_posed(armature, st.neck.name, frame)
+        result.bones = result.bones + [st.neck.name]
+    context.view_layer.update()
     return result
+
+
+def _key_as_posed(armature, name, frame) -> None:
+    """Key bone ``name``'s rotation channels at ``frame`` as they are posed now."""
+    pb = armature.pose.bones[name]
+    channels = Channels(armature, armature.animation_data.action)
+    path, values = bone_matrices.channel_values(pb, [np.array(pb.matrix_basis)])
+    write_channel(channels, f'pose.bones["{name}"].{path}', values, np.array([float(frame)]),
+                  name)
 
 
 # --- status for the panel --------------------------------------------------------------------

@@ -490,3 +490,40 @@ def test_live_in_blenders_own_event_loop(tmp_path):
         assert move["gap"] <= 0.005, move
         assert any("on target" in line for line in move["status"]), move
     assert {"upper_arm.R", "forearm.R", "hand.R"} <= set(seen["keyed"]), seen["keyed"]
+
+
+def test_live_turns_the_head_toward_the_target_keys_it_and_undo_restores_it(fresh, addon):
+    """With *Look at target* on, Live turns the neck so the head faces the target (read
+    back from the evaluated bones: the body's forward carried by the neck's turn, from the
+    eyes' height), within the neck's limits; Key Pose keys the neck with the arm; one undo
+    after Live puts the neck back as it was."""
+    from test_body_gaze import head_top, neck_world
+
+    arm, info, target, live, chain, settings = open_metarig(addon)
+    length, f = info.arm.arm_length, info.frame
+    neck = info.bones.neck
+    bpy.context.scene.reach.settings.gaze = True
+    target.location = (info.joints_world["shoulder"] + 0.75 * length * f.forward
+                       + 0.3 * length * f.right - 0.2 * length * f.up)
+    r0, p0 = neck_world(arm, neck)
+    eyes_local = r0.T @ (p0 + 0.6 * (head_top(arm, f.up) - p0) - p0)
+    forward_local = r0.T @ np.asarray(f.forward, dtype=float)
+    before = tuple(arm.pose.bones[neck].rotation_quaternion)
+    bpy.context.scene.frame_set(7)
+    bpy.ops.ed.undo_push(message="before Live")
+    assert bpy.ops.reach.live() == {"FINISHED"}
+    settle(live, lambda: heads(arm, chain), settings, length)
+    r, p = neck_world(arm, neck)
+    sight = np.array(target.location) - (p + r @ eyes_local)
+    off = angle_deg(r @ forward_local, sight)
+    turned = angle_deg(r @ forward_local, r0 @ forward_local)
+    assert off <= 6.0 and turned > 10.0, (off, turned)
+    assert turned <= settings.gaze_turn_max + settings.gaze_down_max + 0.1
+    assert bpy.ops.reach.key_pose() == {"FINISHED"}
+    keyed = {fc.data_path.split('"')[1] for fc in rigs.fcurves(arm.animation_data.action)}
+    assert neck in keyed
+    name = arm.name
+    assert bpy.ops.reach.live() == {"FINISHED"}          # off
+    bpy.ops.ed.undo()
+    np.testing.assert_allclose(bpy.data.objects[name].pose.bones[neck].rotation_quaternion,
+                               before, atol=1e-6)
