@@ -3,13 +3,15 @@ is keyed so the head looks at each target in turn (``Settings.gaze``).
 
 **The bone** is the rig's neck (:attr:`.rig_detect.BoneMap.neck`, the spine above the
 chest): turning it carries the head and everything on it, the cervical spine taken as one
-joint at its base. Not keyed, with the reason in the report: a rig without one, a neck
-that has keys of its own, and a generated Rigify rig (its head control may keep its own
-orientation, ``head_follow``: not read yet).
+joint at its base. Its keys inside the motion's frames are replaced, as the bake replaces
+the arm's (a bake again over an earlier one turns the head again); those outside stay.
+Not keyed, with the reason in the report: a rig without a neck, and a generated Rigify rig
+(its head control may keep its own orientation, ``head_follow``: not read yet).
 
 **The aim** is read on every frame as Blender evaluates the keyed motion (the lean, the
 chest's turn): the neck's forward and up are the body's at the start frame, carried by the
-neck's turn since; the eyes are taken :data:`EYES` of the way from the neck's base to the
+neck's turn since (its own keys left out: the neck at its channels on the first frame);
+the eyes are taken :data:`EYES` of the way from the neck's base to the
 top of the head (the highest point of its skin, else the farthest bone end above the
 neck), and the aim is the one whose line of sight from there meets the target
 (:func:`~..core.gaze.gaze_angles`). Each frame looks at the target of the plan's segment it belongs
@@ -31,7 +33,6 @@ from ..core.gaze import clip_gaze, gaze_angles, gaze_blend, gaze_rotation
 from ..core.lean import skin_hit
 from .bone_matrices import channel_values
 from .fcurves import Channels, ensure_action, write_channel
-from .lean import animated
 from .skin import skin_points
 
 #: Where the eyes are, as a share of the way from the neck's base to the top of the head.
@@ -47,8 +48,6 @@ def neck_of(armature, info) -> tuple:
         return None, "Reach finds no neck on this rig"
     if info.bones.key_chest:
         return None, "a generated Rigify rig's head control is not read yet"
-    if animated(armature, neck):
-        return None, f"bone '{neck}' has keys of its own"
     return neck, None
 
 
@@ -172,7 +171,9 @@ def _aims(context, armature, info, neck, plans, first, last, settings) -> tuple:
     aims, mats = [], []
     for k, f in enumerate(range(first, last + 1)):
         scene.frame_set(f)
-        m = np.array(pb.matrix)
+        # the neck at its first frame's channels (M = A B: A B_ref = M B⁻¹ B_ref), so keys
+        # of its own, which these replace, do not turn the aim
+        m = np.array(pb.matrix) @ np.linalg.inv(np.array(pb.matrix_basis)) @ ref.basis
         aims.append(aim_from(ref, m, targets[k], settings))
         mats.append(m)
     return np.array(aims), starts, np.array(mats), ref

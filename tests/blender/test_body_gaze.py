@@ -9,8 +9,8 @@ the planner's gaze:
 - the neck's own turn (its channel rotation against the one it had) stays within the
   limits at every frame (yaw, flexion, extension read from the turned forward axis);
 - no pop: the head turns at most :data:`HEAD_BOUND` degrees a frame;
-- with *Look at target* off, or a neck that has keys of its own, the neck is not keyed
-  (the user's keys stay) and the report says why;
+- with *Look at target* off the neck is not keyed; on, its keys inside the motion are
+  replaced and those outside kept, so a bake again turns the head the same way;
 - a turn that would bring the face against something is cut back, and no vertex of the
   head's skin enters it.
 """
@@ -23,6 +23,7 @@ import bpy
 import everyday
 import numpy as np
 import pytest
+import rigs
 from rigs import add_box
 from test_body_lean import (attach_loose_parts, bone_heads, box_signed_distance, open_rig,
                             skin_vertices)
@@ -130,28 +131,41 @@ def test_the_head_turns_toward_the_target_within_the_necks_limits(addon, rig_fil
     assert most > 5.0, (kind, most)
 
 
-def test_without_gaze_or_with_a_keyed_neck_the_neck_is_left_alone(addon, rig_file):  # noqa: F811
+def test_without_gaze_the_neck_is_left_alone_and_a_bake_again_turns_it_again(
+        addon, rig_file):  # noqa: F811
+    """*Look at target* off: the neck is not keyed. On: the neck's keys inside the
+    motion's frames are replaced (the user's key on frame 5 among them), the one outside
+    (frame 200) stays; a second bake over the first turns the head the same way again."""
     armature = open_rig(rig_file, "quaternius")
     info = addon.blender.rig.build(armature, "right")
     neck = info.bones.neck
     _target, outcome = reach(addon, armature, info, gaze=False)
     assert "gaze_bone" not in outcome.results[0].stats
-    action = armature.animation_data.action
-    assert not any(neck in fc.data_path for fc in addon.blender.fcurves.Channels(
-        armature, action).bag.fcurves)
-    # the user's own key on the neck, on a frame inside the reach
+    path = f'pose.bones["{neck}"].rotation_quaternion'
+    assert not any(fc.data_path.startswith(f'pose.bones["{neck}"]')
+                   for fc in rigs.fcurves(armature.animation_data.action))
     pb = armature.pose.bones[neck]
-    pb.rotation_mode = "XYZ"
-    pb.rotation_euler = (0.1, 0.0, 0.0)
-    pb.keyframe_insert("rotation_euler", frame=5)
-    _target, outcome = reach(addon, armature, info)
-    stats = outcome.results[0].stats
-    assert "has keys of its own" in stats["gaze_note"], stats
-    curves = [fc for fc in addon.blender.fcurves.Channels(armature, armature.animation_data
-                                                          .action).bag.fcurves
-              if fc.data_path == f'pose.bones["{neck}"].rotation_euler']
-    assert curves and all(len(fc.keyframe_points) == 1 for fc in curves)
-    assert curves[0].keyframe_points[0].co[1] == pytest.approx(0.1)
+    pb.rotation_mode = "QUATERNION"
+    for frame, w in ((5, 0.99), (200, 0.98)):
+        pb.rotation_quaternion = (w, math.sqrt(1 - w * w), 0.0, 0.0)
+        pb.keyframe_insert("rotation_quaternion", frame=frame)
+    pb.rotation_quaternion = (1.0, 0.0, 0.0, 0.0)
+    bpy.data.objects.remove(bpy.data.objects["Cup"])
+    turns = []
+    for _bake in range(2):
+        target, outcome = reach(addon, armature, info)
+        result = outcome.results[0]
+        assert result.stats.get("gaze_bone") == neck, result.stats
+        w = next(fc for fc in rigs.fcurves(armature.animation_data.action)
+                 if fc.data_path == path and fc.array_index == 0)
+        frames = [k.co[0] for k in w.keyframe_points]
+        assert 200.0 in frames and w.evaluate(200) == pytest.approx(0.98, abs=1e-6)
+        inside = [f for f in frames if f <= result.frame_end]
+        assert inside == [float(f) for f in range(result.frame_start, result.frame_end + 1)]
+        turns.append([w.evaluate(f) for f in inside])
+        bpy.data.objects.remove(target)
+    np.testing.assert_allclose(turns[0], turns[1], atol=1e-6)
+    assert min(turns[0]) < 0.97                      # it turned
 
 
 def head_skin(armature, neck):

@@ -214,8 +214,9 @@ def generate(seed: int, quick: bool = False, shapes: bool = True, lean: bool = F
     pose, the elbow bent 30° forward, one hand bone, the standard proportions), so that a
     seed those campaigns found replays its own scene; every other draw is the same.
 
-    ``lean``: *Lean* on (and with it *Squat*): a target beyond the arm is reached by the
-    body where it can be; every other draw is the same."""
+    ``lean``: the whole body on, *Lean* (and with it *Squat*) and *Look at target*: a
+    target beyond the arm is reached by the body where it can be, the head looks at each
+    target; every other draw is the same."""
     rng = np.random.default_rng(seed)
     features: set = set()
     spec: dict = {"seed": int(seed)}
@@ -390,6 +391,7 @@ def generate(seed: int, quick: bool = False, shapes: bool = True, lean: bool = F
         rig["shape"] = _rig_shape(np.random.default_rng([seed, 3]), rig, features)
     if lean:            # a campaign's setting, not a scene feature (every scene has it)
         spec["settings"]["lean"] = True
+        spec["settings"]["gaze"] = True
     spec["quick"] = quick
     spec["features"] = sorted(features)
     return spec
