@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core import ReachError
+from . import own_keys
 from .bone_matrices import bone_roles, moves_chest
 
 #: a bone or the armature counts as moving where its matrix changes by more than this
@@ -114,10 +115,14 @@ def check(context, armature, info, plans, settings, frame_start) -> float:
     which frame, and what to do. Returns the largest drift, world units (0 where nothing
     can move, :func:`may_move`). ``info``: the :class:`.rig.RigInfo` the plans are for;
     ``frame_start``: the frame the rig was read at, whose body every plan assumes. The
-    scene's frame is put back."""
+    body's keys an earlier bake made on these frames (:mod:`.own_keys`) do not count: the
+    bake replaces them. The scene's frame is put back."""
     if not plans:
         return 0.0
     chain, held = body_bones(armature, info, plans)
+    last = max(first + len(plan.poses) - 1 for plan, first in plans)
+    # the body's keys an earlier bake made over these frames: the bake clears them
+    held |= set(own_keys.overlapping(armature, frame_start, last))
     free = [n for n in chain if n not in held]
     if not may_move(armature, free):
         return 0.0

@@ -73,6 +73,7 @@ class Channels:
     needed). Curves are grouped by bone, as Blender groups pose channels."""
 
     def __init__(self, armature, action):
+        self.action = action
         if not hasattr(action, "slots"):
             self.bag = action
             return

@@ -3,14 +3,15 @@ is keyed so the head looks at each target in turn (``Settings.gaze``).
 
 **The bone** is the rig's neck (:attr:`.rig_detect.BoneMap.neck`, the spine above the
 chest): turning it carries the head and everything on it, the cervical spine taken as one
-joint at its base. Its keys inside the motion's frames are replaced, as the bake replaces
-the arm's (a bake again over an earlier one turns the head again); those outside stay.
-Not keyed, with the reason in the report: a rig without a neck, and a generated Rigify rig
-(its head control may keep its own orientation, ``head_follow``: not read yet).
+joint at its base. Not keyed, with the reason in the report: a rig without a neck, a neck
+with keys a user set (:func:`.own_keys.users_keys`: a bake again over Reach's own keys
+replaces them), and a generated Rigify rig (its head control may keep its own orientation,
+``head_follow``: not read yet).
 
 **The aim** is read on every frame as Blender evaluates the keyed motion (the lean, the
 chest's turn): the neck's forward and up are the body's at the start frame, carried by the
-neck's turn since (its own keys left out: the neck at its channels on the first frame);
+neck's turn since (keys of an earlier bake left out: the neck at its channels on the
+first frame);
 the eyes are taken :data:`EYES` of the way from the neck's base to the
 top of the head (the highest point of its skin, else the farthest bone end above the
 neck), and the aim is the one whose line of sight from there meets the target
@@ -32,7 +33,10 @@ import numpy as np
 from ..core.gaze import clip_gaze, gaze_angles, gaze_blend, gaze_rotation
 from ..core.lean import skin_hit
 from .bone_matrices import channel_values
+from . import own_keys
+from .carried import carrying_bone, under
 from .fcurves import Channels, ensure_action, write_channel
+from .own_keys import users_keys
 from .skin import skin_points
 
 #: Where the eyes are, as a share of the way from the neck's base to the top of the head.
@@ -41,13 +45,22 @@ EYES = 0.6
 SHARES = (1.0, 0.5)
 
 
-def neck_of(armature, info) -> tuple:
-    """(the neck bone's name, None), or (None, why the head does not turn)."""
+def neck_of(armature, info, targets=()) -> tuple:
+    """(the neck bone's name, None), or (None, why the head does not turn): among the
+    reasons, one of ``targets`` (objects) carried by the neck or a bone it carries, which
+    the turn would move (:func:`.carried.carrying_bone`)."""
     neck = info.bones.neck
     if neck is None or neck not in armature.pose.bones:
         return None, "Reach finds no neck on this rig"
     if info.bones.key_chest:
         return None, "a generated Rigify rig's head control is not read yet"
+    if users_keys(armature, neck):
+        return None, f"bone '{neck}' has keys of its own"
+    for t in targets:
+        bone = carrying_bone(t, armature)
+        if bone is not None and under(armature, bone, {neck}):
+            return None, (f"target '{t.name}' is carried by bone '{bone}', which the head's "
+                          "turn would move")
     return neck, None
 
 
@@ -79,12 +92,14 @@ def targets_by_frame(plans, first: int, last: int) -> tuple:
     return target, start
 
 
-def key(context, armature, info, plans, frames, settings, checker, fps: float) -> dict:
+def key(context, armature, info, plans, frames, settings, checker, fps: float,
+        targets=()) -> dict:
     """Key the neck over ``frames`` (first, last) so the head looks at the targets of
-    ``plans`` (see the module docstring), the head's skin kept clear by ``checker``.
+    ``plans`` (see the module docstring), the head's skin kept clear by ``checker``;
+    ``targets``: the target objects (one the neck carries keeps it still, :func:`neck_of`).
     Returns the report's figures: ``gaze_bone``, ``gaze_deg`` (the largest turn keyed),
     ``gaze_share`` (of the aimed turn), or ``gaze_note`` where the head does not turn."""
-    neck, why = neck_of(armature, info)
+    neck, why = neck_of(armature, info, targets)
     if neck is None:
         return {"gaze_note": why}
     first, last = int(frames[0]), int(frames[1])
@@ -114,6 +129,7 @@ def key(context, armature, info, plans, frames, settings, checker, fps: float) -
     path, values = channel_values(pb, bases)
     write_channel(channels, f'pose.bones["{neck}"].{path}', values,
                   np.arange(first, last + 1, dtype=float), neck)
+    own_keys.record(channels.action, [neck], first, last)
     context.view_layer.update()
     return {"gaze_bone": neck, "gaze_share": share,
             "gaze_deg": round(float(np.abs(share * turns).max(initial=0.0)), 1)}
@@ -171,8 +187,8 @@ def _aims(context, armature, info, neck, plans, first, last, settings) -> tuple:
     aims, mats = [], []
     for k, f in enumerate(range(first, last + 1)):
         scene.frame_set(f)
-        # the neck at its first frame's channels (M = A B: A B_ref = M B⁻¹ B_ref), so keys
-        # of its own, which these replace, do not turn the aim
+        # the neck at its first frame's channels (M = A B: A B_ref = M B⁻¹ B_ref), so an
+        # earlier bake's keys, which these replace, do not turn the aim
         m = np.array(pb.matrix) @ np.linalg.inv(np.array(pb.matrix_basis)) @ ref.basis
         aims.append(aim_from(ref, m, targets[k], settings))
         mats.append(m)

@@ -23,7 +23,7 @@ from ..core import Planner
 from ..core.lean import TrunkSkin
 from ..core.squat import leg_angles
 from ..core.whole_body import LeanPhase, lean_then_reach, wants_body
-from . import balance, skin
+from . import balance, own_keys, skin
 from . import hips as hips_mod
 from . import bake as bake_mod
 from .bake import KeyedPlan
@@ -32,6 +32,7 @@ from .fcurves import Channels, ensure_action, write_channel
 from .lean_balance import BalanceBody, BalanceCheck
 from .lean_pose import (lean_basis, pivot_world, pose_lean, pose_leaned, shift_world,
                         world_rotations)
+from .own_keys import users_keys
 from .rig_detect import ancestors
 
 
@@ -51,24 +52,13 @@ def lean_bone(armature, bmap, legs) -> str | None:
     return found
 
 
-def animated(armature, bone: str, channel: str = "rotation") -> bool:
-    """Does the armature's action key ``bone``'s ``channel`` (``rotation``, ``location``:
-    the lean would overwrite it)?"""
-    ad = armature.animation_data
-    action = ad.action if ad else None
-    if action is None:
-        return False
-    prefix = f'pose.bones["{bone}"].{channel}'
-    bag = Channels(armature, action).bag
-    return any(fc.data_path.startswith(prefix) for fc in bag.fcurves)
-
-
 def hips_keyed(armature, hips: str, legs) -> str | None:
-    """The first bone the hips' shift would key that has keys of its own (the hips bone's
-    location, a leg bone's rotation), or None."""
-    if animated(armature, hips, "location"):
+    """The first bone the hips' shift would key that has keys a user set (the hips bone's
+    location, a leg bone's rotation: :func:`.own_keys.users_keys`), or None."""
+    if users_keys(armature, hips, "location"):
         return hips
-    return next((n for n in hips_mod.leg_bones(armature, legs) if animated(armature, n)), None)
+    return next((n for n in hips_mod.leg_bones(armature, legs) if users_keys(armature, n)),
+                None)
 
 
 @dataclass
@@ -126,7 +116,7 @@ def plan(context, armature, info, planner, keyed):
     bone = lean_bone(armature, info.bones, legs)
     if bone is None:
         why = "Reach finds no legs on this rig, and leans only a body standing on its feet"
-    elif animated(armature, bone):
+    elif users_keys(armature, bone):
         why = f"bone '{bone}', which leans the trunk, has keys of its own"
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
@@ -260,6 +250,7 @@ def _key_lean(context, armature, info, lean: RigLean, result, hips_keys) -> None
     for name, bases in hips_keys.items():
         _key_bone(channels, armature.pose.bones[name], bases, frames,
                   [reach_first, last] if last > reach_first else [], name == lean.hips)
+    own_keys.record(channels.action, [lean.bone, *hips_keys], lean.frame_start, last)
     context.view_layer.update()
 
 

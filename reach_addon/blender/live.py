@@ -149,16 +149,17 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
     return LiveState(scene.name, request, armature.name, target.name, info, session, cache,
                      mw, np.linalg.inv(mw), session.pose,
                      start_pose, start_world, chest_head, keyed, reference, budget_s,
-                     neck=_neck_reference(context, armature, info, request.settings))
+                     neck=_neck_reference(context, armature, info, request.settings,
+                                          [target]))
 
 
-def _neck_reference(context, armature, info, settings):
+def _neck_reference(context, armature, info, settings, targets):
     """The :class:`.gaze.NeckFrame` the head turns from in Live (``Settings.gaze``): read
     with the neck as it was before Live turned it (a session reopened after an undo or a
     moved armature finds it turned on screen), or None."""
     if not settings.gaze:
         return None
-    neck, _why = gaze.neck_of(armature, info)
+    neck, _why = gaze.neck_of(armature, info, targets)
     if neck is None:
         return None
     pb = armature.pose.bones[neck]

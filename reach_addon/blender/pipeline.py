@@ -29,6 +29,8 @@ from . import bake as bake_mod
 from . import body as body_mod
 from . import gaze as gaze_mod
 from . import lean as lean_mod
+from . import own_keys
+from .fcurves import ensure_action
 from . import rig as rig_mod
 from . import viz
 from .bake import KeyedPlan
@@ -366,17 +368,27 @@ class PipelineRun:
         self.baked, self.failure, self.drawing = None, None, self.request.draw
         if not self.bake:
             return
+        new_action = self.request.new_action
+        if self.to_key and own_keys.overlapping(self.armature, self.frame_start, self._last()):
+            # an earlier bake's body keys over these frames go (from the copy, with New
+            # action: the user's action stays as it was)
+            if new_action:
+                ensure_action(self.armature, True)
+                new_action = False
+            own_keys.clear_overlapping(self.armature, self.frame_start, self._last())
+            self.context.view_layer.update()
         if self.to_key and self.lean is not None:
             self.baked = lean_mod.bake(self.context, self.armature, self.info, self.lean,
-                                       self.to_key, self.request.new_action)
+                                       self.to_key, new_action)
         elif self.to_key:
             self.baked = bake_mod.bake(self.context, self.armature, self.info, self.to_key,
-                                       self.request.new_action)
+                                       new_action)
         if self.to_key:
             if self.settings.gaze:
                 self.gaze = gaze_mod.key(self.context, self.armature, self.info, self.to_key,
                                          self.baked.frames, self.settings,
-                                         self.planner.generator.checker, self.tasks[0].fps)
+                                         self.planner.generator.checker, self.tasks[0].fps,
+                                         self.targets)
             return
         # Nothing the user asked for can be baked: leave the scene as it was.
         failed = next(k.plan for k in self.plans if not k.plan.success)
@@ -384,6 +396,10 @@ class PipelineRun:
                         "baked (turn on 'Bake closest approach' to bake the motion that gets "
                         "closest)")
         self.drawing = False
+
+    def _last(self) -> int:
+        """The last frame the keyable plans take."""
+        return max(k.first_frame + len(k.plan.poses) - 1 for k in self.to_key)
 
     def report(self) -> None:
         """Stage 7: the :class:`Outcome` (``outcome``), a result per target; a baked result's

@@ -67,12 +67,13 @@ def open_rig(rig_file, kind):  # noqa: F811
     return bpy.data.objects[name]
 
 
-def run(addon, armature, info, ahead, lean, bake):
+def run(addon, armature, info, ahead, lean, bake, new_action=False):
     target, table = scene(armature, info, ahead)
     pipeline = addon.blender.pipeline
     settings = addon.core.Settings().replace(lean=lean)
     request = pipeline.Request(armature.name, [target.name], task="reach", side="right",
-                               frame_start=1, draw=False, settings=settings)
+                               frame_start=1, draw=False, settings=settings,
+                               new_action=new_action)
     return target, table, pipeline.run(bpy.context, request, bake=bake)
 
 
@@ -425,3 +426,44 @@ def test_a_target_over_a_table_is_reached_and_no_skin_enters_the_table(addon, ri
     print(f"TABLE {kind}: skin at least {worst / length:.4f} arm lengths from the table")
     assert worst > 0.0, (kind, worst / length)
     assert result.stats["com_margin_min"] >= min(0.0, result.stats["com_margin_start"]) - 1e-4
+
+
+
+def test_a_bake_again_over_a_lean_leans_the_same_way(addon, rig_file):  # noqa: F811
+    """The lean's keys (the lean bone, the hips, the legs) are Reach's own
+    (``own_keys``): a second bake over the first, the target where it was, leans again and
+    keys the same values; a third, the target now within the arm's reach, into a new
+    action, clears the earlier lean's keys from the copy (nothing holds the trunk leaned)
+    and leaves the user's action as it was; keys a user set stay
+    refused (``test_hips_with_keys_of_their_own_stay_where_the_user_keyed_them``)."""
+    ahead = reach_edge(addon, rig_file, "quaternius") + BEYOND
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    baked, lean_bone = [], None
+
+    def curves():
+        bag = addon.blender.fcurves.Channels(armature, armature.animation_data.action).bag
+        return {(fc.data_path, fc.array_index): [tuple(k.co) for k in fc.keyframe_points]
+                for fc in bag.fcurves}
+
+    for _bake in range(2):
+        target, table, outcome = run(addon, armature, info, ahead, True, True)
+        result = outcome.results[0]
+        assert result.success and result.stats["lean_deg"] > 0.0, result.message
+        lean_bone = result.stats["lean_bone"]
+        baked.append(curves())
+        bpy.data.objects.remove(target)
+        bpy.data.objects.remove(table)
+    assert baked[0].keys() == baked[1].keys()
+    for key, points in baked[0].items():
+        np.testing.assert_allclose(points, baked[1][key], atol=1e-5, err_msg=str(key))
+    # with New action the earlier lean's keys go from the copy; the user's action keeps them
+    original = armature.animation_data.action
+    target, table, outcome = run(addon, armature, info, 0.6, True, True, new_action=True)
+    result = outcome.results[0]
+    assert result.success and not result.stats.get("lean_deg"), result.message
+    assert armature.animation_data.action != original
+    left = [k for k in curves() if k[0].startswith(f'pose.bones["{lean_bone}"]')]
+    assert not left, left
+    armature.animation_data.action = original
+    assert curves() == baked[1]

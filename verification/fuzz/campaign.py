@@ -136,8 +136,7 @@ def body_outcomes(report: dict) -> list:
     for: "lean" or "squat" (the hips down by :data:`SQUAT_DOWN` arm lengths or more), with
     "+ready" where the arm rose first (``lean_ready_frames``)."""
     out = []
-    for t in report.get("tasks", ()):
-        stats = t.get("stats") or {}
+    for stats in report.get("tasks", ()):        # each task's statistics, flattened
         if not stats.get("lean_deg"):
             continue
         kind = "squat" if stats.get("lean_hips_down", 0.0) >= SQUAT_DOWN else "lean"
