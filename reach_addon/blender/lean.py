@@ -153,6 +153,19 @@ def plan(context, armature, info, planner, keyed):
     return None, keyed
 
 
+def note_moving(plan, moving) -> None:
+    """Say, in the message of ``plan`` (a single reach refused for a target the body could
+    reach), that the body does not lean among obstacles that move during the reach
+    (``moving``: their names): the lean's checks hold the scene still."""
+    if not wants_body(plan.settings, plan.task, plan, plan.arm):
+        return
+    names = ", ".join(f"'{n}'" for n in moving[:3]) + (" ..." if len(moving) > 3 else "")
+    for seg in plan.segments:
+        if seg.reason == plan.reason:
+            seg.message += (f"; with Lean on: the body leans only among obstacles that hold "
+                            f"still, and {names} move during the reach")
+
+
 def trunk_skin(armature, info, bone) -> TrunkSkin | None:
     """The trunk as skinned, as Blender evaluates it now (:class:`~..core.lean.TrunkSkin`,
     canonical frame of ``info``'s arm): every vertex whose heaviest group is a bone the lean

@@ -28,6 +28,7 @@ from ..core.sweep import plan_among_moving
 from . import bake as bake_mod
 from . import body as body_mod
 from . import gaze as gaze_mod
+from . import other_arm as other_arm_mod
 from . import lean as lean_mod
 from . import own_keys
 from .fcurves import ensure_action
@@ -230,7 +231,7 @@ class PipelineRun:
             else int(request.frame_start)
         self.warnings = []            # what a Bake of this preview would refuse
         self.lean = None              # a lean planned before the reach (.lean.RigLean)
-        self.gaze = {}                # the head's turn, as the report gives it (.gaze.key)
+        self.turns = {}               # the head's and other arm's turns, for the report
         self.outcome = None
 
     def read_rig(self):
@@ -324,6 +325,8 @@ class PipelineRun:
                 self.frame_obstacles is None:        # a lean, then the reach (stage 1)
             self.lean, self.plans[0] = lean_mod.plan(self.context, self.armature, self.info,
                                                      self.planner, self.plans[0])
+        elif self.settings.lean and len(self.plans) == 1 and self.moving:
+            lean_mod.note_moving(self.plans[0].plan, sorted(self.moving))
 
     def _frame_planners(self) -> list:
         """A planner per frame of a chase, one per distinct set of obstacles."""
@@ -384,8 +387,12 @@ class PipelineRun:
             self.baked = bake_mod.bake(self.context, self.armature, self.info, self.to_key,
                                        new_action)
         if self.to_key:
+            if self.lean is not None:
+                self.turns.update(other_arm_mod.key(
+                    self.context, self.armature, self.info, self.lean.lean_first,
+                    self.baked.frames[1], self.settings, self.planner.generator.checker))
             if self.settings.gaze:
-                self.gaze = gaze_mod.key(self.context, self.armature, self.info, self.to_key,
+                self.turns |= gaze_mod.key(self.context, self.armature, self.info, self.to_key,
                                          self.baked.frames, self.settings,
                                          self.planner.generator.checker, self.tasks[0].fps,
                                          self.targets)
@@ -416,10 +423,10 @@ class PipelineRun:
                                        self.request, baked)
         lean_mod.report(outcome.results, self.lean, self.info.arm.arm_length)
         for r in outcome.results:
-            r.stats.update(self.gaze)
-            if "gaze_note" in self.gaze:
-                r.message += f"; the head does not turn: {self.gaze['gaze_note']}"
-            elif self.gaze.get("gaze_share", 1.0) < 1.0:
+            r.stats.update(self.turns)
+            if "gaze_note" in self.turns:
+                r.message += f"; the head does not turn: {self.turns['gaze_note']}"
+            elif self.turns.get("gaze_share", 1.0) < 1.0:
                 r.message += ", the head turned half way toward it (farther would touch)"
         if outcome.baked:
             measure_baked(self.context, self.armature, self.info, outcome.results,

@@ -135,6 +135,12 @@ class Settings:
         "the way from the shoulder) toward where the target will be once leaned, then the "
         "trunk leans, then the arm reaches the rest: people raise the arm before they "
         "lean. 0: never (such a lean is refused)", "body", 0.0, 1.0)
+    lean_other_arm: float = _f(
+        1.0, "Other arm steady", "How far the arm that does not reach keeps the direction "
+        "it had in the world as the trunk leans, instead of riding on the trunk, which in a "
+        "deep bend with the chest turned swings it up behind the back (1: all the way; 0: "
+        "it rides). Halved, then left out, where it would touch or tip the body", "body",
+        0.0, 1.0)
     lean_hips_back: bool = _f(
         True, "Hips back", "Where a lean would carry the centre of mass past the feet (or "
         "within Balance margin of their edge), move the hips back, the feet planted and the "

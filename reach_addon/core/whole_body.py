@@ -28,9 +28,11 @@ the arm goes first (``Settings.lean_ready``, :func:`_ready_lean_reach`): a reach
 upright trunk toward where the target will be, the lean with the arm there, then the reach.
 
 What these stages leave to later ones, and refuse meanwhile: the ready reach, the lean and
-the reach run one after the other (not blended), and the other arm rides on the trunk as
-it stood (it does not hang); only a single reach leans (a sequence, a guided reach and a
-chase still refuse as ``needs_lean``).
+the reach run one after the other (not blended); the other arm rides on the trunk in the
+plan and its checks (the Blender layer turns it to keep its direction afterwards, and
+checks it again: ``blender/other_arm.py``); only a single reach leans (a sequence, a
+guided reach and a chase still refuse as ``needs_lean``), and only among obstacles that
+hold still.
 """
 
 from __future__ import annotations

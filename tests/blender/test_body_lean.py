@@ -467,3 +467,22 @@ def test_a_bake_again_over_a_lean_leans_the_same_way(addon, rig_file):  # noqa: 
     assert not left, left
     armature.animation_data.action = original
     assert curves() == baked[1]
+
+
+def test_among_moving_obstacles_the_refusal_says_the_body_leans_only_among_still_ones(
+        addon, rig_file):  # noqa: F811
+    """Lean on, a single reach past the arm, and a box the scene animates: the body does not
+    lean (its checks hold the scene still), and the refusal says so, naming the box, rather
+    than asking to turn Lean on."""
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    ahead = reach_edge(addon, rig_file, "quaternius") + BEYOND
+    armature = open_rig(rig_file, "quaternius")
+    box = everyday.box(info, "Swinging Box", (-0.3, -1.6, -0.3), (0.0, -1.3, 0.0))
+    box.keyframe_insert("location", frame=1)
+    box.location.z += 0.2 * info.arm.arm_length
+    box.keyframe_insert("location", frame=30)
+    _target, _table, outcome = run(addon, armature, info, ahead, True, True)
+    result = outcome.results[0]
+    assert not result.success and result.reason == "needs_lean", result.message
+    assert "leans only among obstacles that hold still, and 'Swinging Box'" in result.message

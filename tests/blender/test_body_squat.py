@@ -140,6 +140,19 @@ def test_a_target_near_the_floor_is_reached_by_a_squat_or_bend(addon, rig_file, 
           f", floor top {top:.3f}")
     assert worst_feet / length < FEET_HOLD, (kind, worst_feet / length)
     assert worst_skin >= min(0.0, soles) - SOLES_SINK * length, (kind, worst_skin / length)
+    # the other arm keeps the direction it had as the trunk leaned (or says why not)
+    other = info.bones.arms["left"].upper_arm
+    assert "lean_other_arm" in stats, stats
+    directions = []
+    for f in (result.frame_start + stats.get("lean_ready_frames", 0), result.frame_end):
+        scene_.frame_set(f)
+        m = np.array(armature.matrix_world) @ np.array(armature.pose.bones[other].matrix)
+        directions.append(m[:3, 1] / np.linalg.norm(m[:3, 1]))
+    kept = float(np.degrees(np.arccos(np.clip(directions[0] @ directions[1], -1.0, 1.0))))
+    print(f"SQUAT {kind}: other arm {stats['lean_other_arm']}, turned {kept:.1f}° in the world "
+          f"{stats.get('other_arm_note', '')}")
+    if stats["lean_other_arm"] == 1.0:
+        assert kept < 0.5, (kind, kept)
     scene_.frame_set(result.frame_end)
     wrist = bone_heads(armature)[a.hand]
     tolerance = outcome.request.settings.goal_tolerance * length

@@ -29,6 +29,7 @@ FEATURES = (
     "bake_closest", "new_action", "no_chest_rotation", "duration", "obstacle_collection",
     "odd_names", "settings",
     "target_reachable", "target_far", "target_inside_body", "target_on_body",
+    "target_past_arm", "target_low",
     "target_at_wrist", "target_across_body", "target_behind", "target_overhead",
     "target_moving_parent", "target_on_bone", "target_nan", "target_inf",
     "box", "plane", "thin_wall", "open_mesh", "tube", "non_manifold", "flipped_faces",
@@ -87,6 +88,28 @@ def _direction(rng, yaw_deg, pitch_deg) -> list:
     and a pitch up from horizontal."""
     yaw, pitch = math.radians(yaw_deg), math.radians(pitch_deg)
     return [math.cos(pitch) * math.sin(yaw), math.cos(pitch) * math.cos(yaw), math.sin(pitch)]
+
+
+#: With the whole body on, the share of single reaches whose target is drawn again past
+#: the arm (:func:`_whole_body_target`).
+PAST_ARM_SHARE = 0.6
+
+
+def _whole_body_target(rng, t: dict, features: set) -> None:
+    """A Lean campaign's single reach (its own random stream, so every other draw stays):
+    with :data:`PAST_ARM_SHARE`, its target drawn again where the body must help, just past
+    the arm (1.0-1.45 arm lengths, ahead or to the side, level or below: a lean) or low in
+    front (1.5-2.4 arm lengths, 55-85° down: a squat or bend, or the floor's refusal)."""
+    if rng.random() >= PAST_ARM_SHARE:
+        return
+    features.discard(f"target_{t['kind']}")
+    if rng.random() < 0.6:
+        t.update(kind="past_arm", at="shoulder", dist=float(rng.uniform(1.0, 1.45)),
+                 dir=_direction(rng, rng.uniform(-20, 100), rng.uniform(-45, 10)))
+    else:
+        t.update(kind="low", at="shoulder", dist=float(rng.uniform(1.5, 2.4)),
+                 dir=_direction(rng, rng.uniform(-15, 60), rng.uniform(-85, -55)))
+    features.add(f"target_{t['kind']}")
 
 
 def _target(rng, features: set, index: int, allow_parent: bool) -> dict:
@@ -320,6 +343,8 @@ def generate(seed: int, quick: bool = False, shapes: bool = True, lean: bool = F
         if names:
             features.add("odd_names")
         targets.append(t)
+    if lean and task == "reach" and len(targets) == 1:
+        _whole_body_target(np.random.default_rng([seed, 4]), targets[0], features)
     spec["targets"] = targets
     frame = int(rng.integers(-5, 40)) if rng.random() < 0.25 else 1
     if frame != 1:

@@ -23,6 +23,7 @@ reach.lean_max = 45.0
 reach.lean = False
 reach.lean_reach = 0.98
 reach.lean_ready = 0.8
+reach.lean_other_arm = 1.0
 reach.lean_hips_back = True
 reach.lean_hips_max = 0.3
 reach.balance_margin = 0.02
