@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.gaze import axis_rotation
 from ..core.lean import skin_hit
 from . import balance, own_keys
 from .bone_matrices import channel_values
@@ -109,33 +110,21 @@ def key(context, armature, info, first: int, last: int, settings, checker) -> di
         scene.frame_set(now[0], subframe=now[1])
 
 
-def _hang(m, m0) -> np.ndarray:
-    """The least rotation (3×3, armature space) that takes the bone's direction in ``m``
-    (its armature-space matrix) back to its direction in ``m0``."""
-    a = _unit(m[:3, 1])
-    b = _unit(m0[:3, 1])
+def _hang(m, m0) -> tuple:
+    """(axis, angle in degrees) of the least rotation (armature space) that takes the
+    bone's direction in ``m`` (its armature-space matrix) back to its direction in ``m0``."""
+    a, b = _unit(m[:3, 1]), _unit(m0[:3, 1])
     v = np.cross(a, b)
-    c = float(a @ b)
     s = float(np.linalg.norm(v))
     if s < 1e-12:
-        return np.eye(3)
-    k = v / s
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + s * kx + (1.0 - c) * (kx @ kx)
+        return np.array([1.0, 0.0, 0.0]), 0.0
+    return v / s, float(np.degrees(np.arctan2(s, float(a @ b))))
 
 
-def _turned(m, rotation, share) -> np.ndarray:
-    """``m`` turned about its head by ``share`` of ``rotation`` (axis-angle scaled)."""
-    angle = np.arccos(np.clip((np.trace(rotation) - 1.0) / 2.0, -1.0, 1.0)) * share
-    if angle < 1e-12:
-        return m.copy()
-    w = np.array([rotation[2, 1] - rotation[1, 2], rotation[0, 2] - rotation[2, 0],
-                  rotation[1, 0] - rotation[0, 1]])
-    k = _unit(w)
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    r = np.eye(3) + np.sin(angle) * kx + (1.0 - np.cos(angle)) * (kx @ kx)
+def _turned(m, hang, share) -> np.ndarray:
+    """``m`` turned about its head by ``share`` of the rotation ``hang`` (:func:`_hang`)."""
     out = m.copy()
-    out[:3, :3] = r @ m[:3, :3]
+    out[:3, :3] = axis_rotation(hang[0], share * hang[1]) @ m[:3, :3]
     return out
 
 

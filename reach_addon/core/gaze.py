@@ -74,7 +74,7 @@ def clip_gaze(yaw: float, pitch: float, settings) -> tuple:
             float(np.clip(pitch, -settings.gaze_down_max, settings.gaze_up_max)))
 
 
-def _axis_rotation(axis, angle_deg) -> np.ndarray:
+def axis_rotation(axis, angle_deg) -> np.ndarray:
     """The 3×3 rotation by ``angle_deg`` about the unit ``axis`` (Rodrigues)."""
     k = np.asarray(axis, dtype=float)
     t = math.radians(float(angle_deg))
@@ -87,7 +87,7 @@ def gaze_rotation(forward, up, yaw: float, pitch: float) -> np.ndarray:
     ``up``): it takes ``forward`` to the direction :func:`gaze_angles` read."""
     f = np.asarray(forward, dtype=float)
     u = np.asarray(up, dtype=float)
-    return _axis_rotation(u, yaw) @ _axis_rotation(np.cross(f, u), pitch)
+    return axis_rotation(u, yaw) @ axis_rotation(np.cross(f, u), pitch)
 
 
 def gaze_blend(aims, starts, fps: float, settings) -> np.ndarray:
