@@ -185,13 +185,13 @@ class Settings:
         "limits), ahead of the hand, and keep it there as the body moves. Off by default "
         "with the rest of the whole body", "body")
     gaze_turn_max: float = _f(
-        60.0, "Neck turn limit", "Farthest the neck turns the head left or right: the "
+        60.0, "Neck turn", "Farthest the neck turns the head left or right: the "
         "AAOS average cervical rotation (1965)", "body", 0.0, 90.0, "deg")
     gaze_down_max: float = _f(
-        45.0, "Neck flexion limit", "Farthest the neck tips the head down: the AAOS average "
+        45.0, "Neck flexion", "Farthest the neck tips the head down: the AAOS average "
         "cervical flexion (1965)", "body", 0.0, 90.0, "deg")
     gaze_up_max: float = _f(
-        45.0, "Neck extension limit", "Farthest the neck tips the head up: the AAOS average "
+        45.0, "Neck extension", "Farthest the neck tips the head up: the AAOS average "
         "cervical extension (1965)", "body", 0.0, 90.0, "deg")
     gaze_time: float = _f(
         0.4, "Head turn time", "Seconds the head takes to turn toward a new target (a "
