@@ -90,6 +90,8 @@ def _direction(rng, yaw_deg, pitch_deg) -> list:
     return [math.cos(pitch) * math.sin(yaw), math.cos(pitch) * math.cos(yaw), math.sin(pitch)]
 
 
+#: The features only a Lean campaign's scenes have (:func:`_whole_body_target`).
+LEAN_FEATURES = ("target_past_arm", "target_low")
 #: With the whole body on, the share of single reaches whose target is drawn again past
 #: the arm (:func:`_whole_body_target`).
 PAST_ARM_SHARE = 0.6
