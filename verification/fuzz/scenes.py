@@ -97,13 +97,24 @@ LEAN_FEATURES = ("target_past_arm", "target_low")
 PAST_ARM_SHARE = 0.6
 
 
-def _whole_body_target(rng, t: dict, features: set) -> None:
+#: The shared rigs with legs a Lean campaign's whole-body scene takes instead of a
+#: synthetic rig (the synthetic rigs are arms on a trunk: no legs to lean on).
+LEGGED_RIGS = ("quaternius", "gomakehuman", "metarig", "cesium")
+
+
+def _whole_body_target(rng, spec: dict, t: dict, features: set) -> None:
     """A Lean campaign's single reach (its own random stream, so every other draw stays):
     with :data:`PAST_ARM_SHARE`, its target drawn again where the body must help, just past
     the arm (1.0-1.45 arm lengths, ahead or to the side, level or below: a lean) or low in
-    front (1.5-2.4 arm lengths, 55-85° down: a squat or bend, or the floor's refusal)."""
+    front (1.5-2.4 arm lengths, 55-85° down: a squat or bend, or the floor's refusal), on a
+    rig with legs (:data:`LEGGED_RIGS`, in place of a synthetic one)."""
     if rng.random() >= PAST_ARM_SHARE:
         return
+    legged = _pick(rng, LEGGED_RIGS)
+    if spec["rig"]["kind"] == "synthetic":
+        features.difference_update({f for f in features if f.startswith("rig_")})
+        spec["rig"] = {"kind": legged}
+        features.add("rig_real")
     features.discard(f"target_{t['kind']}")
     if rng.random() < 0.6:
         t.update(kind="past_arm", at="shoulder", dist=float(rng.uniform(1.0, 1.45)),
@@ -346,7 +357,8 @@ def generate(seed: int, quick: bool = False, shapes: bool = True, lean: bool = F
             features.add("odd_names")
         targets.append(t)
     if lean and task == "reach" and len(targets) == 1:
-        _whole_body_target(np.random.default_rng([seed, 4]), targets[0], features)
+        _whole_body_target(np.random.default_rng([seed, 4]), spec, targets[0], features)
+        rig = spec["rig"]
     spec["targets"] = targets
     frame = int(rng.integers(-5, 40)) if rng.random() < 0.25 else 1
     if frame != 1:
