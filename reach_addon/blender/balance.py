@@ -320,23 +320,36 @@ def measure(context, armature, info, results) -> None:
     if not legs:
         return
     scene = context.scene
-    up = np.asarray(info.frame.up, dtype=float)
     length = info.arm.arm_length                 # figure units are world units
     hands = None
     for r in results:
         if not r.bones_keyed or r.frame_end < r.frame_start:
             continue
         scene.frame_set(r.frame_start)
-        polygon, source = support_now(armature, legs, up)
         hands = hands if hands is not None else hands_now(armature, info.bones)
-        margins = []
-        for f in range(r.frame_start, r.frame_end + 1):
-            scene.frame_set(f)
-            com = core_balance.centre_of_mass(body_segments(armature, info.bones, legs, hands))
-            margins.append(core_balance.balance_margin(com, polygon, up) / length)
+        margins, source = margins_over(scene, armature, info, legs, r.frame_start,
+                                       r.frame_end, hands)
+        margins = [m / length for m in margins]
         worst = int(np.argmin(margins))
         r.stats["com_margin_start"] = float(margins[0])
         r.stats["com_margin_min"] = float(margins[worst])
         r.stats["com_margin_min_frame"] = r.frame_start + worst
         r.stats["support_from"] = source
 
+
+
+def margins_over(scene, armature, info, legs, first: int, last: int, hands=None) -> tuple:
+    """(the centre of mass's margin over the feet on each frame ``first``..``last`` as
+    Blender evaluates it, world units; what the support polygon was read from): the
+    polygon read once, on ``first`` (the feet planted), the centre of mass on every frame
+    (``hands``: :func:`hands_now`'s, else read now). Changes the scene's frame."""
+    up = np.asarray(info.frame.up, dtype=float)
+    scene.frame_set(first)
+    polygon, source = support_now(armature, legs, up)
+    hands = hands if hands is not None else hands_now(armature, info.bones)
+    margins = []
+    for f in range(first, last + 1):
+        scene.frame_set(f)
+        com = core_balance.centre_of_mass(body_segments(armature, info.bones, legs, hands))
+        margins.append(core_balance.balance_margin(com, polygon, up))
+    return margins, source

@@ -21,6 +21,7 @@ bone's own rotation mode, quaternions continuous, Eulers compatible with the fra
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -56,9 +57,10 @@ def target_matrices(info, plan, start_world, chest_head_world, first=None):
     segment is turned from that pose's frame, the chest from its turn."""
     arm = info.arm
     m = arm.to_world[:3, :3]
-    frames = _arm_frames(plan, m)
-    ref = frames if first is None or first is plan else _arm_frames(first, m, 1)
     joints = plan.world_joints()                      # (F, 5, 3)
+    frames = _arm_frames(plan, m, joints)
+    ref = frames if first is None or first is plan else _arm_frames(
+        dataclasses.replace(first, poses=first.poses[:1]), m)
     joint_of = {"upper_arm": 1, "forearm": 2, "hand": 3}
     out = {}
     n = len(plan.poses)
@@ -84,12 +86,12 @@ def target_matrices(info, plan, start_world, chest_head_world, first=None):
     return out
 
 
-def _arm_frames(plan, m, count=None) -> dict:
-    """The upper arm's, forearm's and hand's world frames (F, 3, 3) on ``plan``'s poses (its
-    first ``count``), as :func:`target_matrices` turns the bones by; ``m``: the arm model's
-    rotation to the world."""
-    joints = plan.world_joints()[:count]              # (F, 5, 3)
-    bends = plan.world_bends()[:count]                # (F, 3)
+def _arm_frames(plan, m, joints=None) -> dict:
+    """The upper arm's, forearm's and hand's world frames (F, 3, 3) on ``plan``'s poses, as
+    :func:`target_matrices` turns the bones by; ``m``: the arm model's rotation to the
+    world; ``joints``: ``plan.world_joints()`` where already read."""
+    joints = plan.world_joints() if joints is None else joints    # (F, 5, 3)
+    bends = plan.world_bends()                        # (F, 3)
     upper = joints[:, 2] - joints[:, 1]
     fore = joints[:, 3] - joints[:, 2]
     hand = joints[:, 4] - joints[:, 3]
@@ -99,7 +101,7 @@ def _arm_frames(plan, m, count=None) -> dict:
         "forearm": _frames(fore, hinge),
         "hand": _frames(hand, hinge),
     }
-    rolls = np.array([p.roll for p in plan.poses])[:count]
+    rolls = np.array([p.roll for p in plan.poses])
     if rolls.any():
         # the plan's roll is about d in the canonical frame; a world frame's third column
         # (a cross product) flips where the canonical frame is mirrored (a left arm), and

@@ -66,15 +66,15 @@ def key(context, armature, info, first: int, last: int, settings, checker) -> di
     now = (scene.frame_current, scene.frame_subframe)
     pb = armature.pose.bones[bone]
     legs = balance.find_legs(armature, info.bones, info.frame)
-    up = np.asarray(info.frame.up, dtype=float)
     mw = np.array(armature.matrix_world)
     try:
-        mats, bases, riding = [], [], []
+        riding = balance.margins_over(scene, armature, info, legs, first, last)[0] \
+            if legs else None
+        mats, bases = [], []
         for f in range(first, last + 1):
             scene.frame_set(f)
             mats.append(np.array(pb.matrix))
             bases.append(np.array(pb.matrix_basis))
-            riding.append(balance.margin_now(armature, info.bones, legs, up) if legs else 0.0)
         scene.frame_set(first)
         names = {bone} | {b.name for b in pb.children_recursive}
         pts = skin_points(armature, names, share=True)
@@ -94,7 +94,7 @@ def key(context, armature, info, first: int, last: int, settings, checker) -> di
                     continue
             new = [b @ np.linalg.inv(m) @ t for b, m, t in zip(bases, mats, turned)]
             _write(armature, bone, new, frames)
-            tipped = _tips(scene, armature, info, legs, up, riding, first) if legs else None
+            tipped = _tips(scene, armature, info, legs, riding, first) if legs else None
             if tipped is None:
                 own_keys.record(armature.animation_data.action, [bone], first, last)
                 out = {"lean_other_arm": round(share, 3)}
@@ -135,13 +135,12 @@ def _write(armature, bone, bases, frames) -> None:
     write_channel(channels, f'pose.bones["{bone}"].{path}', values, frames, bone)
 
 
-def _tips(scene, armature, info, legs, up, riding, first) -> str | None:
-    """Why the keyed hang tips the body (the centre of mass's margin on a frame below what
-    it was riding, and below 0 where that was above), or None."""
+def _tips(scene, armature, info, legs, riding, first) -> str | None:
+    """Why the keyed turn tips the body (the centre of mass's margin on a frame below what
+    it was riding, ``riding``, and below 0 where that was above), or None."""
     length = info.arm.arm_length
-    for k, before in enumerate(riding):
-        scene.frame_set(first + k)
-        margin = balance.margin_now(armature, info.bones, legs, up)
+    now = balance.margins_over(scene, armature, info, legs, first, first + len(riding) - 1)[0]
+    for k, (before, margin) in enumerate(zip(riding, now)):
         if margin < min(before, 0.0) - 1e-4 * length:
             return (f"it would carry the centre of mass {-margin / length:.3f} arm lengths past "
                     f"the feet on frame {first + k}")
