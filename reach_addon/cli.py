@@ -53,6 +53,12 @@ BAKE_REPORT_KEYS = ("rig_residual_arm_lengths", "linear_spans", "close_spans",
                     # (blender.results.measure_naturalness)
                     "chicken_wing_frames", "forced_bend_frames", "bend_forced_by")
 
+#: The body's figures of a baked task (README, "The report"), by their names' beginnings:
+#: the balance (``com_margin_*``, ``support_from``), the lean and squat (``lean_*``, the
+#: other arm's ``lean_other_arm`` among them), the head's turn (``gaze_*``) and the other
+#: arm's note.
+BODY_REPORT_PREFIXES = ("com_margin", "support_from", "lean_", "gaze_", "other_arm_")
+
 
 class Interrupted(BaseException):
     """SIGTERM or SIGINT arrived while a command ran. A BaseException, like
@@ -237,6 +243,7 @@ def report_dict(outcome, settings: Settings, scene_path, output) -> dict:
             "sampling_states": st["sampling_states"],
             **{k: st[k] for k in HAND_REPORT_KEYS if k in st},
             **{k: st[k] for k in BAKE_REPORT_KEYS if k in st},
+            **{k: v for k, v in st.items() if k.startswith(BODY_REPORT_PREFIXES)},
         })
     return {
         "reach_version": __version__, "blender_version": bpy.app.version_string,

@@ -29,6 +29,7 @@ import importlib
 
 import bpy
 import everyday
+from verification.fuzz import campaign
 import numpy as np
 import pytest
 import clearance
@@ -454,6 +455,12 @@ def test_a_bake_again_over_a_lean_leans_the_same_way(addon, rig_file):  # noqa: 
         baked.append(curves())
         bpy.data.objects.remove(target)
         bpy.data.objects.remove(table)
+    # the command line's report carries the body's figures, as the fuzz campaign reads them
+    cli = importlib.import_module(addon.__name__ + ".cli")
+    report = cli.report_dict(outcome, addon.core.Settings().replace(lean=True), "x", None)
+    task = report["tasks"][0]
+    assert task["lean_deg"] == result.stats["lean_deg"] and "com_margin_min" in task, task
+    assert campaign.body_outcomes(report) == ["lean"]
     assert baked[0].keys() == baked[1].keys()
     for key, points in baked[0].items():
         np.testing.assert_allclose(points, baked[1][key], atol=1e-5, err_msg=str(key))
