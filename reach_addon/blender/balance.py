@@ -274,17 +274,13 @@ SOLE_BAND = 0.03
 def support_now(armature, legs, up) -> tuple:
     """(the support polygon now, in :func:`~..core.balance.ground_basis` coordinates of
     ``up``; what it was read from). Where the feet have skin, the convex hull of their
-    soles (:data:`SOLE_BAND`), "skin"; else the feet's rectangles from the heels to the
+    soles (each foot's, :func:`_sole`), "skin"; else the feet's rectangles from the heels to the
     toes (:func:`~..core.balance.support_polygon`) with the joints of the feet's bones no
     higher than the ankles (a heel bone marks the heel), "bones"."""
     names = {n for leg in legs for n in leg.foot_bones}
-    points = skin.skin_points(armature, names) if names else np.zeros((0, 3))
-    if len(points) >= 3:
-        heights = points @ (np.asarray(up, dtype=float) / np.linalg.norm(up))
-        hip, ankle = point_of(armature, legs[0].hip), point_of(armature, legs[0].ankle)
-        band = SOLE_BAND * float(np.linalg.norm(hip - ankle))
-        sole = points[heights <= heights.min() + band]
-        polygon = core_balance.polygon_of(sole, up)
+    soles = [_sole(armature, leg, up) for leg in legs]
+    if all(len(sole) for sole in soles):
+        polygon = core_balance.polygon_of(np.concatenate(soles), up)
         if len(polygon) >= 3:
             return polygon, "skin"
     feet = [(point_of(armature, leg.ankle), point_of(armature, leg.toe)) for leg in legs]
@@ -297,6 +293,50 @@ def support_now(armature, legs, up) -> tuple:
         return rectangles, "bones"
     basis = core_balance.ground_basis(up)        # the rectangles' corners back in 3-D
     return core_balance.polygon_of([basis.T @ c for c in rectangles] + joints, up), "bones"
+
+
+def _sole(armature, leg, up) -> np.ndarray:
+    """The skin of ``leg``'s foot within :data:`SOLE_BAND` of the leg's length above the
+    foot's own lowest point (world, (n, 3)); empty where the foot has no skin. Each foot's
+    own: a foot set down in a wide stance, its shank tipped, dips the heel's skin that
+    the shank blends below the other foot's sole (the Goblin, 2.5 cm)."""
+    points = skin.skin_points(armature, set(leg.foot_bones))
+    if len(points) < 3:
+        return np.zeros((0, 3))
+    heights = points @ (np.asarray(up, dtype=float) / np.linalg.norm(up))
+    hip, ankle = point_of(armature, leg.hip), point_of(armature, leg.ankle)
+    band = SOLE_BAND * float(np.linalg.norm(hip - ankle))
+    return points[heights <= heights.min() + band]
+
+
+class Soles:
+    """The feet's soles read once (:func:`_sole`, as the rig stands) and carried after by
+    each foot's bone (the one its toe point lies on), so that a sole is the same patch of
+    skin however the shank above it tips: reading the skin again on every frame lets a
+    heel the shank blends dip below the sole and take its place (the Alien's stance foot,
+    0.03 arm lengths). Where the feet have no skin, :func:`support_now`'s bones."""
+
+    def __init__(self, armature, legs, up):
+        self.armature, self.legs, self.up = armature, list(legs), np.asarray(up, dtype=float)
+        mw = np.array(armature.matrix_world)
+        self.local = []
+        for leg in self.legs:
+            sole = _sole(armature, leg, up)
+            if not len(sole):
+                self.local = None
+                break
+            m = mw @ np.array(armature.pose.bones[leg.toe[0]].matrix)
+            self.local.append(np.c_[sole, np.ones(len(sole))] @ np.linalg.inv(m).T)
+
+    def polygon(self, planted=None) -> np.ndarray:
+        """The support polygon now of the legs ``planted`` (default all; :class:`Leg`s)."""
+        legs = self.legs if planted is None else list(planted)
+        if self.local is None:
+            return support_now(self.armature, legs, self.up)[0]
+        mw = np.array(self.armature.matrix_world)
+        points = [(local @ (mw @ np.array(self.armature.pose.bones[leg.toe[0]].matrix)).T)[:, :3]
+                  for leg, local in zip(self.legs, self.local) if leg in legs]
+        return core_balance.polygon_of(np.concatenate(points), self.up)
 
 
 def margin_now(armature, bmap, legs, up) -> float:
@@ -316,10 +356,13 @@ def measure(context, armature, info, results) -> None:
     animation moves during the reach is not followed), the hands' axes and lengths on the
     first task's (:func:`hands_now`). Nothing is added for a rig without legs
     (:func:`find_legs`). Changes the scene's frame."""
+    scene = context.scene
+    baked = [r for r in results if r.bones_keyed and r.frame_end >= r.frame_start]
+    if baked:                 # the legs as the rig stands before it moves (a step's last
+        scene.frame_set(baked[0].frame_start)    # stance, leaned, reads another chain)
     legs = find_legs(armature, info.bones, info.frame)
     if not legs:
         return
-    scene = context.scene
     length = info.arm.arm_length                 # figure units are world units
     hands = None
     for r in results:
@@ -341,15 +384,38 @@ def measure(context, armature, info, results) -> None:
 def margins_over(scene, armature, info, legs, first: int, last: int, hands=None) -> tuple:
     """(the centre of mass's margin over the feet on each frame ``first``..``last`` as
     Blender evaluates it, world units; what the support polygon was read from): the
-    polygon read once, on ``first`` (the feet planted), the centre of mass on every frame
-    (``hands``: :func:`hands_now`'s, else read now). Changes the scene's frame."""
+    polygon read on ``first``, and once a foot has moved (a step) on every frame from the
+    soles carried by the feet (:class:`Soles`) on the ground (a foot :data:`LIFTED` off
+    it left out), the centre of mass on
+    every frame (``hands``: :func:`hands_now`'s, else read now). Changes the scene's
+    frame."""
     up = np.asarray(info.frame.up, dtype=float)
     scene.frame_set(first)
     polygon, source = support_now(armature, legs, up)
     hands = hands if hands is not None else hands_now(armature, info.bones)
-    margins = []
+    read = [point_of(armature, leg.ankle) for leg in legs]
+    leg = float(np.linalg.norm(point_of(armature, legs[0].hip) - read[0]))
+    lift = LIFTED * leg
+    margins, stepping, soles = [], False, Soles(armature, legs, up)
     for f in range(first, last + 1):
         scene.frame_set(f)
+        ankles = [point_of(armature, leg.ankle) for leg in legs]
+        stepping = stepping or max(float(np.linalg.norm(a - r))
+                                   for a, r in zip(ankles, read)) > STEPPED * leg
+        if stepping:
+            # a foot has moved (a step): the soles of the feet on the ground now
+            ground = min(float(a @ up) for a in ankles)
+            planted = [leg for leg, a in zip(legs, ankles) if float(a @ up) <= ground + lift]
+            polygon = soles.polygon(planted)
         com = core_balance.centre_of_mass(body_segments(armature, info.bones, legs, hands))
         margins.append(core_balance.balance_margin(com, polygon, up))
     return margins, source
+
+
+#: A foot counts as lifted off the ground (:func:`margins_over`) where its ankle stands
+#: higher than the lower ankle by more than this share of the leg (hip to ankle).
+LIFTED = 0.005
+#: A foot has moved (:func:`margins_over` reads the polygon on every frame from then on)
+#: where its ankle is this share of the leg from where it stood on the first frame (a
+#: planted foot in a squat moves by 1e-6 of it).
+STEPPED = 0.001

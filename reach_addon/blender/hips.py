@@ -89,40 +89,117 @@ def _below(armature, leg, joint) -> str | None:
     return None
 
 
-def pose_shift(context, armature, legs, hips: str, shift_world, up, forward) -> float:
+def pose_shift(context, armature, legs, hips: str, shift_world, up, forward,
+               feet_world=None) -> float:
     """Pose the hips moved by ``shift_world`` (and down as far as the legs need,
     :func:`~..core.hips.hips_drop`) with both feet where they are (see the module
-    docstring). The knees bend the way they are bent where that is forward of the leg
+    docstring), or moved by ``feet_world`` ((legs, 3) world offsets: a step, the foot's
+    bones carried with it, :func:`foot_bones`). The knees bend the way they are bent where
+    that is forward of the leg
     (``forward``: the body's), else straight forward: a leg held straight has no bend of its
     own to follow, and a knee bends only forward (the Knight, in a T-pose, bent its knees
     backward until this). Returns how far the hips came down (world units)."""
     point = balance.point_of
     up = np.asarray(up, dtype=float)
     feet = [_below(armature, leg, leg.ankle) for leg in legs]
-    before = [(point(armature, leg.hip), point(armature, leg.knee), point(armature, leg.ankle),
+    offsets = np.zeros((len(legs), 3)) if feet_world is None else np.asarray(feet_world, float)
+    a_inv = np.linalg.inv(np.array(armature.matrix_world)[:3, :3])
+    carried = [[(n, np.array(armature.pose.bones[n].matrix)) for n in foot_bones(armature, leg, up)]
+               if feet_world is not None and np.any(off) else []
+               for leg, off in zip(legs, offsets)]
+    ends = [_shank_end(armature, leg) for leg in legs]
+    before = [(point(armature, leg.hip), point(armature, leg.knee),
+               point(armature, end[1]) + off,
                None if foot is None else np.array(armature.pose.bones[foot].matrix))
-              for leg, foot in zip(legs, feet)]
+              for leg, foot, off, end in zip(legs, feet, offsets, ends)]
+    for b, off in zip(before, offsets):
+        if b[3] is not None:
+            b[3][:3, 3] += a_inv @ off
     shift = np.asarray(shift_world, dtype=float)
     drop = max(hips_drop(h + shift, a, float(np.linalg.norm(k - h)),
-                         float(np.linalg.norm(a - k)), up) for h, k, a, _m in before)
+                         float(np.linalg.norm(a - off - k)), up)
+               for (h, k, a, _m), off in zip(before, offsets))
     _move(context, armature, hips, shift - drop * up)
-    for leg, name, (h, k, a, foot) in zip(legs, feet, before):
-        thigh, shank = float(np.linalg.norm(k - h)), float(np.linalg.norm(a - k))
+    for leg, name, (h, k, a, foot), off, end in zip(legs, feet, before, offsets, ends):
+        thigh, shank = float(np.linalg.norm(k - h)), float(np.linalg.norm(a - off - k))
         hip_now = point(armature, leg.hip)
-        knee = two_bone_knee(hip_now, a, thigh, shank, knee_pole(h, k, a, forward))
+        # the knee bends the way it bends as the leg stands (a moved foot's offset from
+        # the knee would turn it sideways)
+        knee = two_bone_knee(hip_now, a, thigh, shank, knee_pole(h, k, a - off, forward))
         _turn(context, armature, leg.hip[0], hip_now,
               _least_rotation(point(armature, leg.knee) - hip_now, knee - hip_now))
         knee_now = point(armature, leg.knee)
-        shank_bone = _below(armature, leg, leg.knee)
-        if shank_bone is None:
-            raise ValueError(f"no bone below the knee '{leg.knee[0]}'")
-        _turn(context, armature, shank_bone, knee_now,
-              _least_rotation(point(armature, leg.ankle) - knee_now, a - knee_now))
+        _turn(context, armature, end[0], knee_now,
+              _least_rotation(point(armature, end[1]) - knee_now, a - knee_now))
         if foot is not None:           # the foot keeps its place and its tilt
             from mathutils import Matrix
             armature.pose.bones[name].matrix = Matrix(foot.tolist())
             context.view_layer.update()
+    for leg_carried, off in zip(carried, offsets):
+        _carry(context, armature, leg_carried, a_inv @ off)
     return float(drop)
+
+
+def foot_bones(armature, leg, up) -> list:
+    """The bones a step carries with the foot (parent first): those of the leg's foot
+    (:attr:`.balance.Leg.foot_bones`) whose head lies no higher above the ground (``up``:
+    world) than the ankle (the foot, its toes and heel; a foot that hangs from the root, as
+    Quaternius' does, included), and the leg's IK controls (:func:`ik_controls`)."""
+    point = balance.point_of
+    up = np.asarray(up, dtype=float)
+    ankle = float(point(armature, leg.ankle) @ up)
+    slack = 0.02 * float(np.linalg.norm(point(armature, leg.hip) - point(armature, leg.ankle)))
+    names = [n for n in leg.foot_bones
+             if float(point(armature, (n, "head")) @ up) <= ankle + slack]
+    names += [n for n in ik_controls(armature, leg) if n not in names]
+    depth = {n: len(ancestors(armature.data.bones[n])) for n in names}
+    return sorted(names, key=lambda n: (depth[n], n))
+
+
+def ik_controls(armature, leg) -> list:
+    """The bones of the armature that the leg's IK constraints aim at, target and pole
+    (Quaternius' Foot and PoleTarget): a step carries them with the foot, else the
+    constraint pulls the leg back to them, or twists the knee toward a pole left behind."""
+    out = []
+    bones = armature.pose.bones
+    chain = [leg.hip[0], leg.knee[0], leg.ankle[0]] + list(leg.foot_bones)
+    for name in dict.fromkeys(chain):
+        for c in bones[name].constraints if name in bones else ():
+            if c.type != "IK" or c.mute or getattr(c, "target", None) != armature:
+                continue
+            for sub in (c.subtarget, getattr(c, "pole_subtarget", "")):
+                if sub and sub in bones and sub not in out:
+                    out.append(sub)
+    return out
+
+
+def _carry(context, armature, carried, offset_local) -> None:
+    """Set each bone of ``carried`` [(name, its matrix before)] to its matrix before moved by
+    ``offset_local`` (armature space), parent first."""
+    from mathutils import Matrix
+
+    if not carried:
+        return
+    for name, m in carried:
+        moved = m.copy()
+        moved[:3, 3] += offset_local
+        armature.pose.bones[name].matrix = Matrix(moved.tolist())
+        context.view_layer.update()
+
+
+def _shank_end(armature, leg) -> tuple:
+    """(the shank's bone, the point it is turned to bring back to the ankle: a bone point,
+    :class:`.balance.Leg`): the leg's ankle where the shank carries it, else the shank's
+    own tail (a
+    Quaternius foot hangs from the root, and turning the shank toward it turns nothing
+    that reaches it)."""
+    shank = _below(armature, leg, leg.knee)
+    if shank is None:
+        raise ValueError(f"no bone below the knee '{leg.knee[0]}'")
+    bone = armature.data.bones[leg.ankle[0]]
+    if bone.name == shank or any(b.name == shank for b in ancestors(bone)):
+        return shank, leg.ankle
+    return shank, (shank, "tail")
 
 
 def leg_joints(armature, legs, forward) -> list:
