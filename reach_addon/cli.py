@@ -55,9 +55,9 @@ BAKE_REPORT_KEYS = ("rig_residual_arm_lengths", "linear_spans", "close_spans",
 
 #: The body's figures of a baked task (README, "The report"), by their names' beginnings:
 #: the balance (``com_margin_*``, ``support_from``), the lean and squat (``lean_*``, the
-#: other arm's ``lean_other_arm`` among them), the head's turn (``gaze_*``) and the other
-#: arm's note.
-BODY_REPORT_PREFIXES = ("com_margin", "support_from", "lean_", "gaze_", "other_arm_")
+#: other arm's ``lean_other_arm`` among them), the step (``step_*``), the head's turn
+#: (``gaze_*``) and the other arm's note.
+BODY_REPORT_PREFIXES = ("com_margin", "support_from", "lean_", "step_", "gaze_", "other_arm_")
 
 
 class Interrupted(BaseException):
@@ -157,6 +157,8 @@ def build_parser() -> argparse.ArgumentParser:
     bake.add_argument("--orient", dest="set_match_orientation", action="store_const", const=True,
                       help="the palm arrives aligned with each target's axes (the same as "
                            "--match-orientation; axes: --finger-axis, --palm-axis=-z)")
+    bake.add_argument("--no-step", dest="set_stepping", action="store_const", const=False,
+                      help="never step toward a target (the same as --no-stepping)")
     bake.set_defaults(func=cmd_bake)
 
     env = sub.add_parser("envelope", help="the arm's reach envelope on a grid, as a CSV (and a "

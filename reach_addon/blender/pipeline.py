@@ -21,7 +21,6 @@ import numpy as np
 
 from ..core import Planner, ReachError, Settings, Task
 from ..core import envelope as envelope_mod
-from ..core.arm import REACH_SLACK, reach_sphere
 from ..core.steps import drain, relay
 from ..core.chase import chase_steps
 from ..core.sweep import plan_among_moving
@@ -30,6 +29,7 @@ from . import body as body_mod
 from . import gaze as gaze_mod
 from . import other_arm as other_arm_mod
 from . import lean as lean_mod
+from . import step as step_mod
 from . import own_keys
 from .fcurves import ensure_action
 from . import rig as rig_mod
@@ -37,8 +37,8 @@ from . import viz
 from .bake import KeyedPlan
 from .carried import carried_targets
 from .results import arm_note, measure_baked, start_as_it_shows, task_results
-from .scene import (KEPT, ObstacleCache, character_objects, finite, gather_pieces,
-                    visit_obstacles)
+from .scene import (KEPT, ObstacleCache, body_extent, character_objects, finite, gather_pieces,
+                    reach_bounds, visit_obstacles)
 
 TASKS = ("reach", "sequence", "guided", "chase")
 #: Instants per frame at which moving obstacles are sampled for a reach (frame, half way).
@@ -180,31 +180,6 @@ def _chase_range(context, target, frame_start):
     return frame_start, end
 
 
-def reach_bounds(arm, settings: Settings, targets, body_extent: float = 0.0) -> tuple:
-    """(centre, radius, target positions), world space: what :meth:`.scene.KeptObstacles.get`
-    keeps obstacles within — the arm's reach sphere (:func:`~reach_addon.core.arm.reach_sphere`)
-    with :data:`~reach_addon.core.arm.REACH_SLACK` and the clearance to spare, and any
-    object holding a target. With *Lean* on the body moves the shoulder, and the sphere
-    grows by twice ``body_extent`` (:func:`body_extent`: every posture keeps the shoulder
-    tied to the planted feet by the body between, so it stays within that of where it
-    was, and the body itself within it of the shoulder)."""
-    centre, radius = reach_sphere(arm, REACH_SLACK + settings.clearance)
-    if settings.lean:
-        radius += 2.0 * float(body_extent)
-    return centre, radius, np.array([np.array(t.matrix_world.translation) for t in targets])
-
-
-def body_extent(armature, shoulder) -> float:
-    """The farthest any bone's head or tail lies from the ``shoulder`` (world), as the rig
-    stands: a bound on the body's reach from the shoulder through its own chain."""
-    mw = np.array(armature.matrix_world)
-    pts = np.array([p for pb in armature.pose.bones for p in (pb.head, pb.tail)], dtype=float)
-    if not len(pts):
-        return 0.0
-    world = pts @ mw[:3, :3].T + mw[:3, 3]
-    return float(np.linalg.norm(world - np.asarray(shoulder, dtype=float), axis=1).max())
-
-
 class PipelineRun:
     """One run of the pipeline (:func:`steps`): the request, what each stage has read or
     made, and the outcome. The stages are methods named for their job, run in this order:
@@ -231,6 +206,7 @@ class PipelineRun:
             else int(request.frame_start)
         self.warnings = []            # what a Bake of this preview would refuse
         self.lean = None              # a lean planned before the reach (.lean.RigLean)
+        self.step = None              # a step planned before them (.step.RigStep)
         self.turns = {}               # the head's and other arm's turns, for the report
         self.outcome = None
 
@@ -325,8 +301,26 @@ class PipelineRun:
                 self.frame_obstacles is None:        # a lean, then the reach (stage 1)
             self.lean, self.plans[0] = lean_mod.plan(self.context, self.armature, self.info,
                                                      self.planner, self.plans[0])
+            if self.lean is None and not self.plans[0].plan.success:   # a step (stage 5)
+                self._step()
         elif self.settings.lean and len(self.plans) == 1 and self.moving:
             lean_mod.note_moving(self.plans[0].plan, sorted(self.moving))
+
+    def _step(self) -> None:
+        """Where no lean reaches, a step toward the target, then the reach (and a lean)
+        from where it ends (:func:`.step.plan`): ``step``; ``info`` becomes the rig read
+        there (``info_start``: as it stood)."""
+        first = np.array(self.targets[0].matrix_world.translation)
+        side, overrides = self.info.side, self.request.overrides
+
+        def reread():
+            return rig_mod.build(self.armature, side, overrides, target=first)
+
+        found, self.plans[0] = step_mod.plan(self.context, self.armature, self.info,
+                                             self.planner, self.plans[0], reread,
+                                             self.request.bake_closest)
+        if found is not None:
+            self.step, self.lean, self.info = found, found.lean, found.info
 
     def _frame_planners(self) -> list:
         """A planner per frame of a chase, one per distinct set of obstacles."""
@@ -356,6 +350,8 @@ class PipelineRun:
         preview records the refusal in ``warnings``."""
         self.to_key = [k for k in self.plans if k.keyable]
         if self.bake or self.request.draw:
+            posed = {} if self.step is None else step_mod.pose_end(self.context, self.armature,
+                                                                   self.step)
             try:
                 body_mod.check(self.context, self.armature, self.info,
                                [k.pair for k in self.to_key], self.settings, self.frame_start)
@@ -363,6 +359,8 @@ class PipelineRun:
                 if self.bake:
                     raise
                 self.warnings.append(f"a Bake of this plan would stop: {exc}")
+            finally:
+                step_mod.unpose(self.context, self.armature, posed)
 
     def bake_keys(self) -> None:
         """Stage 6 (changes the scene): with ``bake``, the keyable plans keyed
@@ -380,12 +378,17 @@ class PipelineRun:
                 new_action = False
             own_keys.clear_overlapping(self.armature, self.frame_start, self._last())
             self.context.view_layer.update()
+        if self.to_key and self.step is not None:    # the step's keys first
+            new_action = step_mod.key_first(self.context, self.armature, self.step,
+                                            self._last(), new_action)
         if self.to_key and self.lean is not None:
             self.baked = lean_mod.bake(self.context, self.armature, self.info, self.lean,
                                        self.to_key, new_action)
         elif self.to_key:
             self.baked = bake_mod.bake(self.context, self.armature, self.info, self.to_key,
                                        new_action)
+        if self.to_key and self.step is not None:
+            self.baked.frames = (self.step.frame_start, self.baked.frames[1])
         if self.to_key:
             if self.lean is not None:
                 self.turns.update(other_arm_mod.key(
@@ -422,6 +425,7 @@ class PipelineRun:
         outcome.results = task_results(self.info, self.plans, baked.bones if baked else [],
                                        self.request, baked)
         lean_mod.report(outcome.results, self.lean, self.info.arm.arm_length)
+        step_mod.report(outcome.results, self.step)
         for r in outcome.results:
             r.stats.update(self.turns)
             if "gaze_note" in self.turns:

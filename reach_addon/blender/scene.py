@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 import bpy
 import numpy as np
 
-from ..core import Obstacles, ReachError
+from ..core import Obstacles, ReachError, Settings
+from ..core.arm import REACH_SLACK, reach_sphere
 from ..core.sweep import obstacles_from_pieces as core_obstacles_from_pieces
 
 #: Object types whose evaluated geometry can have faces.
@@ -481,3 +482,32 @@ def _mesh_arrays(mesh):
         tris = np.empty(n_t * 3, dtype=np.int32)
         mesh.loop_triangles.foreach_get("vertices", tris)
     return verts.reshape(-1, 3).astype(float), tris.reshape(-1, 3)
+
+
+def reach_bounds(arm, settings: Settings, targets, body_extent: float = 0.0) -> tuple:
+    """(centre, radius, target positions), world space: what :meth:`.scene.KeptObstacles.get`
+    keeps obstacles within — the arm's reach sphere (:func:`~reach_addon.core.arm.reach_sphere`)
+    with :data:`~reach_addon.core.arm.REACH_SLACK` and the clearance to spare, and any
+    object holding a target. With *Lean* on the body moves the shoulder, and the sphere
+    grows by twice ``body_extent`` (:func:`body_extent`: every posture keeps the shoulder
+    tied to the planted feet by the body between, so it stays within that of where it
+    was, and the body itself within it of the shoulder); with *Step* on, by as far as the
+    steps may take it (``steps_max`` × ``step_length`` leg lengths, a leg no longer than
+    ``body_extent``)."""
+    centre, radius = reach_sphere(arm, REACH_SLACK + settings.clearance)
+    if settings.lean:
+        radius += 2.0 * float(body_extent)
+    if settings.lean and settings.stepping:
+        radius += settings.steps_max * settings.step_length * float(body_extent)
+    return centre, radius, np.array([np.array(t.matrix_world.translation) for t in targets])
+
+
+def body_extent(armature, shoulder) -> float:
+    """The farthest any bone's head or tail lies from the ``shoulder`` (world), as the rig
+    stands: a bound on the body's reach from the shoulder through its own chain."""
+    mw = np.array(armature.matrix_world)
+    pts = np.array([p for pb in armature.pose.bones for p in (pb.head, pb.tail)], dtype=float)
+    if not len(pts):
+        return 0.0
+    world = pts @ mw[:3, :3].T + mw[:3, 3]
+    return float(np.linalg.norm(world - np.asarray(shoulder, dtype=float), axis=1).max())

@@ -67,8 +67,11 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
         return NEEDS_STEP, (
             f"target '{name}' is out of reach even leaning {settings.lean_max:.0f}° "
             f"({d.distance / length:.2f} arm lengths from the shoulder): it needs a step "
-            f"of at least {size(d.missing)} toward it ({closest}); move the character or "
-            "the target")
+            f"of at least {size(d.missing)} toward it ({closest}); " + (
+                "with Lean and Step on a single reach steps toward it"
+                if settings.lean and settings.stepping else
+                "turn on Lean and Step to step toward it first (a single reach)") +
+            ", or move the character or the target")
     if d.reason == OUT_OF_REACH:
         if d.missing <= 0:
             where = "no legal arm pose puts the wrist there (joint limits)"

@@ -202,13 +202,13 @@ class Settings:
         0.5, "Swing time", "Seconds a foot takes to swing to its new place (a minimum-jerk "
         "swing: the swing phase of gait is about 0.4 s)", "body", 0.1, 2.0, "s")
     step_weight_time: float = _f(
-        0.3, "Weight shift time", "Seconds the weight takes to shift onto the foot that "
+        0.3, "Shift time", "Seconds the weight takes to shift onto the foot that "
         "stays, before the other lifts, and back between the feet after the last step",
         "body", 0.1, 2.0, "s")
     step_weight_speed: float = _f(
-        0.8, "Weight shift speed", "Fastest the hips move on average as the weight shifts, "
+        0.8, "Shift speed", "Fastest the hips move on average as the weight shifts, "
         "leg lengths a second (about 0.7 m/s on an adult): a shift across a wide stance "
-        "takes longer than Weight shift time", "body", 0.1, 3.0)
+        "takes longer than Shift time", "body", 0.1, 3.0)
     step_weight: float = _f(
         1.0, "Weight shift", "How far the hips move over the foot that stays while the "
         "other swings (a share of the way from over the feet's middle to over its ankle)",

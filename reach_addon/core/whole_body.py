@@ -27,6 +27,10 @@ Where the arm, held at its start, would touch as the trunk leans or find no way 
 the arm goes first (``Settings.lean_ready``, :func:`_ready_lean_reach`): a reach on the
 upright trunk toward where the target will be, the lean with the arm there, then the reach.
 
+Where none of these reaches, the Blender layer steps toward the target first
+(``Settings.stepping``, ``blender/step.py``, :mod:`.step`) and plans the reach, and any
+lean, again from where the step ends.
+
 What these stages leave to later ones, and refuse meanwhile: the ready reach, the lean and
 the reach run one after the other (not blended); the other arm rides on the trunk in the
 plan and its checks (the Blender layer turns it to keep its direction afterwards, and

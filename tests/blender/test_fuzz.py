@@ -443,15 +443,18 @@ def test_a_scene_a_signal_stopped_is_not_recorded_and_runs_again(tmp_path, monke
 
 def test_the_summary_counts_what_the_whole_body_did():
     """A scene's report (the CLI's: each task's statistics flattened into it) says what the
-    body did for each task (``lean_deg``, ``lean_hips_down``, ``lean_ready_frames``); the
+    body did for each task (``lean_deg``, ``lean_hips_down``, ``lean_ready_frames``,
+    ``step_count``); the
     campaign reads it
     (``campaign.body_outcomes``) and fuzz.json counts each outcome."""
     report = {"tasks": [{"reason": None, "lean_deg": 30.0, "lean_hips_down": 0.01},
                         {"reason": None, "lean_deg": 80.0, "lean_hips_down": 0.4,
                          "lean_ready_frames": 20},
                         {"reason": None, "frames": 30},
-                        {"reason": "needs_lean"}]}
-    assert campaign.body_outcomes(report) == ["lean", "squat+ready"]
+                        {"reason": "needs_lean"},
+                        {"reason": None, "step_count": 2},
+                        {"reason": None, "step_count": 3, "lean_deg": 9.0}]}
+    assert campaign.body_outcomes(report) == ["lean", "squat+ready", "step", "step+lean"]
     base = {"features": [], "task": "reach", "rig": "synthetic/mixamo", "time_s": 1.0,
             "category": "success", "detail": ""}
     results = [{**base, "seed": 1, "body": ["lean"]}, {**base, "seed": 2},

@@ -134,13 +134,17 @@ SQUAT_DOWN = 0.05
 def body_outcomes(report: dict) -> list:
     """What the whole body did for each task of a bake's ``report`` that it did something
     for: "lean" or "squat" (the hips down by :data:`SQUAT_DOWN` arm lengths or more), with
-    "+ready" where the arm rose first (``lean_ready_frames``)."""
+    "+ready" where the arm rose first (``lean_ready_frames``); "step" (``step_count``)
+    before either where the body stepped first, alone where it then only reached."""
     out = []
     for stats in report.get("tasks", ()):        # each task's statistics, flattened
-        if not stats.get("lean_deg"):
-            continue
-        kind = "squat" if stats.get("lean_hips_down", 0.0) >= SQUAT_DOWN else "lean"
-        out.append(kind + ("+ready" if stats.get("lean_ready_frames") else ""))
+        kind = "step" if stats.get("step_count") else ""
+        if stats.get("lean_deg"):
+            lean = "squat" if stats.get("lean_hips_down", 0.0) >= SQUAT_DOWN else "lean"
+            kind = (kind + "+" if kind else "") + lean + (
+                "+ready" if stats.get("lean_ready_frames") else "")
+        if kind:
+            out.append(kind)
     return out
 
 

@@ -1,0 +1,158 @@
+"""The step (issue "Reach past the arm", *Step*): on every rig with legs a target
+:data:`SIDE` arm lengths to the reaching side of the shoulder, :data:`BELOW` under it, on a
+counter (:func:`scene`), is reached by stepping toward it, then reaching. Baked as a user's Bake is, with
+*Lean* on (the step comes with it), and measured on what Blender evaluates, with code that
+shares nothing with the planner:
+
+- the wrist (the hand bone's head) ends on the target, within the goal tolerance;
+- a foot on the ground does not slide: between two frames on which a foot stands on the
+  ground (its lowest bone head within :data:`GROUND` arm lengths of where it stood), it
+  moves less than :data:`GROUND` along it; it is in the air (higher than that) only while
+  the other stands; both stand at the end, moved toward the target;
+- the reaching arm keeps the planner's clearance from the counter at every frame and
+  three instants between (``clearance.Arm``), and the rest of the skin stays out of it;
+- the centre of mass stays over the feet on the ground (the report's least margin over
+  every frame, read again wherever a foot moves, not below 0 nor the rig's own).
+
+Without *Step* the same target is refused as ``needs_step``, the message saying so.
+"""
+
+from __future__ import annotations
+
+import bpy
+import clearance
+import everyday
+import numpy as np
+import pytest
+from test_body_lean import (attach_loose_parts, bone_heads, box_signed_distance, open_rig,
+                            skin_vertices)
+from test_every_rig import KINDS, obstacle_triangles, rig_file  # noqa: F401  (the fixture)
+
+#: The target's distance to the reaching side of the shoulder, and under it (arm lengths).
+SIDE, BELOW = 2.3, 0.3
+#: A foot stands on the ground where its lowest bone head is within this of where it stood
+#: (arm lengths); one standing moves less than this between two instants (the issue's
+#: bound on feet that stay is 0.02).
+GROUND = 0.01
+#: Instants measured in a frame (the frame itself and three between).
+INSTANTS = 4
+
+
+def scene(armature, info):
+    """The target, and the counter beyond it: its near edge 0.25 arm lengths past the
+    target, or 2 arm lengths past the figure's farthest bone to that side (a T-posed
+    hand): the step here moves the body up to 1.5, its hips up to about 0.3 past that
+    over the leading foot, and the arm, held as it stands, rides with it."""
+    target = everyday.at(info, 0.0, SIDE, -BELOW)
+    ob = bpy.data.objects.new("Side Cup", None)
+    ob.location = tuple(target)
+    bpy.context.scene.collection.objects.link(ob)
+    shoulder, _fwd, out, _up, length = everyday.body_axes(info)
+    mw = np.array(armature.matrix_world)
+    ends = np.array([p for pb in armature.pose.bones for p in (pb.head, pb.tail)], float)
+    farthest = float(((ends @ mw[:3, :3].T + mw[:3, 3] - shoulder) @ out).max()) / length
+    near = max(SIDE + 0.25, farthest + 2.0)
+    pedestal = everyday.box(info, "Counter", (-0.4, near, -2.0), (0.4, near + 0.4, -BELOW - 0.25))
+    return ob, pedestal
+
+
+def run(addon, armature, info, step=True, bake=True):
+    target, pedestal = scene(armature, info)
+    pipeline = addon.blender.pipeline
+    settings = addon.core.Settings().replace(lean=True, stepping=step)
+    request = pipeline.Request(armature.name, [target.name], task="reach", side="right",
+                               frame_start=1, draw=False, settings=settings)
+    return target, pedestal, pipeline.run(bpy.context, request, bake=bake)
+
+
+def feet_bones(armature, info):
+    """Each foot's bones: those whose heads start in the lowest 10 % of the figure, on
+    either side of the body's middle (not a root bone there, which carries the body)."""
+    heads = bone_heads(armature)
+    up, out = np.asarray(info.frame.up, float), np.asarray(info.frame.right, float)
+    heights = {n: float(p @ up) for n, p in heads.items()}
+    low, high = min(heights.values()), max(heights.values())
+    root = set()                       # a root bone at the feet carries the body: not a foot
+    pb = armature.pose.bones[info.bones.arms["right"].upper_arm]
+    while pb is not None:
+        root.add(pb.name)
+        pb = pb.parent
+    low_names = [n for n, h in heights.items() if h <= low + 0.1 * (high - low) and n not in root]
+    middle = float(np.mean([heads[n] @ out for n in heads]))
+    sides = ([n for n in low_names if heads[n] @ out > middle],
+             [n for n in low_names if heads[n] @ out <= middle])
+    assert all(sides), sides
+    return sides
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_target_two_arm_lengths_to_the_side_is_reached_with_a_step(addon, rig_file, kind,  # noqa: F811
+                                                                     tmp_path):
+    armature = open_rig(rig_file, kind)
+    attach_loose_parts(armature)
+    info = addon.blender.rig.build(armature, "right")
+    length = info.arm.arm_length
+    up = np.asarray(info.frame.up, float)
+    bpy.context.scene.frame_set(1)
+    feet = feet_bones(armature, info)
+    start = bone_heads(armature)
+    target, pedestal, outcome = run(addon, armature, info)
+    result = outcome.results[0]
+    assert result.success, result.message
+    stats = result.stats
+    assert stats["step_count"] >= 1 and "stepping" in result.message, result.to_dict()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / f"step-{kind}.blend"), copy=True)
+    # the feet: standing or in the air, never sliding, one at a time
+    ground0 = [min(float(start[n] @ up) for n in side) for side in feet]
+    arm = clearance.Arm(armature, info)
+    tris = obstacle_triangles(addon, armature)
+    a = info.bones.arms["right"]
+    arm_bones = {a.upper_arm, a.forearm, a.hand} | {
+        c.name for c in armature.pose.bones[a.forearm].children_recursive}
+    before, worst_slide, worst_skin, worst_at = None, 0.0, np.inf, None
+    for f in range(result.frame_start, result.frame_end + 1):
+        for k in range(INSTANTS if f < result.frame_end else 1):
+            bpy.context.scene.frame_set(f, subframe=k / INSTANTS)
+            heads = bone_heads(armature)
+            where = [np.mean([heads[n] for n in side], axis=0) for side in feet]
+            standing = [min(float(heads[n] @ up) for n in side) - g <= GROUND * length
+                        for side, g in zip(feet, ground0)]
+            assert any(standing), f"{kind}: both feet in the air on frame {f} + {k}"
+            if before is not None:
+                for foot in range(2):
+                    if standing[foot] and before[1][foot]:
+                        d = where[foot] - before[0][foot]
+                        slide = float(np.linalg.norm(d - (d @ up) * up)) / length
+                        if slide > worst_slide:
+                            worst_slide, worst_at = slide, (f, k, foot)
+            before = (where, standing)
+            arm.check(tris, f"{kind} frame {f} + {k}/{INSTANTS}")
+            skin = skin_vertices(armature, {pedestal.name}, arm_bones)
+            if len(skin):
+                worst_skin = min(worst_skin, float(box_signed_distance(skin, pedestal).min()))
+    assert worst_slide < GROUND, (kind, worst_slide, worst_at)
+    assert all(before[1]), f"{kind}: a foot ends in the air"
+    out = np.asarray(everyday.body_axes(info)[2])
+    moved = [float((before[0][i] - np.mean([start[n] for n in feet[i]], axis=0)) @ out) / length
+             for i in range(2)]
+    assert min(moved) > 0.3, (kind, moved)
+    assert worst_skin > 0.0, (kind, worst_skin / length)
+    # on the target
+    bpy.context.scene.frame_set(result.frame_end)
+    wrist = bone_heads(armature)[a.hand]
+    tolerance = outcome.request.settings.goal_tolerance * length
+    assert np.linalg.norm(wrist - np.array(target.location)) <= tolerance + 1e-4 * length
+    print(f"STEP {kind}: {stats['step_count']} steps, {stats['step_distance']} arm lengths, "
+          f"{stats['step_frames']} frames; margin planned {stats['step_com_margin']}, least "
+          f"over the bake {stats['com_margin_min']:.4f} (standing {stats['com_margin_start']:.4f})"
+          f"; feet moved {moved}; slide {worst_slide:.5f}")
+    assert stats["com_margin_min"] >= min(0.0, stats["com_margin_start"]) - 1e-4, stats
+
+
+def test_without_step_the_target_is_refused_as_needing_one(addon, rig_file):  # noqa: F811
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    _target, _pedestal, outcome = run(addon, armature, info, step=False, bake=False)
+    result = outcome.results[0]
+    assert not result.success and result.reason == "needs_step", result.message
+    assert "stepping" not in result.message and "turn on Lean and Step" in result.message
