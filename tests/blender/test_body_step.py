@@ -156,3 +156,59 @@ def test_without_step_the_target_is_refused_as_needing_one(addon, rig_file):  # 
     result = outcome.results[0]
     assert not result.success and result.reason == "needs_step", result.message
     assert "stepping" not in result.message and "turn on Lean and Step" in result.message
+
+
+def add_leg_ik(armature):
+    """Give Rigify's metarig a leg IK rig of its own, as a user builds one: a root-level
+    control at each foot (``foot_ik.L/R``, where the foot bone is) and an IK constraint on
+    each shin reaching for it (two bones, no pole)."""
+    bpy.context.view_layer.objects.active = armature
+    bpy.ops.object.mode_set(mode="EDIT")
+    edit = armature.data.edit_bones
+    for side in ("L", "R"):
+        foot = edit[f"foot.{side}"]
+        ik = edit.new(f"foot_ik.{side}")
+        ik.head, ik.tail, ik.roll = foot.head.copy(), foot.tail.copy(), foot.roll
+        ik.use_deform = False
+    bpy.ops.object.mode_set(mode="POSE")
+    for side in ("L", "R"):
+        c = armature.pose.bones[f"shin.{side}"].constraints.new("IK")
+        c.target, c.subtarget, c.chain_count = armature, f"foot_ik.{side}", 2
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.context.view_layer.update()
+
+
+def test_a_leg_ik_rig_steps_with_its_controls(addon, rig_file):  # noqa: F811
+    """Issue "Reach past the arm": a step keys a leg's IK controls where the rig has them.
+    On the metarig with an IK leg of its own (:func:`add_leg_ik`), the step keys each
+    ``foot_ik`` control's location, and as Blender evaluates the bake the shin's end stays
+    on its control (0.002 arm lengths) at every frame and the controls end a whole step
+    on, on the ground."""
+    armature = open_rig(rig_file, "metarig")
+    add_leg_ik(armature)
+    info = addon.blender.rig.build(armature, "right")
+    length = info.arm.arm_length
+    up = np.asarray(info.frame.up, float)
+    bpy.context.scene.frame_set(1)
+    start = bone_heads(armature)
+    _target, _counter, outcome = run(addon, armature, info)
+    result = outcome.results[0]
+    assert result.success and result.stats.get("step_count", 0) >= 1, result.message
+    fcurves = [fc.data_path for fc in addon.blender.body._curves(armature.animation_data.action)]
+    for side in ("L", "R"):
+        assert f'pose.bones["foot_ik.{side}"].location' in fcurves, side
+    mw = np.array(armature.matrix_world)
+    worst = 0.0
+    for f in range(result.frame_start, result.frame_end + 1):
+        bpy.context.scene.frame_set(f)
+        for side in ("L", "R"):
+            shin = mw[:3, :3] @ np.array(armature.pose.bones[f"shin.{side}"].tail) + mw[:3, 3]
+            ik = mw[:3, :3] @ np.array(armature.pose.bones[f"foot_ik.{side}"].head) + mw[:3, 3]
+            worst = max(worst, float(np.linalg.norm(shin - ik)) / length)
+    assert worst < 0.002, worst
+    end = bone_heads(armature)
+    out = np.asarray(everyday.body_axes(info)[2])
+    for side in ("L", "R"):
+        moved = end[f"foot_ik.{side}"] - start[f"foot_ik.{side}"]
+        assert float(moved @ out) / length > 0.3 and abs(float(moved @ up)) < 1e-4 * length, \
+            (side, moved / length)
