@@ -29,7 +29,7 @@ def _f(default, label, doc, group, lo=None, hi=None, unit="", choices=None):
 
 #: The planner's groups of settings (each a sub-panel of Planner Settings); the reach
 #: envelope's fields (group "envelope") are drawn by the Envelope panel.
-GROUPS = ("strength", "limits", "body", "ik", "collision", "search", "workspace", "motion",
+GROUPS = ("strength", "limits", "body", "step", "ik", "collision", "search", "workspace", "motion",
           "orientation")
 
 
@@ -184,38 +184,38 @@ class Settings:
         True, "Step", "With Lean on, where no lean or squat brings a single reach's target "
         "within reach, step toward it first: the weight shifts, the foot on its side "
         "swings and is placed, the other follows, as many steps as Steps limit allows, "
-        "then the arm reaches (leaning or squatting for the rest)", "body")
+        "then the arm reaches (leaning or squatting for the rest)", "step")
     step_reach: float = _f(
         0.85, "Step to", "A step brings the target this far from the shoulder (arm "
-        "lengths): near enough that the arm reaches it without stretching straight", "body",
+        "lengths): near enough that the arm reaches it without stretching straight", "step",
         0.3, 1.0)
     step_length: float = _f(
         0.45, "Step length", "Longest step, in leg lengths (hip to ankle). A step to the "
         "side lands while the weight is over the other foot: a leg reaching 0.45 of its "
         "length to the side of its hip comes down by 11 % of it (the hips bend the knees "
-        "that much); a walking step, about 0.8, has the body between the feet", "body",
+        "that much); a walking step, about 0.8, has the body between the feet", "step",
         0.1, 1.2)
     steps_max: int = _f(
         6, "Steps limit", "Most steps a reach takes toward its target; farther is refused "
-        "as needing to walk", "body", 1, 8)
+        "as needing to walk", "step", 1, 8)
     step_time: float = _f(
         0.5, "Swing time", "Seconds a foot takes to swing to its new place (a minimum-jerk "
-        "swing: the swing phase of gait is about 0.4 s)", "body", 0.1, 2.0, "s")
+        "swing: the swing phase of gait is about 0.4 s)", "step", 0.1, 2.0, "s")
     step_weight_time: float = _f(
         0.3, "Shift time", "Seconds the weight takes to shift onto the foot that "
         "stays, before the other lifts, and back between the feet after the last step",
-        "body", 0.1, 2.0, "s")
+        "step", 0.1, 2.0, "s")
     step_weight_speed: float = _f(
         0.8, "Shift speed", "Fastest the hips move on average as the weight shifts, "
         "leg lengths a second (about 0.7 m/s on an adult): a shift across a wide stance "
-        "takes longer than Shift time", "body", 0.1, 3.0)
+        "takes longer than Shift time", "step", 0.1, 3.0)
     step_weight: float = _f(
         1.0, "Weight shift", "How far the hips move over the foot that stays while the "
         "other swings (a share of the way from over the feet's middle to over its ankle)",
-        "body", 0.0, 1.5)
+        "step", 0.0, 1.5)
     step_lift: float = _f(
         0.06, "Foot lift", "How high a swinging foot rises at mid-swing (leg lengths; "
-        "about 5 cm on an adult)", "body", 0.0, 0.3)
+        "about 5 cm on an adult)", "step", 0.0, 0.3)
     gaze: bool = _f(
         False, "Look at target", "Turn the head toward each target (at the neck, within its "
         "limits), ahead of the hand, and keep it there as the body moves. Off by default "

@@ -232,7 +232,8 @@ class REACH_PT_settings(_Reach, bpy.types.Panel):
 
 
 _LABELS = {"strength": ("Strength", "strength"), "limits": ("Joint Limits", "body"),
-           "body": ("Body Rotation", "body"), "ik": ("Inverse Kinematics", None),
+           "body": ("Body Rotation", "body"), "step": ("Stepping", None),
+           "ik": ("Inverse Kinematics", None),
            "collision": ("Collisions", None), "search": ("Search", None),
            "workspace": ("Workspace", None), "motion": ("Motion", None),
            "orientation": ("Orientation", "orientation")}

@@ -20,7 +20,8 @@ from .properties import OVERRIDES
 
 KINDS = {
     "strength": ("settings", [f.name for f in fields() if f.metadata["group"] == "strength"]),
-    "body": ("settings", [f.name for f in fields() if f.metadata["group"] in ("limits", "body")]),
+    "body": ("settings", [f.name for f in fields()
+                          if f.metadata["group"] in ("limits", "body", "step")]),
     "rigs": ("", ["use_overrides"] + OVERRIDES),
     "orientation": ("settings", [f.name for f in fields() if f.metadata["group"] == "orientation"]),
 }
