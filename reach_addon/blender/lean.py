@@ -261,7 +261,7 @@ def _key_lean(context, armature, info, lean: RigLean, result, hips_keys) -> None
         ready = np.arange(lean.frame_start, lean_first, dtype=float)
         write_channel(channels, full, values[[0] * len(ready)], ready, lean.bone)
     for name, bases in hips_keys.items():
-        _key_bone(channels, armature.pose.bones[name], bases, frames,
+        key_bone(channels, armature.pose.bones[name], bases, frames,
                   [reach_first, last] if last > reach_first else [], name == lean.hips)
     own_keys.record(channels.action, [lean.bone, *hips_keys], lean.frame_start, last)
     context.view_layer.update()
@@ -284,7 +284,7 @@ def _hips_bases(context, armature, info, lean: RigLean) -> dict:
     return {n: np.array(v) for n, v in out.items()}
 
 
-def _key_bone(channels, pb, bases, frames, hold, location: bool) -> None:
+def key_bone(channels, pb, bases, frames, hold, location: bool) -> None:
     """Key ``pb``'s rotation (and ``location``) from its channel matrices ``bases`` on
     ``frames``, and hold the last on the frames ``hold`` (the reach's first and last)."""
     path, values = channel_values(pb, bases)

@@ -14,6 +14,7 @@ chases, moving obstacles and carried targets are read as they are: ``docs/design
 from __future__ import annotations
 
 import math
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import bpy
@@ -350,17 +351,16 @@ class PipelineRun:
         preview records the refusal in ``warnings``."""
         self.to_key = [k for k in self.plans if k.keyable]
         if self.bake or self.request.draw:
-            posed = {} if self.step is None else step_mod.pose_end(self.context, self.armature,
-                                                                   self.step)
-            try:
-                body_mod.check(self.context, self.armature, self.info,
-                               [k.pair for k in self.to_key], self.settings, self.frame_start)
-            except ReachError as exc:
-                if self.bake:
-                    raise
-                self.warnings.append(f"a Bake of this plan would stop: {exc}")
-            finally:
-                step_mod.unpose(self.context, self.armature, posed)
+            with (nullcontext() if self.step is None else
+                  step_mod.posed_at_end(self.context, self.armature, self.step)):
+                try:
+                    body_mod.check(self.context, self.armature, self.info,
+                                   [k.pair for k in self.to_key], self.settings,
+                                   self.frame_start)
+                except ReachError as exc:
+                    if self.bake:
+                        raise
+                    self.warnings.append(f"a Bake of this plan would stop: {exc}")
 
     def bake_keys(self) -> None:
         """Stage 6 (changes the scene): with ``bake``, the keyable plans keyed

@@ -28,7 +28,8 @@ through the reach (where the lean does not key them after), recorded as Reach's 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from contextlib import contextmanager
+from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
@@ -42,8 +43,7 @@ from ..core.whole_body import wants_body
 from . import balance, own_keys, skin
 from . import hips as hips_mod
 from .bake import KeyedPlan
-from .bone_matrices import channel_values
-from .fcurves import Channels, ensure_action, write_channel
+from .fcurves import Channels, ensure_action
 from .lean import lean_bone
 from .lean_balance import FEET_CLEARANCE
 from .own_keys import users_keys
@@ -66,7 +66,6 @@ class RigStep:
     info: object
     margin: float
     lean: object = None
-    restore: dict = field(default_factory=dict)
 
     @property
     def reach_first(self) -> int:
@@ -90,7 +89,7 @@ def pose_step(context, armature, info, legs, hips, motion: StepMotion, frame: in
                         motion.feet[frame])
 
 
-def _why_not(armature, info, legs, hips, settings) -> str | None:
+def _why_not(armature, info, legs, hips) -> str | None:
     if not legs:
         return "Reach finds no legs on this rig, and steps only a body standing on its feet"
     if hips is None:
@@ -119,7 +118,7 @@ def plan(context, armature, info, planner, keyed, reread, bake_closest=False):
     legs = balance.find_legs(armature, info.bones, info.frame)
     bone = lean_bone(armature, info.bones, legs)
     hips = None if bone is None else hips_mod.hips_bone(armature, legs, bone)
-    why = _why_not(armature, info, legs, hips, s)
+    why = _why_not(armature, info, legs, hips)
     result = None
     if why is None:
         result, why = _plan(context, armature, info, planner, keyed, legs, hips, reread,
@@ -346,44 +345,33 @@ def _arm_hit(held, hips, checker):
     return None
 
 
-def pose_end(context, armature, rig_step: RigStep) -> dict:
-    """Pose the rig where the step ends (its bones' last channel matrices); returns their
-    channel matrices before, for :func:`unpose`."""
+@contextmanager
+def posed_at_end(context, armature, rig_step: RigStep):
+    """The rig posed where the step ends (its bones' last channel matrices) within the
+    ``with`` block, as it was after (:class:`.hips.Posed`)."""
     from mathutils import Matrix
 
-    before = {}
-    for n, b in rig_step.bases.items():
-        pb = armature.pose.bones[n]
-        before[n] = pb.matrix_basis.copy()
-        pb.matrix_basis = Matrix(b[-1].tolist())
-    context.view_layer.update()
-    return before
-
-
-def unpose(context, armature, before: dict) -> None:
-    """Put back the channel matrices :func:`pose_end` saved."""
-    for n, m in before.items():
-        armature.pose.bones[n].matrix_basis = m
-    context.view_layer.update()
+    with hips_mod.Posed(context, armature, list(rig_step.bases)):
+        for n, b in rig_step.bases.items():
+            armature.pose.bones[n].matrix_basis = Matrix(b[-1].tolist())
+        context.view_layer.update()
+        yield
 
 
 def key(context, armature, rig_step: RigStep, last: int, keyed_after=()) -> None:
     """Key the step: each moved bone's rotation (and location where it moves, not
-    connected) on the step's frames, the last held to ``last`` (the reach's last frame)
-    unless the lean keys it after (``keyed_after``: bone names); recorded as Reach's own."""
+    connected) on the step's frames (:func:`.lean.key_bone`), the last held to ``last``
+    (the reach's last frame) unless the lean keys it after (``keyed_after``: bone names);
+    recorded as Reach's own."""
+    from .lean import key_bone
+
     channels = Channels(armature, ensure_action(armature, False))
     frames = rig_step.frame_start + np.arange(len(rig_step.motion.hips), dtype=float)
     end = rig_step.reach_first
     for name, bases in rig_step.bases.items():
-        pb = armature.pose.bones[name]
-        path, values = channel_values(pb, bases)
-        keyed = [(f'pose.bones["{name}"].{path}', values)]
-        if name in rig_step.located:
-            keyed.append((f'pose.bones["{name}"].location', bases[:, :3, 3]))
-        for p, v in keyed:
-            write_channel(channels, p, v, frames, name)
-            if last > end and name not in keyed_after:
-                write_channel(channels, p, v[[-1, -1]], np.array([end, last], float), name)
+        hold = [end, last] if last > end and name not in keyed_after else []
+        key_bone(channels, armature.pose.bones[name], bases, frames, hold,
+                 name in rig_step.located)
     own_keys.record(channels.action, list(rig_step.bases), rig_step.frame_start, last)
     context.view_layer.update()
 
