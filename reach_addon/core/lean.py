@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .numeric import cross
 from .torso import rotate_about_spine
 
 #: The canonical frame's up axis (the arm frame: x outward, y forward, z up).
@@ -51,7 +52,7 @@ def lean_axis(pivot, target) -> np.ndarray:
     h = np.array([d[0], d[1], 0.0])
     n = float(np.linalg.norm(h))
     h = h / n if n > 1e-9 else np.array([0.0, 1.0, 0.0])
-    return np.cross(UP, h)
+    return cross(UP, h)
 
 
 def rotate_about(points, pivot, axis, angle_deg) -> np.ndarray:
@@ -64,7 +65,7 @@ def rotate_about(points, pivot, axis, angle_deg) -> np.ndarray:
     t = math.radians(float(angle_deg))
     c, s = math.cos(t), math.sin(t)
     kv = v @ k
-    return p + v * c + np.cross(k, v) * s + k * (kv[..., None] if np.ndim(kv) else kv) * (1.0 - c)
+    return p + v * c + cross(k, v) * s + k * (kv[..., None] if np.ndim(kv) else kv) * (1.0 - c)
 
 
 def lean_rotation(pivot, axis, angle_deg) -> np.ndarray:
@@ -97,7 +98,7 @@ def least_lean(shoulder, pivot, target, reach, lean_max_deg):
     k = lean_axis(p, target)
     kk = float(k @ d) * float(k @ v)
     a = float(d @ v) - kk
-    b = float(d @ np.cross(k, v))
+    b = float(d @ cross(k, v))
     need = 0.5 * (float(d @ d) + float(v @ v) - float(reach) ** 2) - kk
     m = math.hypot(a, b)
     if m <= 1e-12 * max(1.0, float(v @ v)):

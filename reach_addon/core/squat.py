@@ -224,35 +224,48 @@ class _Grid:
         self.steps = np.arange(0.0, deepest + 0.5 * step, step)
         self.com_at = com_table(lambda lean: self.canonical(body.com(lean)), self.pivot,
                                 self.axis, settings.bend_max)
+        # the nodes the legs reach, (η, δ, shift, its world vector), and each one's leg
+        # angles once asked: neither depends on the chest's turn, which rank is asked
+        # again for
+        self.nodes = []
+        for eta in self.steps:
+            for delta in self.steps:
+                shift = -delta * self.h - eta * UP
+                world = self.rot @ shift
+                if all(reach_of(leg, world) for leg in self.legs):
+                    self.nodes.append((eta, delta, shift, world))
+        self.angles = {}
+
+    def leg_angles_at(self, k: int) -> tuple:
+        """The worst (knee, ankle, hip) angles over the legs at node ``k``."""
+        if k not in self.angles:
+            world = self.nodes[k][3]
+            self.angles[k] = tuple(np.max([leg_angles(leg, world, self.up_w)
+                                           for leg in self.legs], axis=0))
+        return self.angles[k]
 
     def rank(self, turn: float, correction) -> list:
-        s, h, legs = self.settings, self.h, self.legs
+        s, h = self.settings, self.h
         shoulder = rotate_about_spine(self.arm.shoulder, turn)
         margin = self.body.margin / self.scale
         reach = s.lean_reach * self.arm.arm_length
         found = []
-        for eta in self.steps:
-            for delta in self.steps:
-                shift = -delta * h - eta * UP
-                world = self.rot @ shift
-                if not all(reach_of(leg, world) for leg in legs):
-                    continue
-                theta = least_lean(shoulder + shift, self.pivot + shift, self.target, reach,
-                                   s.bend_max)
-                if theta is None:
-                    continue
-                centre = shifted_centre(self.com_at(theta), h, delta,
-                                        self.body.planted_share) + correction
-                kept = balance_margin(centre, self.polygon, UP)
-                if kept < margin:
-                    continue
-                knee, ankle, hip = np.max([leg_angles(leg, world, self.up_w) for leg in legs],
-                                          axis=0)
-                if knee > s.knee_max or ankle > s.ankle_max or hip > s.hip_max or \
-                        theta + hip > s.hip_max + s.spine_max:
-                    continue
-                found.append(Squat(Lean(self.pivot, self.axis, float(theta), shift),
-                                   effort(theta, knee, ankle, hip, s), float(knee),
-                                   float(ankle), float(hip), kept * self.scale, turn, centre))
+        for k, (_eta, delta, shift, _world) in enumerate(self.nodes):
+            theta = least_lean(shoulder + shift, self.pivot + shift, self.target, reach,
+                               s.bend_max)
+            if theta is None:
+                continue
+            centre = shifted_centre(self.com_at(theta), h, delta,
+                                    self.body.planted_share) + correction
+            kept = balance_margin(centre, self.polygon, UP)
+            if kept < margin:
+                continue
+            knee, ankle, hip = self.leg_angles_at(k)
+            if knee > s.knee_max or ankle > s.ankle_max or hip > s.hip_max or \
+                    theta + hip > s.hip_max + s.spine_max:
+                continue
+            found.append(Squat(Lean(self.pivot, self.axis, float(theta), shift),
+                               effort(theta, knee, ankle, hip, s), float(knee),
+                               float(ankle), float(hip), kept * self.scale, turn, centre))
         found.sort(key=lambda q: (round(q.effort, 9), -float(q.lean.shift[2]), q.lean.angle))
         return found
