@@ -295,6 +295,17 @@ def support_now(armature, legs, up) -> tuple:
     return core_balance.polygon_of([basis.T @ c for c in rectangles] + joints, up), "bones"
 
 
+def ground_now(armature, legs, up) -> float:
+    """The height (along the unit ``up``) of the ground the feet stand on now: the lowest
+    point of their soles' skin (:func:`_sole`), else of their bones' joints."""
+    u = np.asarray(up, dtype=float) / np.linalg.norm(up)
+    points = [p for leg in legs for p in _sole(armature, leg, u)]
+    if not points:
+        points = [point_of(armature, (n, end)) for leg in legs for n in leg.foot_bones
+                  for end in ("head", "tail")] + [point_of(armature, leg.toe) for leg in legs]
+    return float(min(float(np.asarray(p) @ u) for p in points))
+
+
 def _sole(armature, leg, up) -> np.ndarray:
     """The skin of ``leg``'s foot within :data:`SOLE_BAND` of the leg's length above the
     foot's own lowest point (world, (n, 3)); empty where the foot has no skin. Each foot's

@@ -26,7 +26,11 @@ from mathutils import Matrix
 
 from .. import atomic
 from ..core.envelope import CLASSES, COLOURS, OUT
-from . import viz
+from ..core.stance import Stance
+from . import balance, viz
+from . import hips as hips_mod
+from .lean import lean_bone
+from .lean_pose import pivot_world
 from .scene import VIZ_TAG, ObstacleCache, character_objects, rounded_bytes
 
 MESH_NAME = "Reach Envelope"
@@ -34,6 +38,38 @@ MESH_NAME = "Reach Envelope"
 MARKER_SHARE = 0.22
 
 _cache: dict = {}          # scene name -> (key, EnvelopeOutcome)
+
+
+def read_stance(armature, info, settings) -> Stance | None:
+    """The body as it stands now (:class:`~reach_addon.core.stance.Stance`, world), for the
+    envelope's squat and step classes; None without Lean or where Reach finds no legs or
+    no bone to lean the trunk (:func:`.lean.lean_bone`), as a reach would not lean there.
+    Its margin is a reach's: ``Settings.balance_margin`` arm lengths inside the feet, over
+    the rig's own where it stands past them."""
+    if not settings.lean:
+        return None
+    legs = balance.find_legs(armature, info.bones, info.frame)
+    bone = lean_bone(armature, info.bones, legs)
+    if bone is None:
+        return None
+    up = np.asarray(info.frame.up, dtype=float)
+    point = balance.point_of
+    ankles = np.array([point(armature, leg.ankle) for leg in legs])
+    floor = min(0.0, balance.margin_now(armature, info.bones, legs, up))
+    return Stance(
+        segments=tuple(balance.body_segments(armature, info.bones, legs)),
+        arm=3 * list(info.bones.arms).index(info.side),
+        pivot=pivot_world(armature, bone), to_world=np.asarray(info.arm.to_world, float),
+        polygon=balance.support_now(armature, legs, up)[0], up=up,
+        planted_share=hips_mod.PLANTED_SHARE, floor=floor,
+        margin=floor + settings.balance_margin * info.arm.arm_length,
+        leg_joints=tuple(hips_mod.leg_joints(armature, legs,
+                                             np.asarray(info.frame.forward, float))),
+        ankles=ankles,
+        leg_length=float(np.mean([np.linalg.norm(point(armature, leg.hip) - a)
+                                  for leg, a in zip(legs, ankles)])),
+        shoulder=np.asarray(info.joints_world["shoulder"], dtype=float),
+        ground=balance.ground_now(armature, legs, up))
 
 
 def state_key(context, request) -> str:

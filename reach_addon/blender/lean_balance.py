@@ -32,15 +32,8 @@ def reaching_segments(armature, info, legs, target=None) -> list:
     if target is None:
         return out
     k = 3 * list(info.bones.arms).index(info.side)
-    (_u, s, e), (_f, _e, w), (_h, _w, tip) = out[k:k + 3]
-    s = np.asarray(s, dtype=float)
-    upper, fore, hand = (float(np.linalg.norm(np.asarray(b) - np.asarray(a)))
-                         for a, b in ((s, e), (e, w), (w, tip)))
-    d = np.asarray(target, dtype=float) - s
-    u = d / max(float(np.linalg.norm(d)), 1e-12)
-    w = s + min(float(np.linalg.norm(d)), upper + fore) * u
-    e = s + upper / max(upper + fore, 1e-12) * (w - s)
-    out[k:k + 3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, w + hand * u)]
+    lengths = [float(np.linalg.norm(np.asarray(b) - np.asarray(a))) for _k, a, b in out[k:k + 3]]
+    out[k:k + 3] = core_balance.arm_toward(out[k][1], lengths, target)
     return out
 
 

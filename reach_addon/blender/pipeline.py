@@ -37,6 +37,7 @@ from . import rig as rig_mod
 from . import viz
 from .bake import KeyedPlan
 from .carried import carried_targets
+from .envelope import read_stance
 from .results import arm_note, measure_baked, start_as_it_shows, task_results
 from .scene import (KEPT, ObstacleCache, body_extent, character_objects, finite, gather_pieces,
                     reach_bounds, visit_obstacles)
@@ -576,7 +577,8 @@ def envelope_steps(context, request: Request, chunk: int = 64, world=None):
         points = info.arm.to_canonical_points(np.atleast_2d(np.asarray(world, dtype=float)))
         coords = envelope_mod.canonical_to_shoulder_frame(info.arm, points)
     planner = Planner(info.arm, obstacles, envelope_mod.exhaustive(s))
-    env = yield from relay(envelope_mod.envelope_steps(planner.generator, points, chunk),
+    stance = read_stance(armature, info, s)
+    env = yield from relay(envelope_mod.envelope_steps(planner.generator, points, chunk, stance),
                            lambda done: (0.05 + 0.95 * done, f"{round(done * len(points))} of "
                                          f"{len(points)} points"))
     return EnvelopeOutcome(request, info, env, info.arm.to_world_points(points), coords,

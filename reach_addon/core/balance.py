@@ -28,6 +28,8 @@ import math
 
 import numpy as np
 
+from .numeric import cross
+
 #: Segment mass as a fraction of body mass, and the segment's centre of mass as a fraction
 #: of its length from the proximal end. Winter, D. A. (2009), *Biomechanics and Motor
 #: Control of Human Movement*, 4th ed., Table 4.1 (after Dempster). The trunk runs from
@@ -72,14 +74,29 @@ def centre_of_mass(segments) -> np.ndarray:
     return acc / total
 
 
+def arm_toward(shoulder, lengths, target) -> list:
+    """An arm held straight from ``shoulder`` toward ``target`` (world), the wrist at most on
+    it: [("upper_arm", s, e), ("forearm", e, w), ("hand", w, t)] for ``lengths`` (upper arm,
+    forearm, hand). With ``u`` the unit direction to the target and ``d`` its distance,
+    :math:`w = s + \\min(d, l_1 + l_2)\\,u`, the elbow on the way at :math:`l_1/(l_1+l_2)`
+    of it and the hand's end :math:`l_3` on: an estimate of where a reaching arm ends."""
+    s = np.asarray(shoulder, dtype=float)
+    upper, fore, hand = (float(x) for x in lengths)
+    d = np.asarray(target, dtype=float) - s
+    u = d / max(float(np.linalg.norm(d)), 1e-12)
+    w = s + min(float(np.linalg.norm(d)), upper + fore) * u
+    e = s + upper / max(upper + fore, 1e-12) * (w - s)
+    return [("upper_arm", s, e), ("forearm", e, w), ("hand", w, w + hand * u)]
+
+
 def ground_basis(up) -> np.ndarray:
     """Two unit vectors (2, 3) spanning the ground plane perpendicular to ``up``."""
     u = np.asarray(up, dtype=float)
     u = u / np.linalg.norm(u)
     seed = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    a = np.cross(u, seed)
+    a = cross(u, seed)
     a /= np.linalg.norm(a)
-    return np.stack([a, np.cross(u, a)])
+    return np.stack([a, cross(u, a)])
 
 
 def _hull(points: np.ndarray) -> np.ndarray:

@@ -234,12 +234,19 @@ def _beyond_reach(generator, wrist, sol) -> Diagnosis:
     axis within that tilt is the true one; a far target is a step away, by its
     distance."""
     arm = generator.arm
-    shoulder = sol.shoulder[0]
+    return beyond_reach(sol.shoulder[0], arm.waist, wrist, arm.arm_length,
+                        generator.settings.lean_max)
+
+
+def beyond_reach(shoulder, waist, wrist, reach: float, lean_max: float) -> Diagnosis:
+    """:func:`_beyond_reach`'s sorting of a canonical ``wrist`` no legal arm pose reaches,
+    from the ``shoulder``, the lean's pivot ``waist`` and the straight arm's ``reach``
+    (``lean_max`` degrees of lean at most)."""
+    shoulder, wrist = np.asarray(shoulder, dtype=float), np.asarray(wrist, dtype=float)
     distance = float(np.linalg.norm(wrist - shoulder))
-    reach = arm.arm_length
     if distance <= reach:
         return Diagnosis(OUT_OF_REACH, distance=distance, missing=0.0)
-    lean = least_lean(shoulder, arm.waist, wrist, reach, generator.settings.lean_max)
+    lean = least_lean(shoulder, waist, wrist, reach, lean_max)
     if lean is not None:
         return Diagnosis(NEEDS_LEAN, distance=distance, missing=distance - reach, lean_deg=lean)
     height = float(wrist[2] - shoulder[2])

@@ -22,6 +22,19 @@ With ``Settings.lean`` on, a point no arm pose reaches is ``lean`` where a lean 
 trunk brings it within reach (:func:`leanable`: as the ``needs_lean`` refusal reads it,
 about the arm model's waist, at most ``Settings.lean_max``, the chest turned as the
 planner may turn it; the balance, which the Blender layer weighs on the rig, is not).
+Given the body as it stands (a :class:`~.stance.Stance`, which the Blender layer reads
+from the rig's legs and segments), the rest are, in the order a reach recruits them:
+
+- ``squat`` where a squat or bend does (:func:`squattable`: the posture
+  :func:`~.squat.squat_leans` would choose, its joints within their limits and the centre
+  of mass, the stance's rigid estimate, kept the balance margin inside the feet);
+- ``step`` where ``Settings.stepping`` is on and steps along the ground do
+  (:func:`steppable`: :func:`~.step.plan_step` finds at most ``Settings.steps_max`` of
+  them, the point then within ``Settings.step_reach`` of the shoulder).
+
+Like ``lean``, they say a posture exists; a Bake weighs the balance on the rig as it
+poses it and checks the whole skin, and may still refuse one (an obstacle in the way of
+the trunk, a foot's path blocked).
 """
 
 from __future__ import annotations
@@ -34,20 +47,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import ik
+from .diagnosis import beyond_reach
+from .errors import OUT_OF_REACH
 from .generator import CHEST_FIT_STEP
 from .lean import chest_turns, choose_lean
+from .squat import squat_leans
+from .step import plan_step
+from .whole_body import below_the_arm
 
-#: The classes, in the order of their codes (0 … 5).
-CLASSES = ("f_R 0", "f_R 1", "f_R 2", "chest", "blocked", "lean", "out")
-CHEST, BLOCKED, LEAN, OUT = 3, 4, 5, 6
+#: The classes, in the order of their codes (0 … 8).
+CLASSES = ("f_R 0", "f_R 1", "f_R 2", "chest", "blocked", "lean", "squat", "step", "out")
+CHEST, BLOCKED, LEAN, SQUAT, STEP, OUT = 3, 4, 5, 6, 7, 8
 #: Display colours (linear RGBA) per class: green, yellow, red for the three strength
-#: categories, blue for chest rotation, grey for blocked, purple for a lean; out-of-reach
-#: points are not drawn.
+#: categories, blue for chest rotation, grey for blocked, purple for a lean, pink for a
+#: squat, cyan for a step; out-of-reach points are not drawn.
 COLOURS = ((0.10, 0.75, 0.15, 1.0), (0.95, 0.80, 0.05, 1.0), (0.90, 0.12, 0.08, 1.0),
            (0.15, 0.45, 0.95, 1.0), (0.45, 0.45, 0.45, 1.0), (0.60, 0.25, 0.85, 1.0),
-           (0.0, 0.0, 0.0, 0.0))
+           (0.90, 0.35, 0.60, 1.0), (0.10, 0.75, 0.80, 1.0), (0.0, 0.0, 0.0, 0.0))
 LABELS = ("Strong (f_R 0)", "Fair (f_R 1)", "Weak (f_R 2)", "Chest turn only", "Blocked",
-          "By a lean", "Out of reach")
+          "By a lean", "By a squat", "By a step", "Out of reach")
 
 
 def grid_coordinates(resolution: int, extent: float) -> np.ndarray:
@@ -106,13 +124,14 @@ class Envelope:
         return {name: int(np.count_nonzero(self.classes == k)) for k, name in enumerate(CLASSES)}
 
 
-def classify_point(generator, point, legal: bool | None = None) -> tuple:
+def classify_point(generator, point, legal: bool | None = None, stance=None) -> tuple:
     """(class, f_R or -1) of one canonical wrist point, with the planner's generator (made
     with :func:`exhaustive` settings; see the module docstring), at the chest rotation a
     reach would arrive there with (``ConfigurationGenerator.target_chest``: Table 1's
     where it fits, else the nearest that does). ``legal``: whether some legal arm pose
     (joint limits, any chest rotation of the range) puts the wrist there, if the caller
-    knows.
+    knows; ``stance``: the body as it stands (:class:`~.stance.Stance`), for the squat and
+    step classes.
 
     Without a clear pose the point is ``blocked`` or ``out`` as
     :func:`~reach_addon.core.diagnosis.diagnose_target` sorts it
@@ -130,7 +149,102 @@ def classify_point(generator, point, legal: bool | None = None) -> tuple:
         legal = bool(legal_anywhere(generator, point[None])[0])
     if legal or generator.obstacles.point_inside(generator.arm.to_world_points(point)):
         return BLOCKED, -1
-    return (LEAN if leanable(generator.arm, point, generator.settings) else OUT), -1
+    return body_class(generator.arm, point, generator.settings, stance), -1
+
+
+def body_class(arm, point, settings, stance=None) -> int:
+    """The class of a canonical ``point`` no arm pose reaches, by what of the body would,
+    as a single reach recruits it (see the module docstring): :data:`LEAN` where a lean
+    does (:func:`leanable`); where the point lies surely below the arm
+    (:func:`~.diagnosis.beyond_reach` says ``out_of_reach`` and it lies below the shoulder
+    past the arm's length, :func:`~.whole_body.below_the_arm`, as for a refused reach, and
+    ``Settings.squat`` is on), :data:`SQUAT` where a squat does (:func:`squattable`);
+    else :data:`STEP` where steps do (:func:`steppable`); else :data:`OUT`. Without Lean,
+    or without a ``stance``, only the first; a point below the ground the feet stand on
+    is :data:`OUT`."""
+    if leanable(arm, point, settings):
+        return LEAN
+    if stance is None or not settings.lean:
+        return OUT
+    world = arm.to_world_points(np.asarray(point, dtype=float)[None])[0]
+    if float(world @ np.asarray(stance.up, dtype=float)) < stance.ground:
+        return OUT
+    low = beyond_reach(arm.shoulder, arm.waist, point, arm.arm_length, settings.lean_max)
+    if settings.squat and low.reason == OUT_OF_REACH and below_the_arm(arm, point) and \
+            squattable(arm, point, settings, stance):
+        return SQUAT
+    return STEP if steppable(arm, point, settings, stance) else OUT
+
+
+#: The envelope's squat grid (arm lengths between the hips' drops and shifts tried) at
+#: its finest, and how many chest turns it tries: coarser than a reach's choice
+#: (``Settings.squat_step``, 0.05, and every :data:`~.lean.CHEST_TURN_STEP` degrees), as
+#: a reach's takes 0.3 s a point and up to 25 times that where none is found (the
+#: standard figure), too slow for hundreds of points. A coarser grid only has fewer
+#: postures, so the class is conservative: a point classed ``squat`` has one; one left
+#: ``step`` or ``out`` may still be squatted by a reach.
+ENVELOPE_SQUAT_STEP = 0.1
+ENVELOPE_TURNS = 3
+
+
+def envelope_turns(settings, count: int = ENVELOPE_TURNS) -> list:
+    """``count`` chest turns from :func:`~.lean.chest_turns` spread over its range (its
+    middle, 0°, first; with three, 0° and both ends)."""
+    turns = chest_turns(settings)
+    picks = np.unique(np.round(np.linspace(0, len(turns) - 1, max(1, int(count)))).astype(int))
+    return sorted((turns[i] for i in picks), key=abs)
+
+
+def squattable(arm, point, settings, stance, step: float = ENVELOPE_SQUAT_STEP,
+               turns: int = ENVELOPE_TURNS) -> bool:
+    """Whether a squat or bend brings the canonical ``point`` within ``Settings.lean_reach``
+    of the shoulder: :func:`~.squat.squat_leans` finds a posture for it on the ``stance``
+    (its joints within their limits, the centre of mass the margin inside the feet) on a
+    grid ``step`` arm lengths apart at its finest, the chest turned by one of ``turns``
+    turns of its range (:data:`ENVELOPE_SQUAT_STEP`, :func:`envelope_turns`). Points no
+    hips' drop could bring near are passed over first: the pivot moves at most the legs'
+    length back and down, so a point farther from every such pivot than the shoulder's
+    distance from it and the reach is out (:func:`squat_bound`)."""
+    point = np.asarray(point, dtype=float)
+    pivot = arm.to_canonical_points(np.asarray(stance.pivot, dtype=float)[None])[0]
+    if not squat_bound(arm, point, pivot, settings, stance):
+        return False
+    target = stance.toward(arm.to_world_points(point[None])[0])
+    coarse = settings.replace(squat_step=max(float(settings.squat_step), float(step)))
+    return bool(squat_leans(arm, point, pivot, coarse, envelope_turns(settings, turns), target))
+
+
+def squat_bound(arm, point, pivot, settings, stance) -> bool:
+    """The necessary condition :func:`squattable` checks first: with ``x`` the point's
+    horizontal distance from the pivot and ``z`` its height over it (canonical, z up),
+    ``d`` the legs' length (hip to ankle) and ``r`` the shoulder's distance from the pivot
+    plus ``Settings.lean_reach`` arm lengths, the distance from the point to the rectangle
+    of pivots the hips' drop η and shift δ reach (both in [0, d], back and down),
+
+    .. math:: \\sqrt{\\max(0, x)^2 + \\max(0, -d - z,\\, z)^2} \\le r."""
+    scale = abs(float(np.linalg.det(np.asarray(arm.to_world, float)[:3, :3]))) ** (1.0 / 3.0)
+    d = float(stance.leg_length) / scale
+    v = np.asarray(point, dtype=float) - np.asarray(pivot, dtype=float)
+    x, z = float(np.hypot(v[0], v[1])), float(v[2])
+    dz = max(0.0, -d - z, z)
+    r = float(np.linalg.norm(np.asarray(arm.shoulder, float) - pivot)) + \
+        settings.lean_reach * arm.arm_length
+    return bool(np.hypot(x, dz) <= r)
+
+
+def steppable(arm, point, settings, stance) -> bool:
+    """Whether ``Settings.stepping`` is on and steps along the ground bring the canonical
+    ``point`` within ``Settings.step_reach`` arm lengths of the shoulder
+    (:func:`~.step.plan_step`: at most ``Settings.steps_max`` steps of
+    ``Settings.step_length`` leg lengths; the point neither too high nor too low for
+    that)."""
+    if not settings.stepping:
+        return False
+    world = arm.to_world_points(np.asarray(point, dtype=float)[None])[0]
+    scale = abs(float(np.linalg.det(np.asarray(arm.to_world, float)[:3, :3]))) ** (1.0 / 3.0)
+    step, _why = plan_step(stance.shoulder, world, stance.ankles, stance.up,
+                           arm.arm_length * scale, stance.leg_length, settings)
+    return step is not None
 
 
 def leanable(arm, point, settings) -> bool:
@@ -164,9 +278,11 @@ def legal_anywhere(generator, points) -> np.ndarray:
     return legal
 
 
-def envelope_steps(generator, points, chunk: int = 64):
+def envelope_steps(generator, points, chunk: int = 64, stance=None):
     """Classify canonical ``points`` (n, 3) as a generator: yields the fraction done every
-    ``chunk`` points and returns the :class:`Envelope` (the same however it is consumed)."""
+    ``chunk`` points and returns the :class:`Envelope` (the same however it is consumed).
+    ``stance``: the body as it stands, for the squat and step classes
+    (:func:`body_class`)."""
     points = np.asarray(points, dtype=float)
     n = len(points)
     classes = np.full(n, OUT, dtype=np.int8)
@@ -180,13 +296,12 @@ def envelope_steps(generator, points, chunk: int = 64):
     inside = [generator.obstacles.point_inside(w) for w in arm.to_world_points(points[~legal])]
     classes[np.flatnonzero(~legal)[np.array(inside, bool)]] = BLOCKED
     for i in np.flatnonzero(classes == OUT):
-        if leanable(arm, points[i], generator.settings):
-            classes[i] = LEAN
+        classes[i] = body_class(arm, points[i], generator.settings, stance)
     todo = np.flatnonzero(legal)
     spent = time.perf_counter() - t0
     for k, i in enumerate(todo):
         t0 = time.perf_counter()
-        classes[i], f_r[i] = classify_point(generator, points[i], True)
+        classes[i], f_r[i] = classify_point(generator, points[i], True, stance)
         spent += time.perf_counter() - t0
         if chunk and (k + 1) % chunk == 0 and k + 1 < len(todo):
             yield (k + 1) / len(todo)

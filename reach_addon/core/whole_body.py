@@ -191,7 +191,13 @@ def wants_body(settings, task, failed, arm) -> bool:
         return True
     if failed.reason != OUT_OF_REACH or not settings.squat:
         return False
-    d = arm.to_canonical_points(np.asarray(task.targets[0], dtype=float)) - arm.shoulder
+    return below_the_arm(arm, arm.to_canonical_points(np.asarray(task.targets[0], dtype=float)))
+
+
+def below_the_arm(arm, target_c) -> bool:
+    """Whether the canonical ``target_c`` lies below the shoulder and beyond the arm's
+    length from it (where a squat may help: :func:`wants_body`)."""
+    d = np.asarray(target_c, dtype=float) - arm.shoulder
     return float(np.linalg.norm(d)) > arm.arm_length and float(d[2]) < 0.0
 
 

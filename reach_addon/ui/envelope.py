@@ -77,6 +77,8 @@ class REACH_PG_envelope(bpy.types.PropertyGroup):
     colour_3: _colour(3)
     colour_4: _colour(4)
     colour_5: _colour(5)
+    colour_6: _colour(6)
+    colour_7: _colour(7)
 
 
 class REACH_OT_envelope(_Run, bpy.types.Operator):

@@ -1,0 +1,110 @@
+"""The reach envelope's whole-body classes on real rigs (issue "Reach past the arm", item 5:
+the envelope gains classes reachable by a lean, by a squat, by a step), borne out by Bakes.
+
+Each rig stands on a floor (``test_body_squat.scene``: a box whose top is the lowest point
+of its skin). Its envelope, with *Lean* on, over a cube :data:`EXTENT` arm lengths from the
+shoulder, is asked; then a point of each whole-body class is baked as a user's Bake is:
+
+- the ``squat`` point nearest :data:`SQUAT_AT` (low and ahead) is reached, and the report
+  says the hips came down or the trunk bent past the lean's limit;
+- the ``step`` point nearest :data:`STEP_AT` (far to the reaching side) is reached, and the
+  report counts the steps.
+
+Nothing below the floor is classed reachable, and without *Lean* neither class appears.
+Measured on what Blender evaluates: the wrist (the hand bone's head) on the target.
+"""
+
+from __future__ import annotations
+
+import bpy
+import numpy as np
+import pytest
+from test_body_lean import attach_loose_parts, open_rig
+from test_body_squat import scene as floor_scene
+from test_every_rig import ON_TARGET, rig_file  # noqa: F401  (the fixture)
+
+#: The envelope's cube: half its side (arm lengths) and points a side.
+EXTENT, RESOLUTION = 2.4, 9
+#: Where the points baked are chosen near (forward, outward, up; arm lengths from the
+#: shoulder): a cup low ahead, something far to the reaching side a little below.
+SQUAT_AT = (0.6, 0.0, -1.2)
+STEP_AT = (0.0, 2.2, -0.3)
+RIGS = ("metarig", "quaternius")
+
+
+def envelope(addon, armature, settings):
+    pipeline = addon.blender.pipeline
+    settings = settings.replace(envelope_extent=EXTENT, envelope_resolution=RESOLUTION)
+    request = pipeline.Request(armature.name, [], side="right", settings=settings)
+    return pipeline.envelope(bpy.context, request)
+
+
+def bake_at(addon, armature, world, settings):
+    ob = bpy.data.objects.new("Envelope Point", None)
+    ob.location = tuple(float(x) for x in world)
+    bpy.context.scene.collection.objects.link(ob)
+    pipeline = addon.blender.pipeline
+    request = pipeline.Request(armature.name, [ob.name], task="reach", side="right",
+                               frame_start=1, draw=False, settings=settings)
+    return ob, pipeline.run(bpy.context, request, bake=True)
+
+
+def wrist_at_end(armature, info, result):
+    bpy.context.scene.frame_set(result.frame_end)
+    a = info.bones.arms["right"]
+    pb = armature.pose.bones[a.hand]
+    return np.array(armature.matrix_world @ pb.head)
+
+
+def fresh(rig_file, kind, info):  # noqa: F811
+    """The rig opened again as it stands, on its floor (``test_body_squat.scene``'s)."""
+    armature = open_rig(rig_file, kind)
+    attach_loose_parts(armature)
+    bpy.context.scene.frame_set(1)
+    cup, _floor = floor_scene(armature, info)
+    bpy.data.objects.remove(cup)
+    return armature
+
+
+@pytest.mark.parametrize("kind", RIGS)
+def test_a_squat_point_and_a_step_point_of_the_envelope_are_reached_so(addon, rig_file,  # noqa: F811
+                                                                        kind):
+    armature = open_rig(rig_file, kind)
+    info = addon.blender.rig.build(armature, "right")
+    armature, floor = fresh(rig_file, kind, info), bpy.data.objects["Floor"]
+    core = addon.core
+    settings = core.Settings().replace(lean=True)
+    env = envelope(addon, armature, settings)
+    classes, coords = env.envelope.classes, env.shoulder
+    counts = env.envelope.counts()
+    print(f"ENVELOPE {kind}: {counts}")
+    squat, step = core.envelope.SQUAT, core.envelope.STEP
+    up = np.asarray(info.frame.up, float)
+    top = float(np.max([np.array(floor.matrix_world @ v.co) @ up for v in floor.data.vertices]))
+    reachable = np.isin(classes, (core.envelope.LEAN, squat, step))
+    assert not np.any(env.world[reachable] @ up < top - 1e-6)
+    assert counts["squat"] and counts["step"], counts
+    length = info.arm.arm_length
+    for cls, near in ((squat, SQUAT_AT), (step, STEP_AT)):
+        pick = np.flatnonzero(classes == cls)
+        i = pick[np.argmin(np.linalg.norm(coords[pick] - np.asarray(near), axis=1))]
+        armature = fresh(rig_file, kind, info)
+        target, outcome = bake_at(addon, armature, env.world[i], settings)
+        result = outcome.results[0]
+        print(f"ENVELOPE {kind} {core.envelope.CLASSES[cls]} at {coords[i]}: {result.message} "
+              f"{ {k: v for k, v in result.stats.items() if k.startswith(('lean', 'step'))} }")
+        assert result.success, (coords[i], result.message)
+        assert np.linalg.norm(wrist_at_end(armature, info, result) - env.world[i]) <= \
+            ON_TARGET * length
+        if cls == squat:
+            assert result.stats["lean_hips_down"] > 0.0 or \
+                result.stats["lean_deg"] > settings.lean_max, result.stats
+        else:
+            assert result.stats["step_count"] >= 1, result.stats
+
+
+def test_without_lean_no_point_is_classed_by_the_body(addon, rig_file):  # noqa: F811
+    armature = open_rig(rig_file, "metarig")
+    env = envelope(addon, armature, addon.core.Settings())
+    counts = env.envelope.counts()
+    assert counts["lean"] == counts["squat"] == counts["step"] == 0, counts

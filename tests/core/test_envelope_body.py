@@ -1,0 +1,154 @@
+"""The reach envelope's whole-body classes (``squat``, ``step``) on the standard figure
+given a body of its own (a :class:`~reach_addon.core.stance.Stance` built here by hand: the
+legs and feet of ``test_squat``, Winter's segments on them), checked by geometry written
+out here: the stance's centre of mass by Rodrigues' rotation, the step by the distance
+along the ground, and the squat's quick bound against the full search it saves."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from geometry import standard_arm
+from test_squat import FEET, LEGS, UP
+
+from reach_addon.core import OUT_OF_REACH, Settings
+from reach_addon.core import envelope
+from reach_addon.core.diagnosis import beyond_reach
+from reach_addon.core.balance import centre_of_mass, polygon_of
+from reach_addon.core.lean import Lean
+from reach_addon.core.squat import squat_leans
+from reach_addon.core.stance import Stance
+from reach_addon.core.steps import drain
+from reach_addon.core.whole_body import below_the_arm
+from reach_addon.core import Planner
+
+#: The figure's hips' midpoint and its ground (world, metres).
+HIPS, GROUND = np.array([0.0, 0.0, 0.90]), 0.0
+
+
+def stance(arm) -> Stance:
+    """The standard figure standing: both arms hanging from its shoulders, the trunk from
+    the hips to the shoulders' middle, the head above, the legs of ``test_squat``."""
+    right = arm.to_world_points(np.asarray(arm.shoulder, float)[None])[0]
+    left = right * np.array([-1.0, 1.0, 1.0])
+    down = np.array([0.0, 0.0, -1.0])
+    segments = []
+    for s in (right, left):
+        e, w = s + 0.30 * down, s + 0.56 * down
+        segments += [("upper_arm", s, e), ("forearm", e, w), ("hand", w, w + 0.18 * down)]
+    for leg in LEGS:
+        segments += [("thigh", leg.hip, leg.knee), ("shank", leg.knee, leg.ankle),
+                     ("foot", leg.ankle, leg.ankle + np.array([0.0, -0.15, -0.08]))]
+    top = 0.5 * (right + left)
+    segments += [("trunk", HIPS, top), ("head_neck", top, top + np.array([0.0, 0.0, 0.25]))]
+    return Stance(segments=tuple(segments), arm=0, pivot=HIPS + np.array([0.0, 0.0, 0.1]),
+                  to_world=np.asarray(arm.to_world, float), polygon=polygon_of(FEET, UP),
+                  up=UP, planted_share=0.12, margin=0.02, floor=0.0, leg_joints=tuple(LEGS),
+                  ankles=np.array([leg.ankle for leg in LEGS]),
+                  leg_length=float(np.linalg.norm(LEGS[0].hip - LEGS[0].ankle)),
+                  shoulder=right, ground=GROUND)
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return standard_arm()
+
+
+def rodrigues(axis, degrees) -> np.ndarray:
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    t = math.radians(degrees)
+    return np.eye(3) + math.sin(t) * kx + (1 - math.cos(t)) * kx @ kx
+
+
+def test_a_lean_turns_the_trunk_head_and_arms_about_the_pivot_and_leaves_the_legs(arm):
+    body = stance(arm)
+    lean = Lean(arm.to_canonical_points(body.pivot[None])[0], np.array([1.0, 0.0, 0.0]), 0.0)
+    np.testing.assert_allclose(body.com(lean), centre_of_mass(body.segments), atol=1e-12)
+    # toward a target ahead (canonical +y) the trunk tips about up × ahead = -x
+    tipped = Lean(lean.pivot, np.array([-1.0, 0.0, 0.0]), 40.0)
+    world_axis = arm.to_world_vectors(np.array([-1.0, 0.0, 0.0]))
+    r = rodrigues(world_axis, 40.0)
+    o = body.pivot
+    expected = []
+    for kind, a, b in body.segments:
+        if kind in ("upper_arm", "forearm", "hand", "head_neck"):
+            a, b = o + r @ (a - o), o + r @ (b - o)
+        elif kind == "trunk":
+            b = o + r @ (b - o)
+        expected.append((kind, a, b))
+    moved = body.com(tipped)
+    np.testing.assert_allclose(moved, centre_of_mass(expected), atol=1e-9)
+    assert moved[1] < centre_of_mass(body.segments)[1] - 0.05      # forward is -y
+
+
+def envelope_of(arm, settings, with_stance=True, resolution=9, extent=2.4):
+    planner = Planner(arm, None, envelope.exhaustive(settings))
+    points = envelope.shoulder_frame_to_canonical(
+        arm, envelope.grid_coordinates(resolution, extent))
+    return drain(envelope.envelope_steps(planner.generator, points,
+                                         stance=stance(arm) if with_stance else None))
+
+
+def steps_needed(arm, settings, body, world) -> float:
+    """How many steps of Step length the shoulder must move along the ground to bring
+    ``world`` within Step to of it: inf where its height alone keeps it out, 0 where it is
+    that near already (a point behind the back: a step toward it does not help)."""
+    reach = settings.step_reach * arm.arm_length
+    d = world - body.shoulder
+    v, h = float(d[2]), float(np.hypot(d[0], d[1]))
+    if abs(v) >= reach:
+        return math.inf
+    move = h - math.sqrt(reach * reach - v * v)
+    if move <= 0.0:
+        return 0
+    return max(1, math.ceil(move / (settings.step_length * body.leg_length) - 1e-9))
+
+
+def test_points_past_a_lean_are_squat_or_step_as_the_body_reaches_them(arm):
+    settings = Settings().replace(lean=True)
+    body = stance(arm)
+    plain = envelope_of(arm, settings, with_stance=False)
+    env = envelope_of(arm, settings)
+    changed = np.flatnonzero(plain.classes != env.classes)
+    assert np.all(plain.classes[changed] == envelope.OUT)
+    assert set(env.classes[changed]) == {envelope.SQUAT, envelope.STEP}
+    world = arm.to_world_points(env.points)
+    coarse = settings.replace(squat_step=envelope.ENVELOPE_SQUAT_STEP)
+    pivot = arm.to_canonical_points(body.pivot[None])[0]
+    for i in np.flatnonzero(plain.classes == envelope.OUT):
+        c, w = env.classes[i], world[i]
+        if w[2] < GROUND:
+            assert c == envelope.OUT, w
+            continue
+        if c == envelope.LEAN:
+            continue
+        if c == envelope.STEP:
+            assert 1 <= steps_needed(arm, settings, body, w) <= settings.steps_max, w
+        if c == envelope.OUT:
+            assert steps_needed(arm, settings, body, w) in (0, math.inf) or \
+                steps_needed(arm, settings, body, w) > settings.steps_max, w
+        if c in (envelope.STEP, envelope.OUT):
+            # where a reach would squat (refused as surely below the arm), the quick
+            # bound left out nothing the full search finds
+            low = beyond_reach(arm.shoulder, arm.waist, env.points[i], arm.arm_length,
+                               settings.lean_max)
+            if low.reason == OUT_OF_REACH and below_the_arm(arm, env.points[i]):
+                assert not squat_leans(arm, env.points[i], pivot, coarse,
+                                       envelope.envelope_turns(settings), body.toward(w)), w
+    squats = np.flatnonzero(env.classes == envelope.SQUAT)
+    assert len(squats) and np.all(world[squats, 2] < body.shoulder[2])
+    assert np.all(np.linalg.norm(world[squats] - body.shoulder, axis=1) > arm.arm_length)
+    assert np.count_nonzero(env.classes == envelope.STEP) > len(squats)
+
+
+def test_without_squat_or_step_their_classes_are_empty(arm):
+    on = Settings().replace(lean=True)
+    for off, gone in ((on.replace(squat=False), envelope.SQUAT),
+                      (on.replace(stepping=False), envelope.STEP)):
+        env = envelope_of(arm, off, resolution=7)
+        assert not np.any(env.classes == gone)
+    assert not np.isin(envelope_of(arm, Settings(), resolution=7).classes,
+                       (envelope.LEAN, envelope.SQUAT, envelope.STEP)).any()
