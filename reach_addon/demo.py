@@ -35,6 +35,13 @@ WORKPLACE = {
 #: more where the hand's capsule needs it), reached with Lean on, the head looking at it.
 WHOLE_BODY_AT = (-0.55, -0.05)
 WHOLE_BODY_ABOVE = 0.12
+#: The demo's step task, after it: something ``STEP_SIDE`` arm lengths to her right and
+#: ``STEP_BELOW`` under her shoulder (the issue's step: 2.3 to the side), on a side table
+#: whose top is ``STEP_TABLE_UNDER`` arm lengths under it.
+STEP_SIDE, STEP_BELOW, STEP_TABLE_UNDER = 2.3, 0.3, 0.2
+#: The camera for the step (where it stands, the point it looks at; metres): behind her,
+#: so that she steps to the picture's right, the side table in view.
+STEP_CAMERA = ((-1.0, 3.4, 2.4), (-1.0, -0.1, 0.9))
 
 
 def demo_tasks(fps: float = 24.0):
@@ -83,8 +90,11 @@ def core_demo(out) -> int:
 #: The character: Quaternius' "Female Casual" (CC0, see tests/data/rigs/), with a skinned body.
 DEMO_RIG = "Quaternius_Female_Casual.fbx"
 COLOURS = {"Table": (0.55, 0.36, 0.2, 1), "Crate": (0.75, 0.6, 0.3, 1),
-           "Shelf": (0.45, 0.47, 0.5, 1), "Floor": (0.8, 0.8, 0.78, 1)}
+           "Shelf": (0.45, 0.47, 0.5, 1), "Floor": (0.8, 0.8, 0.78, 1),
+           "Side Table": (0.5, 0.33, 0.2, 1)}
 GAP = 12          # frames between tasks, in which the arm returns to its start pose
+#: Frames in which the body stands up again after the whole-body task, before the step.
+BODY_GAP = 36
 
 
 def _rig_file():
@@ -299,6 +309,7 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     rest = _arm_rest(armature, {bones.keyed_chest, *(bones.arms["right"].keyed(role) for role in
                                                      ("clavicle", "upper_arm", "forearm", "hand"))}
                      - {None})
+    standing = _arm_rest(armature, [pb.name for pb in armature.pose.bones])
     outcome = None
     for name, task in demo_tasks(fps=24.0):
         outcome, end, row, report = _demo_task(armature, name, task, frame, out)
@@ -321,19 +332,98 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     floor = above * model.arm_length + _soles(armature)
     cup = Task("reach", np.array([[*WHOLE_BODY_AT, floor]]), HANGING, 24.0,
                names=("on the floor",))
-    outcome, end, (_n, body_ok, _s), report = _demo_task(
-        armature, "whole_body", cup, frame, out, Settings().replace(lean=True, gaze=True))
+    _outcome, end, body_ok = _body_task(armature, "whole_body", cup, frame, out, out_dir,
+                                        render, renders, reports)
+    # back to standing, then a step to her right, to the side table
+    _stand_up(armature, standing, frame, end)
+    frame = end + BODY_GAP + 1
+    scene.frame_set(frame)
+    _cut_to(scene.camera, STEP_CAMERA, frame)
+    outcome, end, step_ok = _body_task(armature, "step", _step_target(armature), frame, out,
+                                       out_dir, render, renders, reports)
+    _finish(armature, outcome, end, out_dir, render, rows, reports, renders, t_start, out)
+    return 0 if body_ok and step_ok and all(ok for _n, ok, _s in rows) else 1
+
+
+def _body_task(armature, name, task, frame, out, out_dir, render, renders, reports):
+    """Bake a whole-body task (Lean and Look at target on) from ``frame``, render its still
+    (with ``render``), keep its display; returns (outcome, last frame, reached)."""
+    import bpy
+
+    outcome, end, (_n, ok, _s), report = _demo_task(
+        armature, name, task, frame, out, Settings().replace(lean=True, gaze=True))
     reports.append(report)
     if render:
         from .blender.render import render_outcome
 
-        renders["whole_body"] = render_outcome(bpy.context, outcome, out_dir,
-                                               still="whole_body.png", video=None)["still"]
-        print(f"{'':15s} rendered whole_body.png", file=out, flush=True)
-    _keep_display(scene, "whole_body")
-    frame = end + 1
-    _finish(armature, outcome, frame - 1, out_dir, render, rows, reports, renders, t_start, out)
-    return 0 if body_ok and all(ok for _n, ok, _s in rows) else 1
+        renders[name] = render_outcome(bpy.context, outcome, out_dir, still=f"{name}.png",
+                                       video=None)["still"]
+        print(f"{'':15s} rendered {name}.png", file=out, flush=True)
+    _keep_display(bpy.context.scene, name)
+    return outcome, end, ok
+
+
+def _keyed_bones(armature, first: int, last: int) -> list:
+    """The bones Reach keyed on frames ``first``..``last`` (:mod:`.blender.own_keys`)."""
+    from .blender import own_keys
+
+    return sorted(own_keys.overlapping(armature, first, last))
+
+
+def _cut_to(camera, view, frame: int) -> None:
+    """Key ``camera`` where it is on the frame before ``frame`` and at ``view`` (its
+    location, the point it looks at) on ``frame``: a cut, at whole frames."""
+    from mathutils import Vector
+
+    for f, at in ((frame - 1, None), (frame, view)):
+        if at is not None:
+            location, look = at
+            camera.location = location
+            camera.rotation_euler = (Vector(look) - camera.location).to_track_quat(
+                "-Z", "Y").to_euler()
+        camera.keyframe_insert("location", frame=f)
+        camera.keyframe_insert("rotation_euler", frame=f)
+
+
+def _stand_up(armature, standing, first: int, last: int) -> None:
+    """Key every bone that stands otherwise on frame ``last`` than in ``standing`` (its pose
+    before the demo) back to it :data:`BODY_GAP` frames later; those Reach keyed as the
+    body's on frames ``first``..``last`` recorded as Reach's own keys there
+    (:mod:`.blender.own_keys`: the demo's, not a user's, so the next task may move the
+    hips and legs again)."""
+    import bpy
+
+    from .blender import own_keys
+
+    bpy.context.scene.frame_set(last)
+    moved = {n: basis for n, basis in standing.items()
+             if not _same(armature.pose.bones[n].matrix_basis, basis)}
+    _key_rest(armature, moved, last + BODY_GAP)
+    own_keys.record(armature.animation_data.action, _keyed_bones(armature, first, last),
+                    last + 1, last + BODY_GAP)
+
+
+def _same(a, b, tolerance: float = 1e-6) -> bool:
+    return float(np.abs(np.array(a) - np.array(b)).max()) <= tolerance
+
+
+def _step_target(armature):
+    """The step task: something on a side table :data:`STEP_SIDE` arm lengths to her right
+    and :data:`STEP_BELOW` under her shoulder (the issue's step), the table's top
+    :data:`STEP_TABLE_UNDER` under it (built here), as a reach Task."""
+    from .blender import rig as rig_mod
+
+    info = rig_mod.build(armature, "right")
+    f, length = info.frame, info.arm.arm_length
+    shoulder = np.asarray(info.joints_world["shoulder"], dtype=float)
+    right, up = np.asarray(f.right, dtype=float), np.asarray(f.up, dtype=float)
+    thing = shoulder + length * (STEP_SIDE * right - STEP_BELOW * up)
+    near, far = (float((thing + k * length * right)[0]) for k in (-0.15, 0.35))  # right: −X
+    top = float(thing[2]) - STEP_TABLE_UNDER * length
+    _box_object("Side Table", [((far, thing[1] - 0.25, _soles(armature)), (near, thing[1] + 0.25,
+                                                                           top))],
+                COLOURS["Side Table"])
+    return Task("reach", thing[None], HANGING, 24.0, names=("on the side table",))
 
 
 def _demo_target_names(task, frame) -> list:

@@ -4,7 +4,7 @@
   3.4.1, ``tests/binary/scripts/gui_session.py``), mid-reach with the red trajectory and
   the sidebar's Reach panel and Result: its ``out/gui/readme.png`` cropped to the viewport
   (the area's rectangle as the session recorded it in ``out/gui/session.json``);
-* ``docs/demo-strip.png``: the stills of the demo's five tasks side by side
+* ``docs/demo-strip.png``: the stills of the demo's six tasks side by side
   (``out/demo-strip.png``, written by ``make demo``);
 * ``docs/envelope.png``: the demo character's reach envelope in the workplace
   (``out/envelope.png``, written by ``make demo``).

@@ -1,6 +1,7 @@
 """``make demo``'s job (without the renders, which the CLI test covers): the paper's four
-tasks on a real character, then a whole-body one (a cup on the floor, Lean on), every one
-reached, baked one after another, and reported."""
+tasks on a real character, then two whole-body ones (a cup on the floor, Lean on; then,
+stood up again, something on a side table 2.3 arm lengths to her right, reached with a
+step), every one reached, baked one after another, and reported."""
 
 import json
 import os
@@ -15,22 +16,24 @@ from test_bake import snapshot_keys
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_demo_performs_the_four_tasks_and_a_whole_body_one(tmp_path):
+def test_demo_performs_the_four_tasks_and_two_whole_body_ones(tmp_path):
     run = subprocess.run([sys.executable, "-m", "reach_addon", "demo", "--no-render",
                           "--output", str(tmp_path)], capture_output=True, text=True,
                          env=dict(os.environ, PYTHONPATH=str(ROOT)), cwd=ROOT, timeout=600)
     assert run.returncode == 0, run.stdout + run.stderr
-    for name in ("collision_free", "rotation", "guided", "chase", "whole_body"):
+    for name in ("collision_free", "rotation", "guided", "chase", "whole_body", "step"):
         assert any(line.startswith(name) and "reached" in line
                    for line in run.stdout.splitlines()), run.stdout
     assert "paper ms" in run.stdout                        # the Table 2 comparison
     report = json.loads((tmp_path / "report.json").read_text())
     tasks = report["tasks"]
     assert [t["task"] for t in tasks] == ["collision_free", "rotation", "guided", "chase",
-                                          "whole_body"]
-    body = tasks[-1]["targets"][0]
+                                          "whole_body", "step"]
+    body = tasks[-2]["targets"][0]
     assert body["stats"]["lean_deg"] > 45.0, body        # past a standing lean: a bend
     assert "first" in body["message"], body
+    step = tasks[-1]["targets"][0]
+    assert step["stats"]["step_count"] >= 1 and "stepping" in step["message"], step
     assert all(a["frame_end"] < b["frame_start"] for a, b in zip(tasks, tasks[1:]))
     assert len(tasks[1]["targets"]) == 3
 
