@@ -344,7 +344,7 @@ def report(results, lean: RigLean | None, length: float) -> None:
     if lean is None:
         return
     for r in results:
-        r.frame_start = lean.frame_start
+        r.frame_start = min(r.frame_start, lean.frame_start)   # a step may come before
         shift = np.asarray(lean.phase.lean.shift, float) / lean.phase.arm.arm_length
         back, down = float(np.linalg.norm(shift[:2])), max(0.0, -float(shift[2]))
         r.stats.update(lean_deg=round(float(lean.phase.lean.angle), 2),
@@ -356,13 +356,15 @@ def report(results, lean: RigLean | None, length: float) -> None:
             knee, ankle, thigh = (round(a, 1) for a in lean.leg_angles)
             r.stats.update(lean_knee_deg=knee, lean_ankle_deg=ankle, lean_thigh_deg=thigh)
         angle = lean.phase.lean.angle
+        # after a step (its report comes first): "…, then leaning …"
+        then, first = (", then ", "") if "step_count" in r.stats else (", ", " first")
         if down >= SQUAT_REPORTED:
-            r.message += (f", squatting first: the hips {down:.2f} arm lengths down and "
+            r.message += (f"{then}squatting{first}: the hips {down:.2f} arm lengths down and "
                           f"{back:.2f} back, leaning the trunk {angle:.0f}°") + (
                 "" if lean.leg_angles is None else
                 f", the knees bent {lean.leg_angles[0]:.0f}°")
         else:
-            r.message += f", leaning the trunk {angle:.0f}° at the hips first" + (
+            r.message += f"{then}leaning the trunk {angle:.0f}° at the hips{first}" + (
                 f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")
         if lean.phase.ready is not None:
             r.message += ", the arm raised toward it before the lean"

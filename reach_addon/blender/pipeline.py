@@ -425,8 +425,8 @@ class PipelineRun:
             outcome.baked, outcome.action = True, baked.action
         outcome.results = task_results(self.info, self.plans, baked.bones if baked else [],
                                        self.request, baked)
+        step_mod.report(outcome.results, self.step)          # first: it comes first
         lean_mod.report(outcome.results, self.lean, self.info.arm.arm_length)
-        step_mod.report(outcome.results, self.step)
         for r in outcome.results:
             r.stats.update(self.turns)
             if "gaze_note" in self.turns:
