@@ -39,7 +39,7 @@ from ..core import balance as core_balance
 from ..core.hand_shape import with_shape
 from ..core.lean import skin_hit
 from ..core.step import Step, StepMotion, plan_step, step_motion
-from ..core.whole_body import wants_body
+from ..core.whole_body import BODY_TASKS, wants_body
 from . import balance, own_keys, skin
 from . import hips as hips_mod
 from .bake import KeyedPlan
@@ -112,7 +112,7 @@ def plan(context, armature, info, planner, keyed, reread, bake_closest=False):
     The rig's pose is put back either way."""
     s = planner.settings
     failed, task = keyed.plan, keyed.plan.task
-    if not (s.lean and s.stepping) or task.kind != "reach" or not (
+    if not (s.lean and s.stepping) or task.kind not in BODY_TASKS or not (
             failed.reason == NEEDS_STEP or wants_body(s, task, failed, info.arm)):
         return None, keyed
     legs = balance.find_legs(armature, info.bones, info.frame)

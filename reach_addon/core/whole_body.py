@@ -34,9 +34,9 @@ lean, again from where the step ends.
 What these stages leave to later ones, and refuse meanwhile: the ready reach, the lean and
 the reach run one after the other (not blended); the other arm rides on the trunk in the
 plan and its checks (the Blender layer turns it to keep its direction afterwards, and
-checks it again: ``blender/other_arm.py``); only a single reach leans (a sequence, a
-guided reach and a chase still refuse as ``needs_lean``), and only among obstacles that
-hold still.
+checks it again: ``blender/other_arm.py``); only a single reach or a guided reach
+leans (:data:`BODY_TASKS`; a sequence and a chase still refuse as ``needs_lean``), and
+only among obstacles that hold still.
 """
 
 from __future__ import annotations
@@ -179,13 +179,20 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     return None, "; ".join(whys)
 
 
+#: The tasks the body helps: a single reach, and a guided reach (one target, the search
+#: led by guiding nodes). A sequence, whose targets each ask their own posture, and a
+#: chase, whose target moves, still refuse.
+BODY_TASKS = ("reach", "guided")
+
+
 def wants_body(settings, task, failed, arm) -> bool:
     """Whether ``failed`` (a reach's plan) is one the body may reach where the arm cannot:
-    a single reach with ``Settings.lean`` on, refused as ``needs_lean``, or (with
+    a single or guided reach (:data:`BODY_TASKS`) with ``Settings.lean`` on, refused as
+    ``needs_lean``, or (with
     ``Settings.squat``) as ``out_of_reach`` for a target below the shoulder and beyond the
     arm (a squat may bring it within reach; one within the arm's length but past its joint
     limits, or above it, stays refused)."""
-    if not settings.lean or task.kind != "reach":
+    if not settings.lean or task.kind not in BODY_TASKS:
         return False
     if failed.reason == NEEDS_LEAN:
         return True

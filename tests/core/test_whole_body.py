@@ -124,12 +124,12 @@ def test_the_lean_is_off_unless_asked_for():
 
 
 def test_a_sequence_says_that_only_a_single_reach_leans():
-    """With Lean on, a sequence whose target needs a lean is refused (only a single reach
-    leans), and the message says so instead of asking to turn Lean on."""
+    """With Lean on, a sequence whose target needs a lean is refused (only a single or a
+    guided reach leans), and the message says so instead of asking to turn Lean on."""
     arm = standard_arm()
     near = arm.to_world_points(arm.shoulder) + np.array([0.0, -0.6, -0.2]) * arm.arm_length
     task = Task("sequence", np.array([near, ahead(arm, 1.35)]), HANGING, names=("A", "B"))
-    for settings, said in ((Settings().replace(lean=True), "a single reach leans"),
+    for settings, said in ((Settings().replace(lean=True), "a single or guided reach leans"),
                            (Settings(), "turn on Lean")):
         plan = Planner(arm, obstacles({}), settings).plan(task)
         assert plan.reason == NEEDS_LEAN, plan.message

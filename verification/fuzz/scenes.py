@@ -29,7 +29,7 @@ FEATURES = (
     "bake_closest", "new_action", "no_chest_rotation", "duration", "obstacle_collection",
     "odd_names", "settings",
     "target_reachable", "target_far", "target_inside_body", "target_on_body",
-    "target_past_arm", "target_low",
+    "target_past_arm", "target_low", "target_step",
     "target_at_wrist", "target_across_body", "target_behind", "target_overhead",
     "target_moving_parent", "target_on_bone", "target_nan", "target_inf",
     "box", "plane", "thin_wall", "open_mesh", "tube", "non_manifold", "flipped_faces",
@@ -91,7 +91,7 @@ def _direction(rng, yaw_deg, pitch_deg) -> list:
 
 
 #: The features only a Lean campaign's scenes have (:func:`_whole_body_target`).
-LEAN_FEATURES = ("target_past_arm", "target_low")
+LEAN_FEATURES = ("target_past_arm", "target_low", "target_step")
 #: With the whole body on, the share of single reaches whose target is drawn again past
 #: the arm (:func:`_whole_body_target`).
 PAST_ARM_SHARE = 0.6
@@ -105,9 +105,11 @@ LEGGED_RIGS = ("quaternius", "gomakehuman", "metarig", "cesium")
 def _whole_body_target(rng, spec: dict, t: dict, features: set) -> None:
     """A Lean campaign's single reach (its own random stream, so every other draw stays):
     with :data:`PAST_ARM_SHARE`, its target drawn again where the body must help, just past
-    the arm (1.0-1.45 arm lengths, ahead or to the side, level or below: a lean) or low in
-    front (1.5-2.4 arm lengths, 55-85° down: a squat or bend, or the floor's refusal), on a
-    rig with legs (:data:`LEGGED_RIGS`, in place of a synthetic one)."""
+    the arm (1.0-1.45 arm lengths, ahead or to the side, level or below: a lean), low in
+    front (1.5-2.4 arm lengths, 55-85° down: a squat or bend, or the floor's refusal) or
+    far, to the side or ahead (1.9-2.6 arm lengths, 0-30° down: a step, or a refusal
+    where the room or the steps limit stops it), on a rig with legs
+    (:data:`LEGGED_RIGS`, in place of a synthetic one)."""
     if rng.random() >= PAST_ARM_SHARE:
         return
     legged = _pick(rng, LEGGED_RIGS)
@@ -116,12 +118,16 @@ def _whole_body_target(rng, spec: dict, t: dict, features: set) -> None:
         spec["rig"] = {"kind": legged}
         features.add("rig_real")
     features.discard(f"target_{t['kind']}")
-    if rng.random() < 0.6:
+    draw = rng.random()
+    if draw < 0.45:
         t.update(kind="past_arm", at="shoulder", dist=float(rng.uniform(1.0, 1.45)),
                  dir=_direction(rng, rng.uniform(-20, 100), rng.uniform(-45, 10)))
-    else:
+    elif draw < 0.75:
         t.update(kind="low", at="shoulder", dist=float(rng.uniform(1.5, 2.4)),
                  dir=_direction(rng, rng.uniform(-15, 60), rng.uniform(-85, -55)))
+    else:
+        t.update(kind="step", at="shoulder", dist=float(rng.uniform(1.9, 2.6)),
+                 dir=_direction(rng, rng.uniform(0, 100), rng.uniform(-30, 0)))
     features.add(f"target_{t['kind']}")
 
 
