@@ -72,14 +72,14 @@ def main(output=ROOT / "bench") -> dict:
     from verification.table1 import sweep
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    bpy.ops.import_scene.fbx(filepath=str(demo._rig_file()))
+    bpy.ops.import_scene.fbx(filepath=str(demo.scene_.rig_file()))
     armature = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")
     if armature.animation_data is not None:
         armature.animation_data.action = None
     bpy.context.view_layer.update()
     from reach_addon.blender import rig
 
-    demo._arms_down(armature, rig.build(armature, "right"))
+    demo.scene_.arms_down(armature, rig.build(armature, "right"))
     settings = Settings()
     points = sweep(bpy.context, armature, reach_addon, settings=settings)
     for p in points:

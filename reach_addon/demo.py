@@ -1,5 +1,6 @@
 """The paper's four tasks on a sample workplace, with the statistics of Table 2 (and, in
-Blender, a whole-body fifth: a cup on the floor, Lean and Look at target on).
+Blender, two whole-body tasks after them, Lean and Look at target on: a cup on the floor,
+then something on a side table a step away; the scene: :mod:`.demo_scene`).
 
 :func:`core_demo` uses the core alone (the standard figure, furniture as triangle meshes)
 and prints our Table 2 beside the paper's.
@@ -10,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .core import Planner, Settings, Task
+from . import demo_scene as scene_
 from .samples import HANGING, obstacles, shelf, standard_arm, table
 
 #: Table 2 of the paper: search time (s), nodes searched, nodes in solution, path length
@@ -35,13 +37,6 @@ WORKPLACE = {
 #: more where the hand's capsule needs it), reached with Lean on, the head looking at it.
 WHOLE_BODY_AT = (-0.55, -0.05)
 WHOLE_BODY_ABOVE = 0.12
-#: The demo's step task, after it: something ``STEP_SIDE`` arm lengths to her right and
-#: ``STEP_BELOW`` under her shoulder (the issue's step: 2.3 to the side), on a side table
-#: whose top is ``STEP_TABLE_UNDER`` arm lengths under it.
-STEP_SIDE, STEP_BELOW, STEP_TABLE_UNDER = 2.3, 0.3, 0.2
-#: The camera for the step (where it stands, the point it looks at; metres): behind her,
-#: so that she steps to the picture's right, the side table in view.
-STEP_CAMERA = ((-1.0, 3.4, 2.4), (-1.0, -0.1, 0.9))
 
 
 def demo_tasks(fps: float = 24.0):
@@ -85,204 +80,16 @@ def core_demo(out) -> int:
     return 0 if all(p.success for _n, p in rows) else 1
 
 
-# --- the demo in Blender -------------------------------------------------------------------
+# --- the demo in Blender (its scene: demo_scene.py) -------------------------------------------
 
-#: The character: Quaternius' "Female Casual" (CC0, see tests/data/rigs/), with a skinned body.
-DEMO_RIG = "Quaternius_Female_Casual.fbx"
-COLOURS = {"Table": (0.55, 0.36, 0.2, 1), "Crate": (0.75, 0.6, 0.3, 1),
-           "Shelf": (0.45, 0.47, 0.5, 1), "Floor": (0.8, 0.8, 0.78, 1),
-           "Side Table": (0.5, 0.33, 0.2, 1)}
 GAP = 12          # frames between tasks, in which the arm returns to its start pose
-#: Frames in which the body stands up again after the whole-body task, before the step.
-BODY_GAP = 36
-
-
-def _rig_file():
-    from pathlib import Path
-
-    from .core import ReachError
-
-    path = Path(__file__).resolve().parents[1] / "tests" / "data" / "rigs" / DEMO_RIG
-    if not path.is_file():
-        raise ReachError(f"the demo character '{path}' is missing; run the demo from a "
-                         "checkout of Reach (make demo)")
-    return path
-
-
-def _material(name, colour):
-    import bpy
-
-    mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
-    mat.diffuse_color = colour
-    return mat
-
-
-def _box_object(name, parts, colour):
-    import bpy
-
-    from .samples import triangle_soup
-
-    verts, tris, _owners, _names = triangle_soup({name: parts})
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(verts.tolist(), [], tris.tolist())
-    mesh.update()
-    ob = bpy.data.objects.new(name, mesh)
-    ob.data.materials.append(_material(name, colour))
-    bpy.context.scene.collection.objects.link(ob)
-    return ob
-
-
-def _empty(name, location, shape="SPHERE", size=0.025):
-    import bpy
-
-    ob = bpy.data.objects.new(name, None)
-    ob.empty_display_type, ob.empty_display_size = shape, size
-    ob.location = tuple(map(float, location))
-    bpy.context.scene.collection.objects.link(ob)
-    return ob
-
-
-def build_scene():
-    """An empty file with the demo character standing where the core's standard figure
-    stands (facing −Y, chest at 1.40 m, scaled to the same arm length), the workplace
-    furniture, a camera and a light. Returns the armature."""
-    import bpy
-    from mathutils import Matrix, Vector
-
-    from .blender import rig as rig_mod
-    from .samples import standard_arm
-
-    bpy.ops.wm.read_homefile(use_empty=True)
-    scene = bpy.context.scene
-    bpy.ops.import_scene.fbx(filepath=str(_rig_file()))
-    armature = next(o for o in scene.objects if o.type == "ARMATURE")
-    # The file's own clip (she claps) would move the body under the reach: stand still.
-    if armature.animation_data is not None:
-        armature.animation_data.action = None
-    for pb in armature.pose.bones:
-        pb.matrix_basis = Matrix.Identity(4)
-    root = armature
-    while root.parent is not None:
-        root = root.parent
-    bpy.context.view_layer.update()
-    info = rig_mod.build(armature, "right")
-    f = info.frame
-    body = np.column_stack([f.right, f.forward, f.up])
-    world = np.array([[-1.0, 0, 0], [0, -1.0, 0], [0, 0, 1.0]]).T
-    rot = world @ body.T
-    k = standard_arm().arm_length / info.arm.arm_length
-    m = np.eye(4)
-    m[:3, :3] = k * rot
-    m[:3, 3] = np.array([0.0, 0.0, 1.40]) - k * rot @ f.origin
-    root.matrix_world = Matrix(m.tolist()) @ root.matrix_world
-    bpy.context.view_layer.update()
-    # then put her right shoulder where the standard figure's is (the targets are its)
-    std = standard_arm()
-    want = std.to_world_points(std.shoulder)
-    have = rig_mod.build(armature, "right").joints_world["shoulder"]
-    root.matrix_world = Matrix.Translation((want - have).tolist()) @ root.matrix_world
-    bpy.context.view_layer.update()
-    _arms_down(armature, rig_mod.build(armature, "right"))
-
-    for name, parts in WORKPLACE.items():
-        _box_object(name, parts, COLOURS[name])
-    # the floor's top under her soles (scaled to the standard figure, they stand 5.5 cm
-    # lower than its feet)
-    top = _soles(armature)
-    floor = _box_object("Floor", [((-2.0, -2.0, top - 0.02), (2.0, 2.0, top))],
-                        COLOURS["Floor"])
-    floor.hide_select = True
-    cam_data = bpy.data.cameras.new("Camera")
-    cam_data.lens = 30
-    cam = bpy.data.objects.new("Camera", cam_data)
-    scene.collection.objects.link(cam)
-    cam.location = (-2.2, 1.1, 2.5)
-    look = Vector((-0.25, -0.3, 1.1)) - cam.location
-    cam.rotation_euler = look.to_track_quat("-Z", "Y").to_euler()
-    scene.camera = cam
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    scene.collection.objects.link(sun)
-    sun.rotation_euler = (0.6, 0.2, -0.5)
-    scene.render.fps = 24
-    return armature
-
-
-def _soles(armature) -> float:
-    """The height of the lowest vertex of the meshes ``armature`` deforms, as Blender
-    evaluates them now: where the floor's top goes."""
-    import bpy
-
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    low = np.inf
-    for ob in bpy.context.scene.objects:
-        if ob.type == "MESH" and any(m.type == "ARMATURE" and m.object == armature
-                                     for m in ob.modifiers):
-            ev = ob.evaluated_get(depsgraph)
-            co = np.empty(len(ev.data.vertices) * 3)
-            ev.data.vertices.foreach_get("co", co)
-            m = np.array(ev.matrix_world)
-            low = min(low, float((co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3])[:, 2].min()))
-    return low if np.isfinite(low) else 0.0
-
-
-def _arms_down(armature, info):
-    """Lower both arms from the file's T-pose to hanging, a little out and forward, as the
-    paper's subject starts (the start pose is the pose, not a key)."""
-    from mathutils import Matrix, Vector
-
-    inv = armature.matrix_world.inverted().to_3x3()
-    f = info.frame
-    for side, arm in info.bones.arms.items():
-        out = f.right if side == "right" else -f.right
-        want = (inv @ Vector((-0.94 * f.up + 0.28 * out + 0.12 * f.forward).tolist())).normalized()
-        pb = armature.pose.bones[arm.upper_arm]
-        head = pb.head.copy()
-        turn = (pb.tail - pb.head).normalized().rotation_difference(want).to_matrix().to_4x4()
-        pb.matrix = Matrix.Translation(head) @ turn @ Matrix.Translation(-head) @ pb.matrix
-        bpy_update()
-
-
-def bpy_update():
-    import bpy
-
-    bpy.context.view_layer.update()
-
-
-def _keep_display(scene, task_name):
-    """Keep this task's trajectory and markers in the file, in a collection of its own that
-    the next plan does not clear and the next renders do not show."""
-    from .blender import viz
-    from .blender.scene import VIZ_TAG
-
-    coll = viz.collection(scene, create=False)
-    if coll is not None:
-        coll.name = f"Reach {task_name}"
-        for ob in coll.objects:          # the next plan makes its own, not reuses these
-            ob.name = f"{ob.name} ({task_name})"
-        del coll[VIZ_TAG]
-        coll.hide_render = True
-
-
-def _arm_rest(armature, bones):
-    """The start pose of the bones a bake keys (chest and arm), to return to between
-    tasks: each of the paper's tasks starts from the same standing pose."""
-    return {b: armature.pose.bones[b].matrix_basis.copy() for b in bones}
-
-
-def _key_rest(armature, rest, frame):
-    for name, basis in rest.items():
-        pb = armature.pose.bones[name]
-        pb.matrix_basis = basis
-        mode = pb.rotation_mode
-        path = ("rotation_quaternion" if mode == "QUATERNION" else
-                "rotation_axis_angle" if mode == "AXIS_ANGLE" else "rotation_euler")
-        pb.keyframe_insert(path, frame=frame)
-        pb.keyframe_insert("location", frame=frame)
 
 
 def scene_demo(out_dir, render: bool = True, out=None) -> int:
-    """``make demo``: the paper's four tasks on a real character in Blender, then a
-    whole-body one (a cup on the floor beside her, Lean on: :data:`WHOLE_BODY_AT`), baked,
+    """``make demo``: the paper's four tasks on a real character in Blender, then two
+    whole-body ones (a cup on the floor beside her, Lean on: :data:`WHOLE_BODY_AT`; stood
+    up again, something on a side table a step to her right:
+    :func:`.demo_scene.step_target`), baked,
     saved to ``out_dir/demo.blend``, rendered (a still per task with the red trajectory, one MP4)
     unless ``render`` is off, reported (``report.json``) and compared with Table 2; progress
     lines to ``out`` (default stdout). Returns 0 if every task reached, else 1."""
@@ -301,15 +108,15 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
     t_start = time.perf_counter()
     print(f"Reach {__version__} demo on Blender {bpy.app.version_string}: building the "
           "workplace around Quaternius' Female Casual (CC0)", file=out, flush=True)
-    armature = build_scene()
+    armature = scene_.build_scene(WORKPLACE)
     scene = bpy.context.scene
     frame = 1
     rows, reports, renders = [], [], {}
     bones = rig_mod.build(armature, "right").bones
-    rest = _arm_rest(armature, {bones.keyed_chest, *(bones.arms["right"].keyed(role) for role in
-                                                     ("clavicle", "upper_arm", "forearm", "hand"))}
-                     - {None})
-    standing = _arm_rest(armature, [pb.name for pb in armature.pose.bones])
+    arm_bones = {bones.arms["right"].keyed(role)
+                 for role in ("clavicle", "upper_arm", "forearm", "hand")}
+    rest = scene_.pose_of(armature, ({bones.keyed_chest} | arm_bones) - {None})
+    standing = scene_.pose_of(armature, [pb.name for pb in armature.pose.bones])
     outcome = None
     for name, task in demo_tasks(fps=24.0):
         outcome, end, row, report = _demo_task(armature, name, task, frame, out)
@@ -321,25 +128,25 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
             renders[name] = render_outcome(bpy.context, outcome, out_dir, still=f"{name}.png",
                                            video=None)["still"]
             print(f"{'':15s} rendered {name}.png", file=out, flush=True)
-        _keep_display(scene, name)
-        _key_rest(armature, rest, end + GAP)
+        scene_.keep_display(scene, name)
+        scene_.key_pose(armature, rest, end + GAP)
         frame = end + GAP + 1
     # the whole body: Lean on, a cup on the floor beside her (not in the paper's Table 2),
     # as high over it as her hand's and forearm's capsules let a wrist come
     model = rig_mod.build(armature, "right").arm
     above = max(WHOLE_BODY_ABOVE,
                 max(model.hand_radius, model.forearm_radius) / model.arm_length + 0.03)
-    floor = above * model.arm_length + _soles(armature)
+    floor = above * model.arm_length + scene_.soles(armature)
     cup = Task("reach", np.array([[*WHOLE_BODY_AT, floor]]), HANGING, 24.0,
                names=("on the floor",))
     _outcome, end, body_ok = _body_task(armature, "whole_body", cup, frame, out, out_dir,
                                         render, renders, reports)
     # back to standing, then a step to her right, to the side table
-    _stand_up(armature, standing, frame, end)
-    frame = end + BODY_GAP + 1
+    scene_.stand_up(armature, standing, frame, end)
+    frame = end + scene_.BODY_GAP + 1
     scene.frame_set(frame)
-    _cut_to(scene.camera, STEP_CAMERA, frame)
-    outcome, end, step_ok = _body_task(armature, "step", _step_target(armature), frame, out,
+    scene_.cut_to(scene.camera, scene_.STEP_CAMERA, frame)
+    outcome, end, step_ok = _body_task(armature, "step", scene_.step_target(armature), frame, out,
                                        out_dir, render, renders, reports)
     _finish(armature, outcome, end, out_dir, render, rows, reports, renders, t_start, out)
     return 0 if body_ok and step_ok and all(ok for _n, ok, _s in rows) else 1
@@ -359,83 +166,20 @@ def _body_task(armature, name, task, frame, out, out_dir, render, renders, repor
         renders[name] = render_outcome(bpy.context, outcome, out_dir, still=f"{name}.png",
                                        video=None)["still"]
         print(f"{'':15s} rendered {name}.png", file=out, flush=True)
-    _keep_display(bpy.context.scene, name)
+    scene_.keep_display(bpy.context.scene, name)
     return outcome, end, ok
-
-
-def _keyed_bones(armature, first: int, last: int) -> list:
-    """The bones Reach keyed on frames ``first``..``last`` (:mod:`.blender.own_keys`)."""
-    from .blender import own_keys
-
-    return sorted(own_keys.overlapping(armature, first, last))
-
-
-def _cut_to(camera, view, frame: int) -> None:
-    """Key ``camera`` where it is on the frame before ``frame`` and at ``view`` (its
-    location, the point it looks at) on ``frame``: a cut, at whole frames."""
-    from mathutils import Vector
-
-    for f, at in ((frame - 1, None), (frame, view)):
-        if at is not None:
-            location, look = at
-            camera.location = location
-            camera.rotation_euler = (Vector(look) - camera.location).to_track_quat(
-                "-Z", "Y").to_euler()
-        camera.keyframe_insert("location", frame=f)
-        camera.keyframe_insert("rotation_euler", frame=f)
-
-
-def _stand_up(armature, standing, first: int, last: int) -> None:
-    """Key every bone that stands otherwise on frame ``last`` than in ``standing`` (its pose
-    before the demo) back to it :data:`BODY_GAP` frames later; those Reach keyed as the
-    body's on frames ``first``..``last`` recorded as Reach's own keys there
-    (:mod:`.blender.own_keys`: the demo's, not a user's, so the next task may move the
-    hips and legs again)."""
-    import bpy
-
-    from .blender import own_keys
-
-    bpy.context.scene.frame_set(last)
-    moved = {n: basis for n, basis in standing.items()
-             if not _same(armature.pose.bones[n].matrix_basis, basis)}
-    _key_rest(armature, moved, last + BODY_GAP)
-    own_keys.record(armature.animation_data.action, _keyed_bones(armature, first, last),
-                    last + 1, last + BODY_GAP)
-
-
-def _same(a, b, tolerance: float = 1e-6) -> bool:
-    return float(np.abs(np.array(a) - np.array(b)).max()) <= tolerance
-
-
-def _step_target(armature):
-    """The step task: something on a side table :data:`STEP_SIDE` arm lengths to her right
-    and :data:`STEP_BELOW` under her shoulder (the issue's step), the table's top
-    :data:`STEP_TABLE_UNDER` under it (built here), as a reach Task."""
-    from .blender import rig as rig_mod
-
-    info = rig_mod.build(armature, "right")
-    f, length = info.frame, info.arm.arm_length
-    shoulder = np.asarray(info.joints_world["shoulder"], dtype=float)
-    right, up = np.asarray(f.right, dtype=float), np.asarray(f.up, dtype=float)
-    thing = shoulder + length * (STEP_SIDE * right - STEP_BELOW * up)
-    near, far = (float((thing + k * length * right)[0]) for k in (-0.15, 0.35))  # right: −X
-    top = float(thing[2]) - STEP_TABLE_UNDER * length
-    _box_object("Side Table", [((far, thing[1] - 0.25, _soles(armature)), (near, thing[1] + 0.25,
-                                                                           top))],
-                COLOURS["Side Table"])
-    return Task("reach", thing[None], HANGING, 24.0, names=("on the side table",))
 
 
 def _demo_target_names(task, frame) -> list:
     """The targets of ``task`` as objects in the scene: a ball keyed along a chase's path
     from ``frame`` on, else an Empty per target. Returns their names."""
     if task.kind == "chase":
-        ball = _empty("Ball", task.targets[0], size=0.04)
+        ball = scene_.empty("Ball", task.targets[0], size=0.04)
         for i, p in enumerate(task.targets):
             ball.location = tuple(map(float, p))
             ball.keyframe_insert("location", frame=frame + i)
         return [ball.name]
-    return [_empty(f"Target {label}", p).name for label, p in zip(task.names, task.targets)]
+    return [scene_.empty(f"Target {label}", p).name for label, p in zip(task.names, task.targets)]
 
 
 def _demo_task(armature, name, task, frame, out, settings=None):
@@ -511,13 +255,13 @@ def _finish(armature, outcome, last, out_dir, render, rows, reports, renders, t_
     if render:
         from .blender.render import render_outcome
 
-        renders["strip"] = _strip(out_dir, [r["task"] for r in reports], "demo-strip.png")
+        renders["strip"] = scene_.strip(out_dir, [r["task"] for r in reports], "demo-strip.png")
         print(f"{'':15s} joined the stills into demo-strip.png", file=out, flush=True)
         print(f"{'':15s} rendering demo.mp4 ({last} frames)", file=out, flush=True)
         renders["video"] = render_outcome(bpy.context, outcome, out_dir, still=None,
                                           video="demo.mp4", frames=(1, last),
                                           size=(480, 270))["video"]
-        renders["envelope"] = _envelope_still(armature, out_dir, out)
+        renders["envelope"] = scene_.envelope_still(armature, out_dir, out)
     report = {"reach_version": __version__, "blender_version": bpy.app.version_string,
               "character": "Quaternius Female Casual (CC0)", "blend": str(blend),
               "tasks": reports, "renders": renders,
@@ -530,69 +274,6 @@ def _finish(armature, outcome, last, out_dir, render, rows, reports, renders, t_
     print(table2_text(rows), file=out)
     print(f"\nsaved {blend}, report.json" + (", stills and demo.mp4" if render else "") +
           f" in {out_dir} ({report['total_time_s']:.0f} s)", file=out, flush=True)
-
-
-def _envelope_still(armature, out_dir, out) -> str:
-    """The character's right-arm reach envelope among the workplace, at frame 1 (the rest
-    pose), rendered to ``envelope.png``; its mesh is removed again (demo.blend is saved
-    without it)."""
-    import bpy
-
-    from .blender import envelope as envelope_mod
-    from .blender import pipeline, viz
-    from .blender.render import render_still
-
-    scene = bpy.context.scene
-    scene.frame_set(1)
-    hidden = [c for c in scene.collection.children if c.name.startswith(viz.COLLECTION)
-              and not c.hide_render]
-    for coll in hidden:                         # the tasks' trajectories and markers
-        coll.hide_render = True
-    try:
-        outcome = pipeline.envelope(bpy.context, pipeline.Request(
-            armature=armature.name, targets=[], side="right"))
-        mesh = envelope_mod.write_mesh(bpy.context, outcome)
-        points, _classes = envelope_mod.drawn(outcome)
-        path = render_still(bpy.context, outcome.rig, points, out_dir / "envelope.png")
-        viz.remove(mesh.name)
-    finally:
-        for coll in hidden:
-            coll.hide_render = False
-    counts = outcome.envelope.counts()
-    print(f"{'envelope':15s} {len(outcome.envelope.classes)} points in "
-          f"{outcome.envelope.time_s:.2f} s: " + ", ".join(f"{n} {c}" for c, n in counts.items())
-          + "; rendered envelope.png", file=out, flush=True)
-    return path
-
-
-def _strip(out_dir, names, filename, width=480, gap=6) -> str:
-    """The tasks' stills (``<name>.png``) side by side, each scaled to ``width`` pixels,
-    as one PNG (``filename``, for the README)."""
-    import bpy
-
-    from . import atomic
-
-    tiles = []
-    for name in names:
-        img = bpy.data.images.load(str(out_dir / f"{name}.png"))
-        img.scale(width, round(img.size[1] * width / img.size[0]))
-        px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
-        img.pixels.foreach_get(px)
-        tiles.append(px.reshape(img.size[1], img.size[0], 4))
-        bpy.data.images.remove(img)
-    height = max(t.shape[0] for t in tiles)
-    strip = np.ones((height, len(tiles) * (width + gap) - gap, 4), np.float32)
-    for k, tile in enumerate(tiles):
-        strip[height - tile.shape[0]:, k * (width + gap):k * (width + gap) + width] = tile
-    img = bpy.data.images.new("Reach demo strip", strip.shape[1], height, alpha=False)
-    img.pixels.foreach_set(strip.ravel())
-    path = out_dir / filename
-    with atomic.replacing(path) as tmp:
-        img.filepath_raw = str(tmp)
-        img.file_format = "PNG"
-        img.save()
-    bpy.data.images.remove(img)
-    return str(path)
 
 
 def _chest_against_table1(armature, outcome, frame_start):

@@ -216,7 +216,7 @@ def test_the_demo_arm_looks_natural(addon, name):
     obstacle, and that claim is checked here by the relaxed hand on Blender's bones."""
     from reach_addon import demo
 
-    arm = demo.build_scene()
+    arm = demo.scene_.build_scene(demo.WORKPLACE)
     task = dict(demo.demo_tasks())[name]
     request = addon.blender.pipeline.Request(
         arm.name, demo._demo_target_names(task, 1), task=task.kind, side="right",
