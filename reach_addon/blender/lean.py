@@ -22,7 +22,8 @@ from mathutils import Matrix
 from ..core import Planner
 from ..core.lean import TrunkSkin
 from ..core.squat import leg_angles
-from ..core.whole_body import LeanPhase, lean_then_reach, wants_body
+from ..core.errors import NEEDS_STEP
+from ..core.whole_body import BODY_TASKS, LeanPhase, lean_then_reach, wants_body
 from . import balance, own_keys, skin
 from . import hips as hips_mod
 from . import bake as bake_mod
@@ -155,15 +156,19 @@ def plan(context, armature, info, planner, keyed):
 
 def note_moving(plan, moving) -> None:
     """Say, in the message of ``plan`` (a single reach refused for a target the body could
-    reach), that the body does not lean among obstacles that move during the reach
-    (``moving``: their names): the lean's checks hold the scene still."""
-    if not wants_body(plan.settings, plan.task, plan, plan.arm):
+    reach, or step toward), that the body does not lean or step among obstacles that move
+    during the reach (``moving``: their names): the body's checks hold the scene still."""
+    s = plan.settings
+    stepping = s.lean and s.stepping and plan.reason == NEEDS_STEP and \
+        plan.task.kind in BODY_TASKS and len(plan.task.targets) == 1
+    if not stepping and not wants_body(s, plan.task, plan, plan.arm):
         return
     names = ", ".join(f"'{n}'" for n in moving[:3]) + (" ..." if len(moving) > 3 else "")
     for seg in plan.segments:
         if seg.reason == plan.reason:
-            seg.message += (f"; with Lean on: the body leans only among obstacles that hold "
-                            f"still, and {names} move during the reach")
+            seg.message += (f"; with Lean on: the body {'steps' if stepping else 'leans'} "
+                            f"only among obstacles that hold still, and {names} move during "
+                            "the reach")
 
 
 def trunk_skin(armature, info, bone) -> TrunkSkin | None:

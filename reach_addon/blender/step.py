@@ -112,7 +112,8 @@ def plan(context, armature, info, planner, keyed, reread, bake_closest=False):
     The rig's pose is put back either way."""
     s = planner.settings
     failed, task = keyed.plan, keyed.plan.task
-    if not (s.lean and s.stepping) or task.kind not in BODY_TASKS or not (
+    if not (s.lean and s.stepping) or task.kind not in BODY_TASKS or \
+            len(task.targets) != 1 or not (
             failed.reason == NEEDS_STEP or wants_body(s, task, failed, info.arm)):
         return None, keyed
     legs = balance.find_legs(armature, info.bones, info.frame)

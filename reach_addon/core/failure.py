@@ -19,6 +19,9 @@ from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_R
 from .search import SearchResult, sphere_directions
 
 
+#: The tasks the body helps, as the refusals name them (``whole_body.BODY_TASKS``).
+ONE_TARGET = "a reach or guided reach to one target"
+
 def explain_failure(generator, name: str, result: SearchResult, diagnosis, start: Pose):
     """(reason, message) of the failed reach to target ``name`` from ``start``, planned
     with ``generator`` (its arm and settings): the ``diagnosis``'s
@@ -59,18 +62,17 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
             f"target '{name}' is out of reach by {size(d.missing)} without leaning "
             f"({d.distance / length:.2f} arm lengths from the shoulder): leaning the trunk "
             f"about {d.lean_deg:.0f}° would reach it ({closest}); " + (
-                "with Lean on a single or guided reach leans (one target's Plan or Bake)"
-                if settings.lean else
-                "turn on Lean to lean first (a single or guided reach's Plan or Bake)") +
+                f"with Lean on {ONE_TARGET} leans" if settings.lean else
+                f"turn on Lean to lean first ({ONE_TARGET})") +
             ", or move the target or the character closer")
     if d.reason == NEEDS_STEP:
         return NEEDS_STEP, (
             f"target '{name}' is out of reach even leaning {settings.lean_max:.0f}° "
             f"({d.distance / length:.2f} arm lengths from the shoulder): it needs a step "
             f"of at least {size(d.missing)} toward it ({closest}); " + (
-                "with Lean and Step on a single or guided reach steps toward it"
+                f"with Lean and Step on {ONE_TARGET} steps toward it"
                 if settings.lean and settings.stepping else
-                "turn on Lean and Step to step toward it first (a single or guided reach)") +
+                f"turn on Lean and Step to step toward it first ({ONE_TARGET})") +
             ", or move the character or the target")
     if d.reason == OUT_OF_REACH:
         if d.missing <= 0:
@@ -81,9 +83,9 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
             where = (f"{size(d.missing)} below what the arm reaches from the shoulder, and "
                      f"leaning {settings.lean_max:.0f}° does not bring it within reach: "
                      "only a squat or a knee down would" + (
-                         ": with Lean and Squat on a single or guided reach squats" if settings.lean and
-                         settings.squat else
-                         ": turn on Lean and Squat to squat first (a single or guided reach)"))
+                         f": with Lean and Squat on {ONE_TARGET} squats"
+                         if settings.lean and settings.squat else
+                         f": turn on Lean and Squat to squat first ({ONE_TARGET})"))
         return OUT_OF_REACH, (
             f"target '{name}' is out of reach: {where} ({closest}); move the target")
     if d.reason == ARM_DOES_NOT_FIT:

@@ -179,20 +179,21 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     return None, "; ".join(whys)
 
 
-#: The tasks the body helps: a single reach, and a guided reach (one target, the search
-#: led by guiding nodes). A sequence, whose targets each ask their own posture, and a
-#: chase, whose target moves, still refuse.
+#: The tasks the body helps, with one target: a single reach, and a guided reach (the
+#: search led by guiding nodes). A sequence (or a guided reach through several targets),
+#: whose targets each ask their own posture, and a chase, whose target moves, still
+#: refuse.
 BODY_TASKS = ("reach", "guided")
 
 
 def wants_body(settings, task, failed, arm) -> bool:
     """Whether ``failed`` (a reach's plan) is one the body may reach where the arm cannot:
-    a single or guided reach (:data:`BODY_TASKS`) with ``Settings.lean`` on, refused as
+    a reach or guided reach to one target (:data:`BODY_TASKS`) with ``Settings.lean`` on, refused as
     ``needs_lean``, or (with
     ``Settings.squat``) as ``out_of_reach`` for a target below the shoulder and beyond the
     arm (a squat may bring it within reach; one within the arm's length but past its joint
     limits, or above it, stays refused)."""
-    if not settings.lean or task.kind not in BODY_TASKS:
+    if not settings.lean or task.kind not in BODY_TASKS or len(task.targets) != 1:
         return False
     if failed.reason == NEEDS_LEAN:
         return True

@@ -10,6 +10,7 @@ A sequence still refuses (one posture per target is not planned yet).
 from __future__ import annotations
 
 import bpy
+import everyday
 import numpy as np
 import pytest
 import test_body_lean
@@ -66,3 +67,35 @@ def test_without_lean_a_guided_reach_past_the_arm_is_refused_as_before(addon, ri
     result = bake(addon, armature, target, "guided", lean=False).results[0]
     assert not result.success and result.reason == "needs_lean", result.message
     assert "turn on Lean" in result.message
+
+
+def test_a_guided_reach_through_two_targets_or_among_moving_boxes_does_not_lean_or_step(
+        addon, rig_file):  # noqa: F811
+    """Only a reach or guided reach to one target, among obstacles that hold still, has
+    the body help; the refusals say so."""
+    armature = open_rig(rig_file, "metarig")
+    info = addon.blender.rig.build(armature, "right")
+    far, _table = test_body_lean.scene(armature, info, 1.3)
+    near = bpy.data.objects.new("Near Cup", None)
+    near.location = tuple(float(x) for x in everyday.at(info, 0.5, 0.1, -0.3))
+    bpy.context.scene.collection.objects.link(near)
+    pipeline = addon.blender.pipeline
+    settings = addon.core.Settings().replace(lean=True)
+    request = pipeline.Request(armature.name, [far.name, near.name], task="guided",
+                               side="right", frame_start=1, draw=False, settings=settings)
+    result = pipeline.run(bpy.context, request, bake=False).results[0]
+    assert result.reason == "needs_lean" and "to one target" in result.message, result.message
+    assert "lean_deg" not in result.stats
+
+    armature = open_rig(rig_file, "metarig")
+    info = addon.blender.rig.build(armature, "right")
+    side, _counter = test_body_step.scene(armature, info)
+    box = everyday.box(info, "Moving Box", (2.0, -2.5, -0.5), (2.2, -2.3, -0.3))
+    box.keyframe_insert("location", frame=1)
+    box.location.z += 0.1
+    box.keyframe_insert("location", frame=400)
+    outcome = bake(addon, armature, side, "reach")
+    result = outcome.results[0]
+    assert result.reason == "needs_step", result.message
+    assert "steps only among obstacles that hold still" in result.message, result.message
+    assert "'Moving Box'" in result.message

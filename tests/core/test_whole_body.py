@@ -129,7 +129,7 @@ def test_a_sequence_says_that_only_a_single_reach_leans():
     arm = standard_arm()
     near = arm.to_world_points(arm.shoulder) + np.array([0.0, -0.6, -0.2]) * arm.arm_length
     task = Task("sequence", np.array([near, ahead(arm, 1.35)]), HANGING, names=("A", "B"))
-    for settings, said in ((Settings().replace(lean=True), "a single or guided reach leans"),
+    for settings, said in ((Settings().replace(lean=True), "a reach or guided reach to one target leans"),
                            (Settings(), "turn on Lean")):
         plan = Planner(arm, obstacles({}), settings).plan(task)
         assert plan.reason == NEEDS_LEAN, plan.message
