@@ -217,18 +217,23 @@ def squattable(arm, point, settings, stance, step: float = ENVELOPE_SQUAT_STEP,
 def squat_bound(arm, point, pivot, settings, stance) -> bool:
     """The necessary condition :func:`squattable` checks first: with ``x`` the point's
     horizontal distance from the pivot and ``z`` its height over it (canonical, z up),
-    ``d`` the legs' length (hip to ankle) and ``r`` the shoulder's distance from the pivot
-    plus ``Settings.lean_reach`` arm lengths, the distance from the point to the rectangle
-    of pivots the hips' drop η and shift δ reach (both in [0, d], back and down),
+    ``d`` the deepest drop the squat's grid tries (the longer leg's thigh and shank, as
+    :func:`~.squat.squat_leans` has it) and ``r`` the farthest any chest turn takes the
+    shoulder from the pivot plus ``Settings.lean_reach`` arm lengths, the distance from
+    the point to the rectangle of pivots the hips' drop η and shift δ reach (both in
+    [0, d], back and down),
 
     .. math:: \\sqrt{\\max(0, x)^2 + \\max(0, -d - z,\\, z)^2} \\le r."""
     scale = abs(float(np.linalg.det(np.asarray(arm.to_world, float)[:3, :3]))) ** (1.0 / 3.0)
-    d = float(stance.leg_length) / scale
+    d = max(leg.thigh + leg.shank for leg in stance.leg_joints) / scale
     v = np.asarray(point, dtype=float) - np.asarray(pivot, dtype=float)
     x, z = float(np.hypot(v[0], v[1])), float(v[2])
     dz = max(0.0, -d - z, z)
-    r = float(np.linalg.norm(np.asarray(arm.shoulder, float) - pivot)) + \
-        settings.lean_reach * arm.arm_length
+    s_, p_ = np.asarray(arm.shoulder, dtype=float), np.asarray(pivot, dtype=float)
+    # the shoulder as far from the pivot as any chest turn (about the canonical z axis)
+    # takes it: its horizontal distance from the axis and the pivot's, added
+    apart = float(np.hypot(np.hypot(s_[0], s_[1]) + np.hypot(p_[0], p_[1]), s_[2] - p_[2]))
+    r = apart + settings.lean_reach * arm.arm_length
     return bool(np.hypot(x, dz) <= r)
 
 
