@@ -30,6 +30,7 @@ import time
 import bpy
 
 from ..blender import live, pipeline, rig_detect, viz
+from ..blender.lean import SQUAT_REPORTED
 from ..core import ReachError
 from ..core.steps import drain
 from .properties import BONE_PREFIX, last_result, request_from, set_live
@@ -392,6 +393,7 @@ def result_lines(props) -> list:
             if st.get("touching_transitions") or st.get("unbounded_hand_turns"):
                 lines.append(f"  hand: {st['touching_transitions']} frame(s) touching between "
                              f"keys, {st['unbounded_hand_turns']} turn(s) over the limit")
+        lines += body_lines(st)
         if st.get("com_margin_min") is not None:
             lines.append(f"  balance: centre of mass {st['com_margin_min']:.2f} arm lengths "
                          "inside the feet at least" if st["com_margin_min"] >= 0.0 else
@@ -409,6 +411,29 @@ def result_lines(props) -> list:
         lines.append(f"Time: planner {res['time']['planner_s'] * 1000:.0f} ms, "
                      f"wall {res['time']['wall_s'] * 1000:.0f} ms")
     return lines + obstacle_lines(res)
+
+
+def body_lines(stats: dict) -> list:
+    """What the body did for a reach, from its result's ``stats``: the steps (how many,
+    how far, arm lengths), then the lean (the trunk's angle; the hips back and, in a
+    squat, down, as the message says it: :data:`.blender.lean.SQUAT_REPORTED`; the knees'
+    bend). None where the arm reached alone."""
+    lines = []
+    if stats.get("step_count"):
+        n = stats["step_count"]
+        lines.append(f"  body: {n} step{'s' if n > 1 else ''}, "
+                     f"{stats['step_distance']:.2f} arm lengths toward it")
+    if stats.get("lean_deg") is not None:
+        text = f"  trunk leaned {stats['lean_deg']:.0f}°"
+        if stats.get("lean_hips_down", 0.0) >= SQUAT_REPORTED:
+            text += (f", squatting: hips {stats['lean_hips_down']:.2f} down, "
+                     f"{stats['lean_hips_back']:.2f} back")
+        elif stats.get("lean_hips_back", 0.0) > 0.0:
+            text += f", hips {stats['lean_hips_back']:.2f} back"
+        if stats.get("lean_knee_deg") is not None:
+            text += f", knees {stats['lean_knee_deg']:.0f}°"
+        lines.append(text)
+    return lines
 
 
 #: The panel names at most this many obstacles (the report has them all).

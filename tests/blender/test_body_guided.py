@@ -54,10 +54,14 @@ def test_a_guided_reach_leans_past_the_arm_and_steps_farther(addon, rig_file, ki
         goal = np.array(target.matrix_world.translation)
         assert np.linalg.norm(wrist(armature, info, result.frame_end) - goal) <= \
             ON_TARGET * info.arm.arm_length
+        lines = addon.ui.operators.body_lines(result.stats)    # the Result panel's
         if case == "lean":
             assert result.stats["lean_deg"] > 0.0, result.stats
+            assert lines[-1].startswith(f"  trunk leaned {result.stats['lean_deg']:.0f}°")
         else:
-            assert result.stats["step_count"] >= 1, result.stats
+            n = result.stats["step_count"]
+            assert n >= 1, result.stats
+            assert lines[0].startswith(f"  body: {n} step"), lines
 
 
 def test_without_lean_a_guided_reach_past_the_arm_is_refused_as_before(addon, rig_file):  # noqa: F811
@@ -67,6 +71,7 @@ def test_without_lean_a_guided_reach_past_the_arm_is_refused_as_before(addon, ri
     result = bake(addon, armature, target, "guided", lean=False).results[0]
     assert not result.success and result.reason == "needs_lean", result.message
     assert "turn on Lean" in result.message
+    assert addon.ui.operators.body_lines(result.stats) == []
 
 
 def test_a_guided_reach_through_two_targets_or_among_moving_boxes_does_not_lean_or_step(
