@@ -295,6 +295,14 @@ def support_now(armature, legs, up) -> tuple:
     return core_balance.polygon_of([basis.T @ c for c in rectangles] + joints, up), "bones"
 
 
+def ankles_now(armature, legs) -> tuple:
+    """(each leg's ankle now (world, (n, 3)), the legs' mean length from hip to ankle)."""
+    ankles = np.array([point_of(armature, leg.ankle) for leg in legs])
+    length = float(np.mean([np.linalg.norm(point_of(armature, leg.hip) - a)
+                            for leg, a in zip(legs, ankles)]))
+    return ankles, length
+
+
 def ground_now(armature, legs, up) -> float:
     """The height (along the unit ``up``) of the ground the feet stand on now: the lowest
     point of their soles' skin (:func:`_sole`), else of their bones' joints."""

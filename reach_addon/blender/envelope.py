@@ -53,8 +53,7 @@ def read_stance(armature, info, settings) -> Stance | None:
     if bone is None:
         return None
     up = np.asarray(info.frame.up, dtype=float)
-    point = balance.point_of
-    ankles = np.array([point(armature, leg.ankle) for leg in legs])
+    ankles, leg_length = balance.ankles_now(armature, legs)
     floor = min(0.0, balance.margin_now(armature, info.bones, legs, up))
     return Stance(
         segments=tuple(balance.body_segments(armature, info.bones, legs)),
@@ -65,9 +64,7 @@ def read_stance(armature, info, settings) -> Stance | None:
         margin=floor + settings.balance_margin * info.arm.arm_length,
         leg_joints=tuple(hips_mod.leg_joints(armature, legs,
                                              np.asarray(info.frame.forward, float))),
-        ankles=ankles,
-        leg_length=float(np.mean([np.linalg.norm(point(armature, leg.hip) - a)
-                                  for leg, a in zip(legs, ankles)])),
+        ankles=ankles, leg_length=leg_length,
         shoulder=np.asarray(info.joints_world["shoulder"], dtype=float),
         ground=balance.ground_now(armature, legs, up))
 

@@ -23,7 +23,7 @@ from ..core import Planner
 from ..core.lean import TrunkSkin
 from ..core.squat import leg_angles
 from ..core.errors import NEEDS_STEP
-from ..core.whole_body import BODY_TASKS, LeanPhase, lean_then_reach, wants_body
+from ..core.whole_body import LeanPhase, lean_then_reach, wants_body, wants_step
 from . import balance, own_keys, skin
 from . import hips as hips_mod
 from . import bake as bake_mod
@@ -158,10 +158,9 @@ def note_moving(plan, moving) -> None:
     """Say, in the message of ``plan`` (a single reach refused for a target the body could
     reach, or step toward), that the body does not lean or step among obstacles that move
     during the reach (``moving``: their names): the body's checks hold the scene still."""
-    s = plan.settings
-    stepping = s.lean and s.stepping and plan.reason == NEEDS_STEP and \
-        plan.task.kind in BODY_TASKS and len(plan.task.targets) == 1
-    if not stepping and not wants_body(s, plan.task, plan, plan.arm):
+    stepping = plan.reason == NEEDS_STEP and wants_step(plan.settings, plan.task, plan,
+                                                         plan.arm)
+    if not stepping and not wants_body(plan.settings, plan.task, plan, plan.arm):
         return
     names = ", ".join(f"'{n}'" for n in moving[:3]) + (" ..." if len(moving) > 3 else "")
     for seg in plan.segments:

@@ -34,12 +34,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..core import NEEDS_STEP, Planner
+from ..core import Planner
 from ..core import balance as core_balance
 from ..core.hand_shape import with_shape
 from ..core.lean import skin_hit
 from ..core.step import Step, StepMotion, plan_step, step_motion
-from ..core.whole_body import BODY_TASKS, wants_body
+from ..core.whole_body import wants_step
 from . import balance, own_keys, skin
 from . import hips as hips_mod
 from .bake import KeyedPlan
@@ -112,9 +112,7 @@ def plan(context, armature, info, planner, keyed, reread, bake_closest=False):
     The rig's pose is put back either way."""
     s = planner.settings
     failed, task = keyed.plan, keyed.plan.task
-    if not (s.lean and s.stepping) or task.kind not in BODY_TASKS or \
-            len(task.targets) != 1 or not (
-            failed.reason == NEEDS_STEP or wants_body(s, task, failed, info.arm)):
+    if not wants_step(s, task, failed, info.arm):
         return None, keyed
     legs = balance.find_legs(armature, info.bones, info.frame)
     bone = lean_bone(armature, info.bones, legs)
@@ -143,10 +141,7 @@ STEP_SHORTER = (1.0, 1.15)
 
 def _plan(context, armature, info, planner, keyed, legs, hips, reread, bake_closest):
     s, task = planner.settings, keyed.plan.task
-    point = balance.point_of
-    ankles = np.array([point(armature, leg.ankle) for leg in legs])
-    leg_length = float(np.mean([np.linalg.norm(point(armature, leg.hip) - a)
-                                for leg, a in zip(legs, ankles)]))
+    ankles, leg_length = balance.ankles_now(armature, legs)
     whys = []
     for reach in (s.step_reach,) + tuple(r for r in STEP_SHORTER if r > s.step_reach):
         step, why = plan_step(info.joints_world["shoulder"], task.targets[0], ankles,

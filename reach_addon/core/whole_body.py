@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .arm import ArmModel, hand_frame
-from .errors import NEEDS_LEAN, OUT_OF_REACH
+from .errors import NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH
 from .hand_shape import with_shape
 from .hips import shifted_lean
 from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean_frames, lean_hit,
@@ -200,6 +200,17 @@ def wants_body(settings, task, failed, arm) -> bool:
     if failed.reason != OUT_OF_REACH or not settings.squat:
         return False
     return below_the_arm(arm, arm.to_canonical_points(np.asarray(task.targets[0], dtype=float)))
+
+
+def wants_step(settings, task, failed, arm) -> bool:
+    """Whether ``failed`` is one the body may step toward: with ``Settings.lean`` and
+    ``Settings.stepping`` on, a reach or guided reach to one target (:data:`BODY_TASKS`)
+    refused as ``needs_step``, or one the lean and squat are tried for
+    (:func:`wants_body`)."""
+    if not (settings.lean and settings.stepping) or task.kind not in BODY_TASKS or \
+            len(task.targets) != 1:
+        return False
+    return failed.reason == NEEDS_STEP or wants_body(settings, task, failed, arm)
 
 
 def below_the_arm(arm, target_c) -> bool:
