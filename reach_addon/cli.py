@@ -47,8 +47,11 @@ HAND_REPORT_KEYS = ("max_wrist_turn_deg_per_frame", "max_hand_turn_deg_per_frame
                     # Match orientation (core.orient): null when it was not asked for
                     "orientation_error_deg", "orientation_met")
 #: The bake's figures of each baked task (README, "The report"): how far the rig put a
-#: planned joint, and the spans between keys made linear (and still too close after it).
-BAKE_REPORT_KEYS = ("rig_residual_arm_lengths", "linear_spans", "close_spans",
+#: planned joint, how far the evaluated wrist ends from the target
+#: (blender.results.measure_arrival), and the spans between keys made linear (and still
+#: too close after it).
+BAKE_REPORT_KEYS = ("rig_residual_arm_lengths", "wrist_gap_arm_lengths", "linear_spans",
+                    "close_spans",
                     # the elbow lifted for a low target, and bends an obstacle forced
                     # (blender.results.measure_naturalness)
                     "chicken_wing_frames", "forced_bend_frames", "bend_forced_by")

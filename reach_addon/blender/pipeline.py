@@ -435,7 +435,7 @@ class PipelineRun:
                 r.message += ", the head turned half way toward it (farther would touch)"
         if outcome.baked:
             measure_baked(self.context, self.armature, self.info, outcome.results,
-                          self.settings, self.obstacles)
+                          self.settings, self.obstacles, self.plans)
         for r in outcome.results if self.still else ():
             r.message += f"; {self.still}"
         self.outcome = outcome

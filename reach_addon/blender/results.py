@@ -1,7 +1,8 @@
 """What a pipeline run reports per target (:class:`TaskResult`), and the readings that
 correct a plan's own account by what Blender shows: a start the skin shows clear
 (:func:`start_as_it_shows`), the hand's orientation on the baked bones
-(:func:`measure_orientation`) and how natural the baked arm is (:func:`measure_naturalness`).
+(:func:`measure_orientation`), how natural the baked arm is (:func:`measure_naturalness`)
+and whether the evaluated wrist arrives where the plan's did (:func:`measure_arrival`).
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..core import START_HELD, START_IN_COLLISION
+from ..core import RIG_OFF_TARGET, START_HELD, START_IN_COLLISION
 from ..core.arm import frame_angle
 from ..core.elbow import chicken_wing
 from ..core.orient import palm_frame, wanted_axes
@@ -184,10 +185,12 @@ def measure_orientation(context, armature, info, results, settings) -> None:
         r.stats["orientation_met"] = error <= settings.orientation_tolerance
 
 
-def measure_baked(context, armature, info, results, settings, obstacles) -> None:
+def measure_baked(context, armature, info, results, settings, obstacles, plans=()) -> None:
     """What Blender's evaluated bones show of each baked result of ``results``, put into
-    its stats in place: the orientation (:func:`measure_orientation`), the naturalness
+    its stats in place: the wrist's arrival on the target (:func:`measure_arrival`, with
+    ``plans``), the orientation (:func:`measure_orientation`), the naturalness
     (:func:`measure_naturalness`) and the balance (:func:`.balance.measure`)."""
+    measure_arrival(context, armature, info, results, plans, settings)
     measure_orientation(context, armature, info, results, settings)
     measure_naturalness(context, armature, info, results, settings, obstacles)
     balance.measure(context, armature, info, results)
@@ -288,3 +291,42 @@ def _turn_toward(axis, rest_axis) -> list:
         d = (np.sin((1.0 - t) * angle) * a + np.sin(t * angle) * b) / np.sin(angle)
         out.append(d / np.linalg.norm(d))
     return out
+
+
+#: How much farther than the goal tolerance (arm lengths) the evaluated wrist may end from
+#: its target: float32 round-off in Blender's matrices only.
+ARRIVAL_SLACK = 1e-4
+
+
+def measure_arrival(context, armature, info, results, plans, settings) -> None:
+    """Put, in place, into each result of ``results`` that reached its target and was
+    keyed ``wrist_gap_arm_lengths``: how far the wrist (the hand bone's head, as Blender
+    evaluates the keys) is from the target its plan arrived at, on the frame it arrived
+    (``plans``: the run's :class:`.bake.KeyedPlan` list, whose segments ``results``
+    follow in order; a chase, whose target moves on, is left out). Where that is more than
+    the goal tolerance (``Settings.goal_tolerance``, plus :data:`ARRIVAL_SLACK`) the result
+    is no success: reason ``rig_off_target``, its message saying how far off and which
+    bones were keyed. The keys stay (the user sees what the rig does with them). Changes
+    the scene's frame."""
+    segments = [(k.plan, seg) for k in plans for seg in k.plan.segments]
+    if len(segments) != len(results):
+        return
+    scene = context.scene
+    hand = info.bones.arms[info.side].hand
+    mw = np.array(armature.matrix_world)
+    length = info.arm.arm_length
+    for r, (plan, seg) in zip(results, segments):
+        if not r.success or not r.bones_keyed or plan.task.kind == "chase":
+            continue
+        scene.frame_set(r.frame_end)
+        wrist = mw[:3, :3] @ np.array(armature.pose.bones[hand].head) + mw[:3, 3]
+        gap = float(np.linalg.norm(wrist - np.asarray(seg.target, dtype=float))) / length
+        r.stats["wrist_gap_arm_lengths"] = round(gap, 6)
+        if gap <= settings.goal_tolerance + ARRIVAL_SLACK:
+            continue
+        r.success, r.reason = False, RIG_OFF_TARGET
+        r.message = (f"planned to reach '{r.target}', but the keys put the wrist {gap:.3f} "
+                     f"arm lengths from it on frame {r.frame_end}: the rig's constraints "
+                     f"move the keyed bones ({', '.join(r.bones_keyed[:6])}) otherwise than "
+                     "Reach models them; the keys are left for you to see (please report "
+                     "the rig)")

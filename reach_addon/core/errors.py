@@ -23,8 +23,12 @@ ARM_DOES_NOT_FIT = "arm_does_not_fit"      # in free space, but the arm or hand 
 NO_PATH = "no_path"
 START_IN_COLLISION = "start_in_collision"
 START_HELD = "start_held"                  # clear, but no step from the start is; names what
+#: planned and keyed, but the rig as Blender evaluates the keys puts the wrist off the
+#: target (its constraints move the arm otherwise than Reach models them): a fault of
+#: Reach's reading of the rig, reported rather than called a success
+RIG_OFF_TARGET = "rig_off_target"
 REASONS = (OUT_OF_REACH, NEEDS_LEAN, NEEDS_STEP, TARGET_IN_OBSTACLE, ARM_DOES_NOT_FIT, NO_PATH,
-           START_IN_COLLISION, START_HELD)
+           START_IN_COLLISION, START_HELD, RIG_OFF_TARGET)
 
 
 class ReachError(ValueError):

@@ -379,3 +379,37 @@ def test_stopping_at_any_step_changes_nothing(fresh, addon, bake):
     _n, outcome = run(pipeline.steps(bpy.context, request, bake=bake))
     assert outcome.success and outcome.baked == bake
     assert fingerprint() != before, "the full run changes the file (keys or drawing)"
+
+
+def test_a_bake_the_rig_does_not_follow_is_not_called_a_success(fresh, addon):
+    """A reach whose keys Blender evaluates elsewhere than planned is reported as
+    ``rig_off_target``, never as reached (fuzz seed 40071 was called reached with the wrist
+    1.44 arm lengths off). The rig: the metarig's elbow held straight by a Limit Rotation
+    constraint of the user's, which Reach does not read; the same reach without it arrives,
+    the report's ``wrist_gap_arm_lengths`` within the goal tolerance. The keys stay (the
+    user sees what the rig makes of them); the gap is measured here on the evaluated bones."""
+    arm, info, target, _plate = set_up("metarig", addon)
+    outcome = addon.blender.pipeline.run(bpy.context, addon.blender.pipeline.Request(
+        arm.name, [target.name], side="right", frame_start=1), bake=True)
+    res = outcome.results[0]
+    length, tolerance = info.arm.arm_length, outcome.request.settings.goal_tolerance
+    assert res.success, res.message
+    assert res.stats["wrist_gap_arm_lengths"] <= tolerance + 1e-4
+    bends = [p.config.elbow for p in outcome.plans[0][0].poses]
+    assert max(bends) - min(bends) > 20.0, "the reach must bend the elbow for this test to bite"
+
+    arm, info, target, _plate = set_up("metarig", addon)
+    held = arm.pose.bones["forearm.R"].constraints.new("LIMIT_ROTATION")
+    held.use_limit_x = held.use_limit_y = held.use_limit_z = True
+    held.owner_space = "LOCAL"
+    bpy.context.view_layer.update()
+    outcome = addon.blender.pipeline.run(bpy.context, addon.blender.pipeline.Request(
+        arm.name, [target.name], side="right", frame_start=1), bake=True)
+    res = outcome.results[0]
+    assert not res.success and res.reason == "rig_off_target", res.message
+    assert f"'{target.name}'" in res.message and "forearm.R" in res.message
+    assert outcome.baked and res.bones_keyed
+    bpy.context.scene.frame_set(res.frame_end)
+    wrist = world_heads(arm, ("upper_arm.R", "forearm.R", "hand.R"))[2]
+    gap = float(np.linalg.norm(wrist - np.array(target.matrix_world.translation))) / length
+    assert gap > tolerance and res.stats["wrist_gap_arm_lengths"] == pytest.approx(gap, abs=1e-4)

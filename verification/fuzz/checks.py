@@ -37,6 +37,9 @@ CATEGORIES = {
     "success_turns_too_fast": "reported success, but a bone of the hand turns faster in "
                               "space from one frame to the next than the hand's bound, on "
                               "more frames than the report says it lifted the bound",
+    "rig_off_target": "a task failed as rig_off_target: Reach's own check found that its keys "
+                      "put the wrist off the target as Blender evaluates them (a fault of "
+                      "Reach's reading of the rig, reported honestly)",
     "input_changed": "the input file (or a library it links) changed",
     "nondeterministic": "two bakes of the same file keyed different values or ended "
                         "differently",
@@ -419,6 +422,9 @@ def classify(spec: dict, manifest: dict, runs: list, changed: list, keys: list,
         return "unclear_failure", f"exit status {rc} with {len(failed)} failed task(s)"
     if manifest["must_refuse"]:
         return "unclear_failure", f"bad input accepted (expected a refusal naming {manifest['culprits']})"
+    for t in failed:
+        if t["reason"] == "rig_off_target":
+            return "rig_off_target", t["message"]
     if failed:
         t = failed[0]
         return "failure_with_reason", f"{t['reason']}: {t['message']}"
