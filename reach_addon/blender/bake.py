@@ -73,7 +73,8 @@ class BakeResult:
     close_spans: list = field(default_factory=list)
 
 
-def bake(context, armature, info, plans, new_action=False, then=None) -> BakeResult:
+def bake(context, armature, info, plans, new_action=False, then=None,
+         start_pose=None) -> BakeResult:
     """Write keys for ``plans`` on ``armature``, whose arm ``info`` (:class:`.rig.RigInfo`)
     describes: one key per frame on each keyed bone's rotation channels, the hand's palm
     siblings and the chest (when a plan turns it) included, and the IK/FK switch set to
@@ -82,14 +83,17 @@ def bake(context, armature, info, plans, new_action=False, then=None) -> BakeRes
     as Blender interpolates them (:func:`.straighten.straighten`). ``new_action``: key a
     copy of the armature's action. ``then(result)``: called with the :class:`BakeResult`
     once the plans are keyed, before that check (a lean keys the trunk there, so the check
-    sees the trunk move). Raises ReachError if a keyed bone is missing. Returns a
+    sees the trunk move). ``start_pose``: every bone's armature-space matrix in the pose
+    the first plan starts from, where that is not the pose now (a lean's: :func:`.lean.
+    carried_start`). Raises ReachError if a keyed bone is missing. Returns a
     :class:`BakeResult`."""
     plans = [KeyedPlan.of(p) for p in plans]
     bmap = info.bones
     pose = armature.pose.bones
     mw = np.array(armature.matrix_world)
     mw_inv = np.linalg.inv(mw)
-    start_pose = {pb.name: np.array(pb.matrix) for pb in pose}
+    if start_pose is None:
+        start_pose = {pb.name: np.array(pb.matrix) for pb in pose}
 
     keyed, reference = bone_roles(info, moves_chest([k.pair for k in plans]))
     for name in keyed.values():

@@ -2,12 +2,16 @@
 (held to the balance, :mod:`.lean_balance`), its keys (posed by :mod:`.lean_pose`) and its
 report.
 
-**The lean bone** (:func:`lean_bone`) is the highest bone of the chest's chain (the keyed
-chest, its parent, and so on up) that carries neither leg (:func:`.balance.find_legs`):
-turning it turns the chest, both arms and the head and leaves the legs and feet where they
-are. Its head is the lean's pivot. On most rigs it is the lowest spine bone above the
-hips (the hips carry the legs); on a generated Rigify rig it is the chest control. A rig
-without legs has none, and does not lean.
+**The lean bone** (:func:`lean_bone`) is the highest bone of the chest's chain (the bone
+the arms hang from, its parent, and so on up) that carries neither leg
+(:func:`.balance.find_legs`) and has no constraint of its own (:func:`constrained`):
+turning it turns the chest, both arms and the head rigidly about its head, which is the
+lean's pivot, and leaves the legs and feet where they are; a key on it is what Blender
+evaluates. On most rigs it is the lowest spine bone above the hips (the hips carry the
+legs). On a generated Rigify rig it is the FK control ``spine_fk.002``: the ``chest``
+control turns the spine through two constraints at half influence each, about two
+joints, and a lean keyed on it put the shoulder 0.2 arm lengths off where a rigid turn
+about its head puts it (fuzz seed 40071). A rig without legs has none, and does not lean.
 """
 
 from __future__ import annotations
@@ -44,13 +48,20 @@ def lean_bone(armature, bmap, legs) -> str | None:
     bones = armature.data.bones
     hips = [bones[leg.hip[0]] for leg in legs]
     carried = {b.name for h in hips for b in [h] + ancestors(h)}
-    chain = [bones[bmap.keyed_chest]] + ancestors(bones[bmap.keyed_chest])
+    chain = [bones[bmap.chest]] + ancestors(bones[bmap.chest])
     found = None
     for b in chain:
         if b.name in carried:
             break
-        found = b.name
+        if not constrained(armature.pose.bones[b.name]):
+            found = b.name
     return found
+
+
+def constrained(pose_bone) -> bool:
+    """Whether ``pose_bone`` has a constraint of its own that acts (enabled, influence
+    above 0): its keys are then not all of what Blender evaluates."""
+    return any(not c.mute and c.influence > 0.0 for c in pose_bone.constraints)
 
 
 def hips_keyed(armature, hips: str, legs) -> str | None:
@@ -226,6 +237,7 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
     bake's :class:`.bake.BakeResult`, its frame range from the first frame keyed."""
     pb = armature.pose.bones[lean.bone]
     before = pb.matrix_basis.copy()
+    upright = {b.name: np.array(b.matrix) for b in armature.pose.bones}
     hips_keys = _hips_bases(context, armature, info, lean)
     pose_lean(context, armature, lean.bone, lean.bases[-1])
     for name, bases in hips_keys.items():
@@ -236,13 +248,29 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
         result = bake_mod.bake(context, armature, dataclasses.replace(info, arm=lean.phase.arm),
                                ready + list(plans), new_action,
                                then=lambda r: _key_lean(context, armature, info, lean, r,
-                                                        hips_keys))
+                                                        hips_keys),
+                               start_pose=carried_start(armature, lean.bone, upright))
     except Exception:
         pb.matrix_basis = before
         context.view_layer.update()
         raise
     result.frames = (lean.frame_start, result.frames[1])
     return result
+
+
+def carried_start(armature, bone: str, upright: dict) -> dict:
+    """Every bone's armature-space pose matrix with the trunk at the full lean as the plan
+    has it: the ``bone`` (the lean bone, posed now) and every bone it carries at their
+    ``upright`` matrices (read before the lean) carried by the lean bone's move, the rest
+    as posed now. A bone a constraint drives is not always carried by its parents: a
+    Rigify arm in IK keeps its hand where its IK control is as the trunk leans, and the
+    keys of a reach planned from the arm's start on the leaned trunk were turned from
+    that instead (0.18 arm lengths off on the generated rig)."""
+    now = {b.name: np.array(b.matrix) for b in armature.pose.bones}
+    carry = now[bone] @ np.linalg.inv(upright[bone])
+    for b in armature.data.bones[bone].children_recursive:
+        now[b.name] = carry @ upright[b.name]
+    return now
 
 
 def _key_lean(context, armature, info, lean: RigLean, result, hips_keys) -> None:
@@ -278,12 +306,15 @@ def _hips_bases(context, armature, info, lean: RigLean) -> dict:
     if lean.hips is None:
         return {}
     names = [lean.hips] + hips_mod.leg_bones(armature, list(lean.legs))
-    out: dict = {n: [] for n in names}
+    # a leg bone a constraint drives (a generated Rigify rig's DEF bones, which follow its
+    # IK legs) is posed for the measure, not keyed: its keys would do nothing
+    keyed = [n for n in names if not constrained(armature.pose.bones[n])]
+    out: dict = {n: [] for n in keyed}
     for basis, fraction in zip(lean.bases, lean.phase.fractions):
         with hips_mod.Posed(context, armature, [lean.bone] + names):
             pose_leaned(context, armature, info, lean.bone, basis, lean.legs, lean.hips,
                         shift_world(info, lean.phase.lean, float(fraction)))
-            for n in names:
+            for n in keyed:
                 out[n].append(np.array(armature.pose.bones[n].matrix_basis))
     return {n: np.array(v) for n, v in out.items()}
 

@@ -18,7 +18,7 @@ import numpy as np
 from ..core import balance as core_balance
 from ..core import hips as core_hips
 from ..core.lean import skin_hit
-from ..core.whole_body import BALANCE, TOUCH, Why
+from ..core.whole_body import BALANCE, SLIDE, TOUCH, Why
 from . import balance, skin
 from . import hips as hips_mod
 from .lean_pose import lean_basis, pose_lean, pose_leaned, shift_world, world_rotations
@@ -99,6 +99,7 @@ class BalanceCheck:
         self.standing = balance.margin_now(armature, info.bones, legs,
                                            np.asarray(info.frame.up, float))
         self.hips = hips_mod.hips_bone(armature, legs, bone)
+        self.ankles = balance.ankles_now(armature, legs)[0]
         self.margins = []
         self.correction = None
 
@@ -110,6 +111,7 @@ class BalanceCheck:
         with hips_mod.Posed(self.context, self.armature, bones):
             pose_leaned(self.context, self.armature, self.info, self.bone, basis, self.legs,
                         self.hips if moved else None, shift_world(self.info, lean))
+            slide = self.slide() if moved else 0.0
             margin, pose, com = margin_reaching(self.armature, self.info, self.legs,
                                                 arm_world, turned)
             if pose is not None and not moved and self.target is not None:
@@ -117,6 +119,11 @@ class BalanceCheck:
                     reaching_segments(self.armature, self.info, self.legs, self.target))
         self.margins.append(margin)
         length = self.info.arm.arm_length
+        if slide > FEET_SLIDE * length:
+            return Why(f"moving the hips {np.linalg.norm(np.asarray(lean.shift)[:2]) / length:.2f} "
+                       f"arm lengths back would slide the feet {slide / length:.3f} arm "
+                       f"lengths: the legs of '{self.armature.name}' do not keep them planted "
+                       "(its leg bones follow constraints: set its legs to IK)", SLIDE)
         if margin >= min(0.0, self.standing):
             if not moved or arm_world is not None:
                 return None
@@ -141,6 +148,14 @@ class BalanceCheck:
         if self.standing < 0.0:
             why += f" (the rig as posed stands {-self.standing / length:.3f} arm lengths past them)"
         return Why(why, BALANCE)
+
+    def slide(self) -> float:
+        """How far the ankle that moved most is from where it stood (world units), as
+        Blender evaluates the pose now: a rig whose legs follow constraints (a generated
+        Rigify rig's in FK) carries its feet with the hips' shift, which :func:`.hips.
+        pose_shift` poses on the bones the constraints override."""
+        now = balance.ankles_now(self.armature, self.legs)[0]
+        return float(np.linalg.norm(now - self.ankles, axis=1).max())
 
     def along(self, lean):
         """The body on the way to a lean that moves the hips, at :data:`BALANCE_SAMPLES`
@@ -200,6 +215,10 @@ class BalanceCheck:
                 return part, hit[1]
         return None
 
+
+#: How far (arm lengths) an ankle may move as the hips move before :class:`BalanceCheck`
+#: refuses the lean as sliding the feet (the issue's bound on planted feet is 0.02).
+FEET_SLIDE = 0.002
 
 #: The share of the clearance the skin below the ankles keeps from the obstacles as the
 #: hips move (:meth:`BalanceCheck.lower_hit`). It is the feet's, planted on the ground;

@@ -45,7 +45,7 @@ from . import hips as hips_mod
 from .bake import KeyedPlan
 from .fcurves import Channels, ensure_action
 from .lean import lean_bone
-from .lean_balance import FEET_CLEARANCE
+from .lean_balance import FEET_CLEARANCE, FEET_SLIDE
 from .own_keys import users_keys
 
 @dataclass
@@ -185,6 +185,12 @@ def _try(context, armature, info, planner, keyed, legs, hips, reread, bake_close
         if why is not None:
             return None, f"{said}: {why}"
         pose_step(context, armature, info, legs, hips, motion, motion.frames)
+        off = _feet_off(armature, legs, ankles, motion.feet[motion.frames])
+        if off > FEET_SLIDE * length:
+            return None, (f"{said}: the feet of '{armature.name}' do not follow the step "
+                          f"(an ankle ends {off / length:.2f} arm lengths from where it steps "
+                          "to): its foot bones follow constraints, and Reach keys the feet's "
+                          "bones, not a foot IK control it does not find")
         info2 = reread()
         planner2 = Planner(info2.arm, planner.obstacles, s)
         task2 = dataclasses.replace(task, start=info2.start, start_hand=info2.start_hand,
@@ -204,6 +210,13 @@ def _try(context, armature, info, planner, keyed, legs, hips, reread, bake_close
     rig_step = RigStep(step, motion, hips, tuple(legs), bases, located, keyed.first_frame,
                        info2, margin, lean)
     return (rig_step, keyed2), None
+
+
+def _feet_off(armature, legs, ankles, offsets) -> float:
+    """How far the ankle that ends farthest from its place (``ankles`` moved by the step's
+    ``offsets``, world) is from it, as Blender evaluates the pose now (world units)."""
+    now = balance.ankles_now(armature, legs)[0]
+    return float(np.linalg.norm(now - (np.asarray(ankles) + np.asarray(offsets)), axis=1).max())
 
 
 #: Rounds of :func:`_weight_over_foot`'s correction, each measured on the motion the last

@@ -62,6 +62,8 @@ from .torso import body_rotation_deg, rotate_about_spine
 BALANCE = "balance"
 #: The cause of a refusal where a part of the body touches an obstacle.
 TOUCH = "touch"
+#: The cause of a refusal where the rig's legs would not keep the feet planted.
+SLIDE = "slide"
 
 
 class Why(str):
