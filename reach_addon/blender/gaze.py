@@ -3,10 +3,14 @@ is keyed so the head looks at each target in turn (``Settings.gaze``).
 
 **The bone** is the rig's neck (:attr:`.rig_detect.BoneMap.neck`, the spine above the
 chest): turning it carries the head and everything on it, the cervical spine taken as one
-joint at its base. Not keyed, with the reason in the report: a rig without a neck, a neck
-with keys a user set (:func:`.own_keys.users_keys`: a bake again over Reach's own keys
-replaces them), and a generated Rigify rig (its head control may keep its own orientation,
-``head_follow``: not read yet).
+joint at its base. On a generated Rigify rig it is the ``head`` control, which the
+``ORG-`` and ``DEF-`` head follow through constraints: its ``neck`` control does not turn
+the head unless *Head Follow* is on (the head keeps the torso's orientation), and the
+head control turns it whichever way that is set; it turns about the top of the neck.
+That it turns the head is read as Blender evaluates it (:func:`_turns_the_head`). Not
+keyed, with the reason in the report: a rig without a neck, a neck with keys a user set
+(:func:`.own_keys.users_keys`: a bake again over Reach's own keys replaces them), a Rigify
+head control that is missing, constrained or does not turn the head.
 
 **The aim** is read on every frame as Blender evaluates the keyed motion (the lean, the
 chest's turn): the neck's forward and up are the body's at the start frame, carried by the
@@ -28,6 +32,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import bpy
 import numpy as np
 
 from ..core.gaze import clip_gaze, gaze_angles, gaze_blend, gaze_rotation
@@ -37,6 +42,7 @@ from . import own_keys
 from .carried import carrying_bone, under
 from .fcurves import Channels, ensure_action, write_channel
 from .own_keys import users_keys
+from .rig_detect import followers
 from .skin import skin_points
 
 #: Where the eyes are, as a share of the way from the neck's base to the top of the head.
@@ -52,8 +58,13 @@ def neck_of(armature, info, targets=()) -> tuple:
     neck = info.bones.neck
     if neck is None or neck not in armature.pose.bones:
         return None, "Reach finds no neck on this rig"
-    if info.bones.key_chest:
-        return None, "a generated Rigify rig's head control is not read yet"
+    if info.bones.key_chest:                 # a generated Rigify rig: its head control
+        pb = armature.pose.bones.get(RIGIFY_HEAD)
+        if pb is None or any(not c.mute and c.influence > 0.0 for c in pb.constraints):
+            return None, f"this Rigify rig has no free '{RIGIFY_HEAD}' control to turn"
+        if not _turns_the_head(armature, RIGIFY_HEAD, neck):
+            return None, f"turning its '{RIGIFY_HEAD}' control does not turn the head"
+        neck = RIGIFY_HEAD
     if users_keys(armature, neck):
         return None, f"bone '{neck}' has keys of its own"
     for t in targets:
@@ -62,6 +73,40 @@ def neck_of(armature, info, targets=()) -> tuple:
             return None, (f"target '{t.name}' is carried by bone '{bone}', which the head's "
                           "turn would move")
     return neck, None
+
+
+#: The head control of a generated Rigify rig, the bone the gaze keys there.
+RIGIFY_HEAD = "head"
+#: The test turn (radians) by which :func:`_turns_the_head` reads whether the head follows.
+TEST_TURN = 0.2
+
+
+def _turns_the_head(armature, control: str, neck: str) -> bool:
+    """Whether turning ``control`` turns the head by as much, as Blender evaluates it:
+    the head, the last bone of ``neck``'s connected chain, is read before and after a test
+    turn of :data:`TEST_TURN` about the control's own x axis, then the pose is put back."""
+    pbs = armature.pose.bones
+    head = pbs[neck]
+    while any(c.bone.use_connect for c in head.children):
+        head = next(c for c in head.children if c.bone.use_connect)
+    pb = pbs[control]
+    kept = pb.matrix_basis.copy()
+
+    def turn_of_head():
+        m = np.array(head.matrix)[:3, :3]
+        return m / np.linalg.norm(m, axis=0)
+
+    before = turn_of_head()
+    try:
+        from mathutils import Matrix
+        pb.matrix_basis = kept @ Matrix.Rotation(TEST_TURN, 4, "X")
+        bpy.context.view_layer.update()
+        after = turn_of_head()
+    finally:
+        pb.matrix_basis = kept
+        bpy.context.view_layer.update()
+    angle = np.arccos(np.clip((np.trace(after @ before.T) - 1.0) / 2.0, -1.0, 1.0))
+    return abs(float(angle) - TEST_TURN) <= 0.05 * TEST_TURN
 
 
 def targets_by_frame(plans, first: int, last: int) -> tuple:
@@ -234,9 +279,10 @@ def _head_top(armature, neck, m0, skin, up) -> np.ndarray:
 
 
 def _head_skin(armature, neck, m0) -> np.ndarray | None:
-    """The head's skin (the vertices the neck's bones move) in the neck's own axes at the
+    """The head's skin (the vertices the neck's bones move, and the bones that follow them
+    through constraints: :func:`.rig_detect.followers`) in the neck's own axes at the
     first frame (``m0``, its armature-space matrix then), or None where it has none."""
-    names = {neck} | {b.name for b in armature.pose.bones[neck].children_recursive}
+    names = followers(armature, {neck})
     pts = skin_points(armature, names, share=True)
     if not len(pts):
         return None

@@ -107,6 +107,26 @@ class BoneMap:
         return out
 
 
+def followers(armature, names) -> set:
+    """``names`` and every bone of ``armature`` that moves with them: their children, and
+    bones a constraint that acts (unmuted, influence above 0) aims at one of them (a
+    generated Rigify rig's ``ORG-`` and ``DEF-`` bones follow its controls that way), and
+    so on."""
+    moved = set(names)
+    grown = True
+    while grown:
+        grown = False
+        for pb in armature.pose.bones:
+            if pb.name in moved:
+                continue
+            if (pb.parent is not None and pb.parent.name in moved) or any(
+                    not c.mute and c.influence > 0.0 and getattr(c, "target", None) == armature
+                    and getattr(c, "subtarget", "") in moved for c in pb.constraints):
+                moved.add(pb.name)
+                grown = True
+    return moved
+
+
 def ancestors(bone) -> list:
     """The bone's parent, its parent's parent, ... up to the root."""
     out = []
