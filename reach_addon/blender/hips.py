@@ -159,9 +159,15 @@ def foot_bones(armature, leg, up) -> list:
 def ik_controls(armature, leg) -> list:
     """The bones of the armature that the leg's IK constraints aim at, target and pole
     (Quaternius' Foot and PoleTarget): a step carries them with the foot, else the
-    constraint pulls the leg back to them, or twists the knee toward a pole left behind."""
+    constraint pulls the leg back to them, or twists the knee toward a pole left behind.
+    On a generated Rigify rig, whose leg bones follow an IK chain of their own through
+    constraints, its leg's IK control and pole (``foot_ik`` and ``thigh_ik_target``, by
+    Rigify's names like the rest of its map, :func:`.rig_detect.detect_bones`)."""
     out = []
     bones = armature.pose.bones
+    if "rig_id" in armature.data.keys():      # a generated Rigify rig: its leg's controls
+        suffix = leg.hip[0][-2:]
+        out += [n for n in (f"foot_ik{suffix}", f"thigh_ik_target{suffix}") if n in bones]
     chain = [leg.hip[0], leg.knee[0], leg.ankle[0]] + list(leg.foot_bones)
     for name in dict.fromkeys(chain):
         for c in bones[name].constraints if name in bones else ():

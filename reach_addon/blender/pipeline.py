@@ -382,6 +382,9 @@ class PipelineRun:
         if self.to_key and self.step is not None:    # the step's keys first
             new_action = step_mod.key_first(self.context, self.armature, self.step,
                                             self._last(), new_action)
+            # the reach is keyed from where the step ends: a rig whose constraints the bake
+            # evaluates (Rigify's) is read there, not where the step starts
+            self.context.scene.frame_set(self.step.reach_first)
         if self.to_key and self.lean is not None:
             self.baked = lean_mod.bake(self.context, self.armature, self.info, self.lean,
                                        self.to_key, new_action)

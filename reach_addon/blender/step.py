@@ -20,7 +20,8 @@ planned for it; where that is refused, the lean and the squat are tried from the
 (:func:`.lean.plan`), as for a target that near.
 
 **Keys** (:func:`key`): the hips bone's location and rotation, the legs' and feet's bones
-(location where a bone is not connected to its parent) on every frame of the step, held
+(location where a bone is not connected to its parent; not a bone a constraint drives,
+whose keys would do nothing) on every frame of the step, held
 through the reach (where the lean does not key them after), recorded as Reach's own
 (:mod:`.own_keys`).
 """
@@ -192,6 +193,12 @@ def _try(context, armature, info, planner, keyed, legs, hips, reread, bake_close
                           "to): its foot bones follow constraints, and Reach keys the feet's "
                           "bones, not a foot IK control it does not find")
         info2 = reread()
+        left = _arm_left_behind(info, info2)
+        if left > FEET_SLIDE * length:
+            return None, (f"{said}: the {info.side} arm of '{armature.name}' does not move "
+                          f"with the body (its wrist falls {left / length:.2f} arm lengths "
+                          "behind: the hand follows a control the step leaves, an IK hand); "
+                          "switch the arm to FK")
         planner2 = Planner(info2.arm, planner.obstacles, s)
         task2 = dataclasses.replace(task, start=info2.start, start_hand=info2.start_hand,
                                     start_palm=info2.start_palm,
@@ -210,6 +217,17 @@ def _try(context, armature, info, planner, keyed, legs, hips, reread, bake_close
     rig_step = RigStep(step, motion, hips, tuple(legs), bases, located, keyed.first_frame,
                        info2, margin, lean)
     return (rig_step, keyed2), None
+
+
+def _arm_left_behind(before, after) -> float:
+    """How far the wrist's place relative to the shoulder changed between the rig read as
+    it stood (``before``, a :class:`.rig.RigInfo`) and where the step ends (``after``):
+    the step moves the trunk along the ground, which carries an arm its parents move
+    (world units)."""
+    def arm(info):
+        return np.asarray(info.joints_world["wrist"]) - np.asarray(info.joints_world["shoulder"])
+
+    return float(np.linalg.norm(arm(after) - arm(before)))
 
 
 def _feet_off(armature, legs, ankles, offsets) -> float:
@@ -372,12 +390,14 @@ def key(context, armature, rig_step: RigStep, last: int, keyed_after=()) -> None
     connected) on the step's frames (:func:`.lean.key_bone`), the last held to ``last``
     (the reach's last frame) unless the lean keys it after (``keyed_after``: bone names);
     recorded as Reach's own."""
-    from .lean import key_bone
+    from .lean import constrained, key_bone
 
     channels = Channels(armature, ensure_action(armature, False))
     frames = rig_step.frame_start + np.arange(len(rig_step.motion.hips), dtype=float)
     end = rig_step.reach_first
     for name, bases in rig_step.bases.items():
+        if constrained(armature.pose.bones[name]):
+            continue                 # posed for the checks; its keys would do nothing
         hold = [end, last] if last > end and name not in keyed_after else []
         key_bone(channels, armature.pose.bones[name], bases, frames, hold,
                  name in rig_step.located)

@@ -92,10 +92,43 @@ def test_with_the_legs_in_fk_the_squat_is_refused_and_the_feet_stay(addon, rig_f
     assert np.allclose(feet(armature), ankles, atol=1e-6)
 
 
-def test_a_step_is_refused_where_the_feet_follow_ik_controls(addon, rig_file):  # noqa: F811
+def arm_in(armature, mode: str) -> None:
+    """Set the right arm to IK or FK (its ``IK_FK`` switch)."""
+    armature.pose.bones["upper_arm_parent.R"]["IK_FK"] = 0.0 if mode == "IK" else 1.0
+    armature.update_tag()
+    bpy.context.view_layer.update()
+
+
+def test_a_step_moves_the_feet_by_their_ik_controls(addon, rig_file):  # noqa: F811
     armature = open_rig(rig_file, "rigify")
+    arm_in(armature, "FK")
+    info = addon.blender.rig.build(armature, "right")
+    bpy.context.scene.frame_set(1)
+    ankles = feet(armature)
+    target, _table, outcome = run(addon, armature, info, 1.6, True, True)
+    result = outcome.results[0]
+    assert result.success, result.message
+    assert result.stats["step_count"] >= 1
+    length = info.arm.arm_length
+    bpy.context.scene.frame_set(result.frame_end)
+    wrist = np.array(armature.matrix_world @ armature.pose.bones["ORG-hand.R"].head)
+    gap = float(np.linalg.norm(wrist - np.array(target.location))) / length
+    assert gap <= outcome.request.settings.goal_tolerance + 1e-4, gap
+    moved = np.linalg.norm(feet(armature) - ankles, axis=1) / length
+    assert moved.max() > 0.3, moved            # the feet went with the body
+    paths = {fc.data_path for fc in addon.blender.fcurves.Channels(
+        armature, armature.animation_data.action).bag.fcurves}
+    assert {'pose.bones["foot_ik.L"].location', 'pose.bones["foot_ik.R"].location'} & paths
+    assert not [p for p in paths if p.startswith('pose.bones["DEF-')], sorted(paths)
+
+
+def test_a_step_is_refused_where_the_arm_stays_at_its_ik_control(addon, rig_file):  # noqa: F811
+    armature = open_rig(rig_file, "rigify")
+    arm_in(armature, "IK")
     info = addon.blender.rig.build(armature, "right")
     _target, _table, outcome = run(addon, armature, info, 1.6, True, True)
     result = outcome.results[0]
     assert not result.success, result.message
-    assert "do not follow the step" in result.message, result.message
+    assert "does not move with the body" in result.message and "switch the arm to FK" in \
+        result.message, result.message
+    assert not outcome.baked
