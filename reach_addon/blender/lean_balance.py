@@ -288,6 +288,4 @@ class BalanceBody:
     def drop(self, shift_world) -> float:
         """How far the hips come down for ``shift_world`` (:func:`~..core.hips.hips_drop`),
         on the legs as they stand (:attr:`leg_joints`)."""
-        shift = np.asarray(shift_world, dtype=float)
-        return max([0.0] + [core_hips.hips_drop(j.hip + shift, j.ankle, j.thigh, j.shank, self.up)
-                            for j in self.leg_joints])
+        return core_hips.legs_drop(self.leg_joints, shift_world, self.up)

@@ -19,11 +19,14 @@ pose (5 of the 125 points of the Blender test's plate grid). Asking those tries 
 point cost the envelope's tests about fifteen times their time.
 
 With ``Settings.lean`` on, a point no arm pose reaches is ``lean`` where a lean of the
-trunk brings it within reach (:func:`leanable`: as the ``needs_lean`` refusal reads it,
-about the arm model's waist, at most ``Settings.lean_max``, the chest turned as the
-planner may turn it; the balance, which the Blender layer weighs on the rig, is not).
-Given the body as it stands (a :class:`~.stance.Stance`, which the Blender layer reads
-from the rig's legs and segments), the rest are, in the order a reach recruits them:
+trunk brings it within reach (:func:`leanable`, at most ``Settings.lean_max``, the chest
+turned as the planner may turn it). Given the body as it stands (a
+:class:`~.stance.Stance`, which the Blender layer reads from the rig's legs and
+segments), the lean is the one a reach takes: about the lean bone's head, the centre of
+mass (the stance's rigid estimate) over the feet, the hips moved back where they must
+be; without one, as the ``needs_lean`` refusal reads it, about the arm model's waist,
+the balance not weighed. Given the stance, the rest are, in the order a reach recruits
+them:
 
 - ``squat`` where a squat or bend does (:func:`squattable`: the posture
   :func:`~.squat.squat_leans` would choose, its joints within their limits and the centre
@@ -51,9 +54,11 @@ from .diagnosis import beyond_reach
 from .errors import OUT_OF_REACH
 from .generator import CHEST_FIT_STEP
 from .lean import chest_turns, choose_lean
+from .balance import balance_margin
+from .hips import shifted_lean
 from .squat import squat_leans
 from .step import plan_step
-from .whole_body import below_the_arm
+from .whole_body import SHIFT_SHARES, below_the_arm
 
 #: The classes, in the order of their codes (0 … 8).
 CLASSES = ("f_R 0", "f_R 1", "f_R 2", "chest", "blocked", "lean", "squat", "step", "out")
@@ -162,7 +167,7 @@ def body_class(arm, point, settings, stance=None) -> int:
     else :data:`STEP` where steps do (:func:`steppable`); else :data:`OUT`. Without Lean,
     or without a ``stance``, only the first; a point below the ground the feet stand on
     is :data:`OUT`."""
-    if leanable(arm, point, settings):
+    if leanable(arm, point, settings, stance):
         return LEAN
     if stance is None or not settings.lean:
         return OUT
@@ -252,16 +257,34 @@ def steppable(arm, point, settings, stance) -> bool:
     return step is not None
 
 
-def leanable(arm, point, settings) -> bool:
-    """Whether ``Settings.lean`` is on and a lean of the trunk about the arm model's waist,
-    at most ``Settings.lean_max``, brings the canonical ``point`` within
-    ``Settings.lean_reach`` of the shoulder, the chest turned as the planner may turn it
-    (:func:`~.lean.choose_lean`)."""
+def leanable(arm, point, settings, stance=None) -> bool:
+    """Whether ``Settings.lean`` is on and a lean of the trunk, at most
+    ``Settings.lean_max``, brings the canonical ``point`` within ``Settings.lean_reach`` of
+    the shoulder, the chest turned as the planner may turn it (:func:`~.lean.choose_lean`).
+    Without a ``stance``, about the arm model's waist, as the ``needs_lean`` refusal reads
+    it. With one (:class:`~.stance.Stance`), about its pivot (the lean bone's head), as a
+    reach leans: the lean's centre of mass (:meth:`~.stance.Stance.com`, the arm straight
+    toward the point) at least the stance's ``floor`` inside the feet, or, with
+    ``Settings.lean_hips_back``, a lean with the hips moved back that keeps the margin
+    (:func:`~.hips.shifted_lean`, the whole margin, then a share of it:
+    :data:`~.whole_body.SHIFT_SHARES`, as a reach tries them)."""
     if not settings.lean:
         return False
-    lean = choose_lean(arm, np.asarray(point, dtype=float), arm.waist, settings,
-                       chest_turns(settings))
-    return lean is not None and lean.angle > 0.0
+    point = np.asarray(point, dtype=float)
+    turns = chest_turns(settings)
+    if stance is None:
+        lean = choose_lean(arm, point, arm.waist, settings, turns)
+        return lean is not None and lean.angle > 0.0
+    pivot = arm.to_canonical_points(np.asarray(stance.pivot, dtype=float)[None])[0]
+    body = stance.toward(arm.to_world_points(point[None])[0])
+    lean = choose_lean(arm, point, pivot, settings, turns)
+    if lean is None or lean.angle <= 0.0:
+        return False
+    if balance_margin(body.com(lean), body.polygon, body.up) >= body.floor:
+        return True
+    return settings.lean_hips_back and any(
+        shifted_lean(arm, point, pivot, settings, turns, body, share) is not None
+        for share in SHIFT_SHARES)
 
 
 def legal_anywhere(generator, points) -> np.ndarray:

@@ -152,6 +152,15 @@ def hips_drop(hip, ankle, thigh: float, shank: float, up) -> float:
     return vertical - math.sqrt(most * most - flat * flat)
 
 
+def legs_drop(leg_joints, shift, up) -> float:
+    """How far (≥ 0) the hips come down along ``up`` when they move by ``shift``, both feet
+    planted: the most :func:`hips_drop` any of ``leg_joints`` (:class:`~.squat.Leg`, as
+    they stand) asks, :math:`\\max(0, \\max_i \\eta_i)`."""
+    shift = np.asarray(shift, dtype=float)
+    return max([0.0] + [hips_drop(j.hip + shift, j.ankle, j.thigh, j.shank, up)
+                        for j in leg_joints])
+
+
 def two_bone_knee(hip, ankle, thigh: float, shank: float, pole) -> np.ndarray:
     """The knee (3,) of a leg whose hip joint and ankle are given, its thigh and shank of
     the given lengths, bent toward ``pole`` (a direction; its part across the hip-ankle

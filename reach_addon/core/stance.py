@@ -11,8 +11,9 @@ hips) stay, and the reaching arm is held straight from its leaned shoulder towar
 point (:func:`~.balance.arm_toward`, as the rig's estimate holds it). The centre of mass
 of that is :meth:`Stance.com`: Winter's segments (:func:`~.balance.centre_of_mass`).
 
-:class:`Stance` is the ``body`` :func:`~.squat.squat_leans` takes (its fields by those
-names), with what :func:`~.step.plan_step` needs besides (the ankles, the leg's length).
+:class:`Stance` is the ``body`` :func:`~.squat.squat_leans` and :func:`~.hips.shifted_lean`
+take (its fields by those names, :meth:`Stance.com` and :meth:`Stance.drop`), with what
+:func:`~.step.plan_step` needs besides (the ankles, the leg's length).
 World frame, the rig's units.
 """
 
@@ -24,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .balance import arm_toward, centre_of_mass
+from .hips import legs_drop
 
 #: The kinds of segment whose distal point a lean carries, and those both of whose points
 #: it carries; the legs' and the trunk's base (the hips) stay where they stand.
@@ -61,6 +63,11 @@ class Stance:
     shoulder: np.ndarray
     ground: float
     target: np.ndarray | None = None
+
+    def drop(self, shift_world) -> float:
+        """How far the hips come down for ``shift_world`` (:func:`~.hips.legs_drop`, on
+        the legs as they stand): what :func:`~.hips.shifted_lean` asks of its ``body``."""
+        return legs_drop(self.leg_joints, shift_world, self.up)
 
     def toward(self, target) -> Stance:
         """This stance with the reaching arm held toward ``target`` (world)."""

@@ -113,12 +113,14 @@ def test_points_past_a_lean_are_squat_or_step_as_the_body_reaches_them(arm):
     plain = envelope_of(arm, settings, with_stance=False)
     env = envelope_of(arm, settings)
     changed = np.flatnonzero(plain.classes != env.classes)
-    assert np.all(plain.classes[changed] == envelope.OUT)
-    assert set(env.classes[changed]) == {envelope.SQUAT, envelope.STEP}
+    # the stance moves the lean to its pivot and weighs its balance: lean and out points
+    # change, and squat and step come
+    assert np.all(np.isin(plain.classes[changed], (envelope.OUT, envelope.LEAN)))
+    assert {envelope.SQUAT, envelope.STEP} <= set(env.classes[changed])
     world = arm.to_world_points(env.points)
     coarse = settings.replace(squat_step=envelope.ENVELOPE_SQUAT_STEP)
     pivot = arm.to_canonical_points(body.pivot[None])[0]
-    for i in np.flatnonzero(plain.classes == envelope.OUT):
+    for i in np.flatnonzero(np.isin(plain.classes, (envelope.OUT, envelope.LEAN))):
         c, w = env.classes[i], world[i]
         if w[2] < GROUND:
             assert c == envelope.OUT, w
@@ -152,3 +154,79 @@ def test_without_squat_or_step_their_classes_are_empty(arm):
         assert not np.any(env.classes == gone)
     assert not np.isin(envelope_of(arm, Settings(), resolution=7).classes,
                        (envelope.LEAN, envelope.SQUAT, envelope.STEP)).any()
+
+
+def inside(point, corners) -> float:
+    """Signed distance of ``point``'s ground projection (z up) from the convex polygon of
+    ``corners`` (counter-clockwise or not): positive inside."""
+    q = np.asarray(point, float)[:2]
+    c = np.asarray(corners, float)[:, :2]
+    centre = c.mean(axis=0)
+    order = np.argsort(np.arctan2(c[:, 1] - centre[1], c[:, 0] - centre[0]))
+    c = c[order]
+    worst = math.inf
+    for a, b in zip(c, np.roll(c, -1, axis=0)):
+        e = b - a
+        n = np.array([e[1], -e[0]]) / np.linalg.norm(e)       # outward for CCW
+        worst = min(worst, float((a - q) @ n))
+    return worst
+
+
+def balanced_lean(arm, settings, body, world, step=1.0) -> bool:
+    """Whether some lean of the trunk about the stance's pivot, toward ``world`` (about
+    the horizontal axis at right angles to the way to it), of at most Lean limit, with
+    the chest turned by some angle within its limit, brings the shoulder within Lean reach
+    of it with the centre of mass of the turned segments (the arm straight toward it)
+    over the feet: a search over a grid of ``step`` degrees, by Rodrigues' rotation."""
+    o = body.pivot
+    h = world - o
+    h[2] = 0.0
+    h /= np.linalg.norm(h)
+    axis = np.cross(UP, h)
+    reach = settings.lean_reach * arm.arm_length
+    origin = arm.to_world_points(np.zeros((1, 3)))[0]
+    s0 = body.shoulder
+    turns = np.arange(-settings.chest_rotation_max, settings.chest_rotation_max + 1e-9, 5.0)
+    for theta in np.arange(0.0, settings.lean_max + 1e-9, step):
+        r = rodrigues(axis, theta)
+        segs = []
+        for kind, a, b in body.segments:
+            if kind in ("upper_arm", "forearm", "hand", "head_neck"):
+                a, b = o + r @ (a - o), o + r @ (b - o)
+            elif kind == "trunk":
+                b = o + r @ (b - o)
+            segs.append((kind, a, b))
+        for t in turns:
+            turned = origin + rodrigues(UP, -t) @ (s0 - origin)
+            shoulder = o + r @ (turned - o)
+            if np.linalg.norm(world - shoulder) > reach:
+                continue
+            arm_segs = list(segs)
+            s = o + r @ (s0 - o)
+            d = (world - s) / np.linalg.norm(world - s)
+            lengths = [np.linalg.norm(b - a) for _k, a, b in body.segments[:3]]
+            e = s + lengths[0] * d
+            w = e + lengths[1] * d
+            arm_segs[:3] = [("upper_arm", s, e), ("forearm", e, w), ("hand", w, w + lengths[2] * d)]
+            if inside(centre_of_mass(arm_segs), FEET) >= body.floor - 1e-6:
+                return True
+    return False
+
+
+def test_a_lean_point_given_the_stance_has_a_lean_the_body_balances(arm):
+    """Given the stance, and the hips not moving back, a point is ``lean`` only where a
+    lean about the stance's pivot reaches it with the centre of mass over the feet
+    (:func:`balanced_lean`, searched here on a grid); the stance's pivot and balance
+    change the class from the plain envelope's, which leans about the arm model's waist
+    without weighing it."""
+    settings = Settings().replace(lean=True, lean_hips_back=False, squat=False,
+                                  stepping=False)
+    body = stance(arm)
+    plain = envelope_of(arm, settings, with_stance=False)
+    env = envelope_of(arm, settings)
+    world = arm.to_world_points(env.points)
+    leans = np.flatnonzero(env.classes == envelope.LEAN)
+    assert len(leans)
+    assert np.any(plain.classes != env.classes)
+    for i in leans:
+        assert balanced_lean(arm, settings, body, world[i]), world[i]
