@@ -258,17 +258,23 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
     return result
 
 
-def carried_start(armature, bone: str, upright: dict) -> dict:
+def carried_start(armature, bone: str, upright: dict) -> dict | None:
     """Every bone's armature-space pose matrix with the trunk at the full lean as the plan
     has it: the ``bone`` (the lean bone, posed now) and every bone it carries at their
     ``upright`` matrices (read before the lean) carried by the lean bone's move, the rest
     as posed now. A bone a constraint drives is not always carried by its parents: a
     Rigify arm in IK keeps its hand where its IK control is as the trunk leans, and the
     keys of a reach planned from the arm's start on the leaned trunk were turned from
-    that instead (0.18 arm lengths off on the generated rig)."""
+    that instead (0.18 arm lengths off on the generated rig). None where no bone the lean
+    bone carries has a constraint (:func:`constrained`): parenting carries them, and the
+    pose as it is now is that, to float32 (7e-7 on the demo's rig; the bake reads it so,
+    as before, and keys it identically)."""
+    carried = armature.data.bones[bone].children_recursive
+    if not any(constrained(armature.pose.bones[b.name]) for b in carried):
+        return None
     now = {b.name: np.array(b.matrix) for b in armature.pose.bones}
     carry = now[bone] @ np.linalg.inv(upright[bone])
-    for b in armature.data.bones[bone].children_recursive:
+    for b in carried:
         now[b.name] = carry @ upright[b.name]
     return now
 
