@@ -63,6 +63,20 @@ def rodrigues(axis, degrees) -> np.ndarray:
     return np.eye(3) + math.sin(t) * kx + (1 - math.cos(t)) * kx @ kx
 
 
+def leaned_segments(body, r) -> list:
+    """The stance's segments with the trunk turned by the rotation ``r`` (3, 3) about its
+    pivot: both points of the arms and the head, the trunk's top; the legs stay."""
+    o = body.pivot
+    out = []
+    for kind, a, b in body.segments:
+        if kind in ("upper_arm", "forearm", "hand", "head_neck"):
+            a, b = o + r @ (a - o), o + r @ (b - o)
+        elif kind == "trunk":
+            b = o + r @ (b - o)
+        out.append((kind, a, b))
+    return out
+
+
 def test_a_lean_turns_the_trunk_head_and_arms_about_the_pivot_and_leaves_the_legs(arm):
     body = stance(arm)
     lean = Lean(arm.to_canonical_points(body.pivot[None])[0], np.array([1.0, 0.0, 0.0]), 0.0)
@@ -71,14 +85,7 @@ def test_a_lean_turns_the_trunk_head_and_arms_about_the_pivot_and_leaves_the_leg
     tipped = Lean(lean.pivot, np.array([-1.0, 0.0, 0.0]), 40.0)
     world_axis = arm.to_world_vectors(np.array([-1.0, 0.0, 0.0]))
     r = rodrigues(world_axis, 40.0)
-    o = body.pivot
-    expected = []
-    for kind, a, b in body.segments:
-        if kind in ("upper_arm", "forearm", "hand", "head_neck"):
-            a, b = o + r @ (a - o), o + r @ (b - o)
-        elif kind == "trunk":
-            b = o + r @ (b - o)
-        expected.append((kind, a, b))
+    expected = leaned_segments(body, r)
     moved = body.com(tipped)
     np.testing.assert_allclose(moved, centre_of_mass(expected), atol=1e-9)
     assert moved[1] < centre_of_mass(body.segments)[1] - 0.05      # forward is -y
@@ -189,13 +196,7 @@ def balanced_lean(arm, settings, body, world, step=1.0) -> bool:
     turns = np.arange(-settings.chest_rotation_max, settings.chest_rotation_max + 1e-9, 5.0)
     for theta in np.arange(0.0, settings.lean_max + 1e-9, step):
         r = rodrigues(axis, theta)
-        segs = []
-        for kind, a, b in body.segments:
-            if kind in ("upper_arm", "forearm", "hand", "head_neck"):
-                a, b = o + r @ (a - o), o + r @ (b - o)
-            elif kind == "trunk":
-                b = o + r @ (b - o)
-            segs.append((kind, a, b))
+        segs = leaned_segments(body, r)
         for t in turns:
             turned = origin + rodrigues(UP, -t) @ (s0 - origin)
             shoulder = o + r @ (turned - o)
