@@ -42,7 +42,7 @@ from . import own_keys
 from .carried import carrying_bone, under
 from .fcurves import Channels, ensure_action, write_channel
 from .own_keys import users_keys
-from .rig_detect import followers
+from .rig_detect import constrained, followers
 from .skin import skin_points
 
 #: Where the eyes are, as a share of the way from the neck's base to the top of the head.
@@ -60,7 +60,7 @@ def neck_of(armature, info, targets=()) -> tuple:
         return None, "Reach finds no neck on this rig"
     if info.bones.key_chest:                 # a generated Rigify rig: its head control
         pb = armature.pose.bones.get(RIGIFY_HEAD)
-        if pb is None or any(not c.mute and c.influence > 0.0 for c in pb.constraints):
+        if pb is None or constrained(pb):
             return None, f"this Rigify rig has no free '{RIGIFY_HEAD}' control to turn"
         if not _turns_the_head(armature, RIGIFY_HEAD, neck):
             return None, f"turning its '{RIGIFY_HEAD}' control does not turn the head"

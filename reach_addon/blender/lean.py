@@ -4,7 +4,7 @@ report.
 
 **The lean bone** (:func:`lean_bone`) is the highest bone of the chest's chain (the bone
 the arms hang from, its parent, and so on up) that carries neither leg
-(:func:`.balance.find_legs`) and has no constraint of its own (:func:`constrained`):
+(:func:`.balance.find_legs`) and has no constraint of its own (:func:`.rig_detect.constrained`):
 turning it turns the chest, both arms and the head rigidly about its head, which is the
 lean's pivot, and leaves the legs and feet where they are; a key on it is what Blender
 evaluates. On most rigs it is the lowest spine bone above the hips (the hips carry the
@@ -38,7 +38,7 @@ from .lean_balance import BalanceBody, BalanceCheck
 from .lean_pose import (lean_basis, pivot_world, pose_lean, pose_leaned, shift_world,
                         world_rotations)
 from .own_keys import users_keys
-from .rig_detect import ancestors
+from .rig_detect import ancestors, constrained
 
 
 def lean_bone(armature, bmap, legs) -> str | None:
@@ -56,12 +56,6 @@ def lean_bone(armature, bmap, legs) -> str | None:
         if not constrained(armature.pose.bones[b.name]):
             found = b.name
     return found
-
-
-def constrained(pose_bone) -> bool:
-    """Whether ``pose_bone`` has a constraint of its own that acts (enabled, influence
-    above 0): its keys are then not all of what Blender evaluates."""
-    return any(not c.mute and c.influence > 0.0 for c in pose_bone.constraints)
 
 
 def hips_keyed(armature, hips: str, legs) -> str | None:
@@ -266,7 +260,7 @@ def carried_start(armature, bone: str, upright: dict) -> dict | None:
     Rigify arm in IK keeps its hand where its IK control is as the trunk leans, and the
     keys of a reach planned from the arm's start on the leaned trunk were turned from
     that instead (0.18 arm lengths off on the generated rig). None where no bone the lean
-    bone carries has a constraint (:func:`constrained`): parenting carries them, and the
+    bone carries has a constraint (:func:`.rig_detect.constrained`): parenting carries them, and the
     pose as it is now is that, to float32 (7e-7 on the demo's rig; the bake reads it so,
     as before, and keys it identically)."""
     carried = armature.data.bones[bone].children_recursive

@@ -107,6 +107,12 @@ class BoneMap:
         return out
 
 
+def constrained(pose_bone) -> bool:
+    """Whether ``pose_bone`` has a constraint of its own that acts (unmuted, influence
+    above 0): its keys are then not all of what Blender evaluates."""
+    return any(not c.mute and c.influence > 0.0 for c in pose_bone.constraints)
+
+
 def followers(armature, names) -> set:
     """``names`` and every bone of ``armature`` that moves with them: their children, and
     bones a constraint that acts (unmuted, influence above 0) aims at one of them (a

@@ -48,6 +48,7 @@ from .fcurves import Channels, ensure_action
 from .lean import lean_bone
 from .lean_balance import FEET_CLEARANCE, FEET_SLIDE
 from .own_keys import users_keys
+from .rig_detect import constrained
 
 @dataclass
 class RigStep:
@@ -390,7 +391,7 @@ def key(context, armature, rig_step: RigStep, last: int, keyed_after=()) -> None
     connected) on the step's frames (:func:`.lean.key_bone`), the last held to ``last``
     (the reach's last frame) unless the lean keys it after (``keyed_after``: bone names);
     recorded as Reach's own."""
-    from .lean import constrained, key_bone
+    from .lean import key_bone
 
     channels = Channels(armature, ensure_action(armature, False))
     frames = rig_step.frame_start + np.arange(len(rig_step.motion.hips), dtype=float)
