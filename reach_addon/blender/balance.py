@@ -408,7 +408,7 @@ def margins_over(scene, armature, info, legs, first: int, last: int, hands=None)
     it left out), the centre of mass on
     every frame (``hands``: :func:`hands_now`'s, else read now). Changes the scene's
     frame."""
-    up = np.asarray(info.frame.up, dtype=float)
+    up = np.asarray(info.frame.ground, dtype=float)
     scene.frame_set(first)
     polygon, source = support_now(armature, legs, up)
     hands = hands if hands is not None else hands_now(armature, info.bones)

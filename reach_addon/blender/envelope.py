@@ -52,7 +52,7 @@ def read_stance(armature, info, settings) -> Stance | None:
     bone = lean_bone(armature, info.bones, legs)
     if bone is None:
         return None
-    up = np.asarray(info.frame.up, dtype=float)
+    up = np.asarray(info.frame.ground, dtype=float)
     ankles, leg_length = balance.ankles_now(armature, legs)
     floor = min(0.0, balance.margin_now(armature, info.bones, legs, up))
     return Stance(

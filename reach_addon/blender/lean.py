@@ -139,7 +139,7 @@ def plan(context, armature, info, planner, keyed):
             first = keyed.first_frame
             moved = bool(np.any(phase.lean.shift))
             angles = None if not moved or body is None else tuple(float(a) for a in np.max(
-                [leg_angles(j, shift_world(info, phase.lean), np.asarray(info.frame.up, float))
+                [leg_angles(j, shift_world(info, phase.lean), np.asarray(info.frame.ground, float))
                  for j in body.leg_joints], axis=0))
             checker = planner.generator.checker
             ready = None if phase.ready is None else KeyedPlan(

@@ -61,7 +61,7 @@ def margin_reaching(armature, info, legs, arm_world=None, turned=None) -> tuple:
     least on; the centre of mass there, world): the arm as it is (pose None) where
     ``arm_world`` is None, else on each of its poses (P, 5, 3), the chest turned by
     ``turned(points, k)`` (:func:`posed_segments`)."""
-    up = np.asarray(info.frame.up, float)
+    up = np.asarray(info.frame.ground, float)
     polygon = balance.support_now(armature, legs, up)[0]
     segments = balance.body_segments(armature, info.bones, legs)
     if arm_world is None:
@@ -97,7 +97,7 @@ class BalanceCheck:
         self.target = None if target is None else np.asarray(target, dtype=float)
         self.checker = checker
         self.standing = balance.margin_now(armature, info.bones, legs,
-                                           np.asarray(info.frame.up, float))
+                                           np.asarray(info.frame.ground, float))
         self.hips = hips_mod.hips_bone(armature, legs, bone)
         self.ankles = balance.ankles_now(armature, legs)[0]
         self.margins = []
@@ -170,7 +170,7 @@ class BalanceCheck:
         fractions = np.linspace(0.0, 1.0, BALANCE_SAMPLES)
         bases = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, fractions))
         moved = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
-        up = np.asarray(self.info.frame.up, float)
+        up = np.asarray(self.info.frame.ground, float)
         least, at = np.inf, 1.0
         for basis, fraction in zip(bases[1:], fractions[1:]):
             with hips_mod.Posed(self.context, self.armature, moved):
@@ -203,7 +203,7 @@ class BalanceCheck:
         if not len(world[0]):
             return None
         world = np.array(world)
-        up = np.asarray(self.info.frame.up, dtype=float)
+        up = np.asarray(self.info.frame.ground, dtype=float)
         ankles = max(float(balance.point_of(self.armature, leg.ankle) @ up) for leg in self.legs)
         feet = world[0] @ up <= ankles
         feet_checker = SimpleNamespace(obstacles=self.checker.obstacles,
@@ -229,9 +229,9 @@ FEET_CLEARANCE = 0.25
 
 #: The instants of a lean that moves the hips at which the balance is weighed on the way
 #: (:meth:`BalanceCheck.along`): a sixteenth of the way apart. At an eighth, the metarig,
-#: which stands 0.037 arm lengths behind its heels, came 0.0001 farther behind them on a
-#: frame between two (the hips start back a little ahead of the trunk's weight coming
-#: forward).
+#: weighed along its spine's axis, where it stood 0.037 arm lengths behind its heels, came
+#: 0.0001 farther behind them on a frame between two (the hips start back a little ahead of
+#: the trunk's weight coming forward).
 BALANCE_SAMPLES = 17
 
 #: The instants of a lean at which the skin below the trunk is read for its obstacle test
@@ -253,7 +253,7 @@ class BalanceBody:
         self.target, self.check = check.target, check
         self.context, self.armature, self.info, self.legs = context, armature, info, legs
         self.lean_bone, self.hips = lean_bone, hips
-        self.up = np.asarray(info.frame.up, dtype=float)
+        self.up = np.asarray(info.frame.ground, dtype=float)
         self.polygon = balance.support_now(armature, legs, self.up)[0]
         self.planted_share = hips_mod.PLANTED_SHARE
         self.floor = min(0.0, check.standing)

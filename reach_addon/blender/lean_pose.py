@@ -66,5 +66,5 @@ def pose_leaned(context, armature, info, bone: str, basis, legs=(), hips=None,
     pose_lean(context, armature, bone, basis)
     if hips is not None:
         hips_mod.pose_shift(context, armature, list(legs), hips, shift,
-                            np.asarray(info.frame.up, float),
+                            np.asarray(info.frame.ground, float),
                             np.asarray(info.frame.forward, float))

@@ -87,7 +87,7 @@ def step_bones(armature, legs, hips: str, up) -> list:
 def pose_step(context, armature, info, legs, hips, motion: StepMotion, frame: int) -> None:
     """Pose frame ``frame`` of the step ``motion`` (from the pose it starts from)."""
     hips_mod.pose_shift(context, armature, list(legs), hips, motion.hips[frame],
-                        np.asarray(info.frame.up, float), np.asarray(info.frame.forward, float),
+                        np.asarray(info.frame.ground, float), np.asarray(info.frame.forward, float),
                         motion.feet[frame])
 
 
@@ -96,7 +96,7 @@ def _why_not(armature, info, legs, hips) -> str | None:
         return "Reach finds no legs on this rig, and steps only a body standing on its feet"
     if hips is None:
         return "Reach finds no bone that carries both legs and the trunk"
-    up = np.asarray(info.frame.up, float)
+    up = np.asarray(info.frame.ground, float)
     keyed = next((n for n in step_bones(armature, legs, hips, up)
                   if users_keys(armature, n) or users_keys(armature, n, "location")), None)
     if keyed is not None:
@@ -147,7 +147,7 @@ def _plan(context, armature, info, planner, keyed, legs, hips, reread, bake_clos
     whys = []
     for reach in (s.step_reach,) + tuple(r for r in STEP_SHORTER if r > s.step_reach):
         step, why = plan_step(info.joints_world["shoulder"], task.targets[0], ankles,
-                              np.asarray(info.frame.up, float), info.arm.arm_length,
+                              np.asarray(info.frame.ground, float), info.arm.arm_length,
                               leg_length, s, reach)
         if step is None:
             whys.append(why)
@@ -169,7 +169,7 @@ def _try(context, armature, info, planner, keyed, legs, hips, reread, bake_close
     from . import lean as lean_mod
 
     s, task = planner.settings, keyed.plan.task
-    up = np.asarray(info.frame.up, float)
+    up = np.asarray(info.frame.ground, float)
     length = info.arm.arm_length
     motion = step_motion(ankles, step, up, s, task.fps, leg_length)
     names = step_bones(armature, legs, hips, up)
@@ -255,7 +255,7 @@ def _weight_over_foot(context, armature, info, legs, hips, motion, names,
     between its feet at the end, would stand less than ``Settings.balance_margin`` inside
     them (a rig posed past its heels), the hips move on toward their middle until it does
     (:func:`toward_margin`)."""
-    up = np.asarray(info.frame.up, float)
+    up = np.asarray(info.frame.ground, float)
     basis = core_balance.ground_basis(up)
     hands = balance.hands_now(armature, info.bones)
     soles = balance.Soles(armature, legs, up)
@@ -305,7 +305,7 @@ def _walk(context, armature, info, legs, hips, motion, names, checker, held):
     matrices, the least margin over the planted feet, None), or (…, …, why not). ``held``:
     the arm's joints (world, hand shape included) as it stands, which the step carries
     with the hips (:func:`_arm_hit`)."""
-    up = np.asarray(info.frame.up, float)
+    up = np.asarray(info.frame.ground, float)
     length = info.arm.arm_length
     standing = balance.margin_now(armature, info.bones, legs, up)
     floor = None

@@ -58,7 +58,7 @@ import numpy as np
 
 from .balance import balance_margin
 from .hips import STRAIGHT_SHARE, body_frame, horizontal_toward, shifted_centre, two_bone_knee
-from .lean import UP, Lean, lean_axis, least_lean
+from .lean import Lean, lean_axis, least_lean
 from .torso import rotate_about_spine
 
 #: Degrees between the leans at which the trunk's centre of mass is read; between them
@@ -189,7 +189,7 @@ def squat_leans(arm, target_c, pivot_c, settings, turns, body) -> list:
     for _ in range(CALIBRATIONS):
         best = found[0]
         error = grid.canonical(body.com_posed(best.lean)) - best.centre
-        error[2] = 0.0
+        error = error - float(error @ grid.ground) * grid.ground     # its ground part
         if float(np.linalg.norm(error)) <= CALIBRATED * arm.arm_length:
             break
         correction = correction + error
@@ -211,13 +211,13 @@ class _Grid:
     estimated centre of mass moved by ``correction`` (canonical)."""
 
     def __init__(self, arm, target_c, pivot_c, settings, body):
-        self.rot, self.scale, self.canonical, self.polygon = body_frame(arm, body)
+        self.rot, self.scale, self.canonical, self.polygon, self.ground = body_frame(arm, body)
         self.up_w = np.asarray(body.up, dtype=float)
         self.arm, self.settings, self.body = arm, settings, body
         self.target = np.asarray(target_c, dtype=float)
         self.pivot = np.asarray(pivot_c, dtype=float)
         self.axis = lean_axis(self.pivot, self.target)
-        self.h = horizontal_toward(self.pivot, self.target, UP)
+        self.h = horizontal_toward(self.pivot, self.target, self.ground)
         self.legs = list(body.leg_joints)
         step = settings.squat_step * arm.arm_length
         deepest = max(leg.thigh + leg.shank for leg in self.legs) / self.scale
@@ -230,7 +230,7 @@ class _Grid:
         self.nodes = []
         for eta in self.steps:
             for delta in self.steps:
-                shift = -delta * self.h - eta * UP
+                shift = -delta * self.h - eta * self.ground
                 world = self.rot @ shift
                 if all(reach_of(leg, world) for leg in self.legs):
                     self.nodes.append((eta, delta, shift, world))
@@ -257,7 +257,7 @@ class _Grid:
                 continue
             centre = shifted_centre(self.com_at(theta), h, delta,
                                     self.body.planted_share) + correction
-            kept = balance_margin(centre, self.polygon, UP)
+            kept = balance_margin(centre, self.polygon, self.ground)
             if kept < margin:
                 continue
             knee, ankle, hip = self.leg_angles_at(k)
@@ -267,5 +267,6 @@ class _Grid:
             found.append(Squat(Lean(self.pivot, self.axis, float(theta), shift),
                                effort(theta, knee, ankle, hip, s), float(knee),
                                float(ankle), float(hip), kept * self.scale, turn, centre))
-        found.sort(key=lambda q: (round(q.effort, 9), -float(q.lean.shift[2]), q.lean.angle))
+        found.sort(key=lambda q: (round(q.effort, 9), -float(q.lean.shift @ self.ground),
+                                  q.lean.angle))
         return found

@@ -50,6 +50,13 @@ TASKS = {"wall": "reach", "shelf": "reach", "sequence": "sequence", "chase": "ch
 CHASE_FRAMES = 49
 
 
+def gravity_up() -> np.ndarray:
+    """Up as the scene's gravity has it (Blender's default: −Z down): balance and the
+    ground are measured along it, whichever way a figure's spine leans."""
+    g = -np.asarray(bpy.context.scene.gravity, dtype=float)
+    return g / np.linalg.norm(g)
+
+
 def body_axes(info):
     """The reaching shoulder (world), the body's forward, outward (the reaching arm's side)
     and up, and the arm's length."""

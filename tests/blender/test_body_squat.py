@@ -95,9 +95,10 @@ SQUAT_XFAIL = {
               "room against the floor",
 }
 #: How much farther past its feet than it stands (arm lengths) a rig that stands past them
-#: (two templates: the metarig 0.037 behind its heels, the VRM T-pose 0.17) may come: the
+#: (along gravity: the VRM T-pose 0.17, the robot 0.12, the Alien 0.012) may come: the
 #: hips start back a hair ahead of the trunk's weight coming forward (0.00012 on the
-#: metarig, 0.07 mm, on the lean's fourth frame).
+#: metarig, 0.07 mm, on the lean's fourth frame, when it was weighed along its spine's
+#: axis and stood 0.037 behind its heels).
 PAST_FEET = 0.001
 
 

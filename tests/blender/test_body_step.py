@@ -69,7 +69,7 @@ def feet_bones(armature, info):
     """Each foot's bones: those whose heads start in the lowest 10 % of the figure, on
     either side of the body's middle (not a root bone there, which carries the body)."""
     heads = bone_heads(armature)
-    up, out = np.asarray(info.frame.up, float), np.asarray(info.frame.right, float)
+    up, out = everyday.gravity_up(), np.asarray(info.frame.right, float)
     heights = {n: float(p @ up) for n, p in heads.items()}
     low, high = min(heights.values()), max(heights.values())
     root = set()                       # a root bone at the feet carries the body: not a foot
@@ -92,7 +92,7 @@ def test_a_target_two_arm_lengths_to_the_side_is_reached_with_a_step(addon, rig_
     attach_loose_parts(armature)
     info = addon.blender.rig.build(armature, "right")
     length = info.arm.arm_length
-    up = np.asarray(info.frame.up, float)
+    up = everyday.gravity_up()
     bpy.context.scene.frame_set(1)
     feet = feet_bones(armature, info)
     start = bone_heads(armature)
@@ -188,7 +188,7 @@ def test_a_leg_ik_rig_steps_with_its_controls(addon, rig_file):  # noqa: F811
     add_leg_ik(armature)
     info = addon.blender.rig.build(armature, "right")
     length = info.arm.arm_length
-    up = np.asarray(info.frame.up, float)
+    up = everyday.gravity_up()
     bpy.context.scene.frame_set(1)
     start = bone_heads(armature)
     _target, _counter, outcome = run(addon, armature, info)
