@@ -163,16 +163,28 @@ def note_moving(plan, moving) -> None:
     """Say, in the message of ``plan`` (a single reach refused for a target the body could
     reach, or step toward), that the body does not lean or step among obstacles that move
     during the reach (``moving``: their names): the body's checks hold the scene still."""
+    names = ", ".join(f"'{n}'" for n in moving[:3]) + (" ..." if len(moving) > 3 else "")
+    _note_still(plan, f"among obstacles that hold still, and {names} move during the reach")
+
+
+def note_carried(plan, target: str, bone: str) -> None:
+    """Say, in the message of ``plan`` (as :func:`note_moving`'s), that the body does not
+    lean or step toward a ``target`` its own ``bone`` carries: the move would carry the
+    target on (fuzz seed 193: a step toward a target on the other hand left the wrist
+    0.55 arm lengths from it)."""
+    _note_still(plan, f"toward a target it does not carry, and '{target}' is carried by its "
+                      f"bone '{bone}' (parent the target to something that stays still)")
+
+
+def _note_still(plan, clause: str) -> None:
     stepping = plan.reason == NEEDS_STEP and wants_step(plan.settings, plan.task, plan,
                                                          plan.arm)
     if not stepping and not wants_body(plan.settings, plan.task, plan, plan.arm):
         return
-    names = ", ".join(f"'{n}'" for n in moving[:3]) + (" ..." if len(moving) > 3 else "")
     for seg in plan.segments:
         if seg.reason == plan.reason:
             seg.message += (f"; with Lean on: the body {'steps' if stepping else 'leans'} "
-                            f"only among obstacles that hold still, and {names} move during "
-                            "the reach")
+                            f"only {clause}")
 
 
 def trunk_skin(armature, info, bone) -> TrunkSkin | None:

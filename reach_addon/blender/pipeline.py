@@ -36,7 +36,7 @@ from .fcurves import ensure_action
 from . import rig as rig_mod
 from . import viz
 from .bake import KeyedPlan
-from .carried import carried_targets
+from .carried import carried_targets, carrying_bone
 from .envelope import read_stance
 from .results import arm_note, measure_baked, start_as_it_shows, task_results
 from .scene import (KEPT, ObstacleCache, body_extent, character_objects, finite, gather_pieces,
@@ -299,7 +299,11 @@ class PipelineRun:
             frame += len(plan.poses)
         start_as_it_shows(self.armature, self.info, [k.plan for k in self.plans],
                           self.obstacles, self._sweep if self.moving else None)
-        if self.settings.lean and len(self.plans) == 1 and not self.moving and \
+        carried = [(t.name, b) for t in self.targets
+                   if (b := carrying_bone(t, self.armature)) is not None]
+        if self.settings.lean and len(self.plans) == 1 and carried:
+            lean_mod.note_carried(self.plans[0].plan, *carried[0])
+        elif self.settings.lean and len(self.plans) == 1 and not self.moving and \
                 self.frame_obstacles is None:        # a lean, then the reach (stage 1)
             self.lean, self.plans[0] = lean_mod.plan(self.context, self.armature, self.info,
                                                      self.planner, self.plans[0])

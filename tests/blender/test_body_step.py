@@ -158,6 +158,29 @@ def test_without_step_the_target_is_refused_as_needing_one(addon, rig_file):  # 
     assert "stepping" not in result.message and "turn on Lean and Step" in result.message
 
 
+def test_a_target_the_body_carries_is_not_stepped_toward(addon, rig_file):  # noqa: F811
+    """The same target parented to the other hand (fuzz seed 193, a target on a bone): a
+    step would carry it on, and the wrist would end where it was (0.55 arm lengths from
+    it there). Refused as ``needs_step``, saying why, and nothing keyed."""
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    target, _pedestal = scene(armature, info)
+    bone = info.bones.arms["left"].hand
+    world = target.matrix_world.copy()
+    target.parent, target.parent_type, target.parent_bone = armature, "BONE", bone
+    bpy.context.view_layer.update()
+    target.matrix_world = world
+    bpy.context.view_layer.update()
+    request = addon.blender.pipeline.Request(
+        armature.name, [target.name], task="reach", side="right", frame_start=1, draw=False,
+        settings=addon.core.Settings().replace(lean=True))
+    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
+    result = outcome.results[0]
+    assert not result.success and result.reason == "needs_step", result.message
+    assert f"is carried by its bone '{bone}'" in result.message, result.message
+    assert not outcome.baked and not result.bones_keyed
+
+
 def add_leg_ik(armature):
     """Give Rigify's metarig a leg IK rig of its own, as a user builds one: a root-level
     control at each foot (``foot_ik.L/R``, where the foot bone is) and an IK constraint on
