@@ -120,10 +120,10 @@ class Settings:
         "farther, by stepping. Well within the AAOS ranges (1965) of the spine's flexion, "
         "80°, and the hip's, 120°, which a lean shares", "body", 0.0, 90.0, "deg")
     lean: bool = _f(
-        False, "Lean", "Lean the trunk at the hips, feet planted, where a single reach's "
-        "target is beyond the arm: the trunk leans first, then the arm reaches. Off by "
-        "default until the fuzz campaign has checked it; the hips do not move back yet, so "
-        "a lean that would carry the centre of mass past the feet is refused", "body")
+        True, "Lean", "Lean the trunk at the hips, feet planted, where a single reach's "
+        "target is beyond the arm: the trunk leans first, then the arm reaches (with Hips "
+        "back, Squat and Step below). Off: the arm and chest alone, as the paper plans "
+        "them, and a target beyond them refused with the reason", "body")
     lean_reach: float = _f(
         0.98, "Lean to", "A lean brings the target this far from the shoulder (arm "
         "lengths): people reaching by a lean extend the arm nearly straight (the functional "

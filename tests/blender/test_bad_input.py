@@ -102,6 +102,7 @@ def test_target_inside_an_obstacle(addon, metarig):
 
 
 def test_target_out_of_reach_and_baking_the_closest_approach(addon, metarig):
+    bpy.context.scene.reach.settings.lean = False      # the arm alone (Lean steps to it)
     target, info = target_at(addon, metarig, (0.0, 1.6, 0.0), name="Lamp")
     expect_error("'Lamp' is out of reach", "Bake closest approach", armature=metarig,
                  target=target)
@@ -115,6 +116,9 @@ def test_a_target_just_beyond_the_arm_says_leaning_would_reach_it_in_scene_units
     # 1.45 arm lengths straight ahead of the shoulder: beyond the arm even with the chest
     # turned its 60° (which brings the shoulder forward), by what the geometry gives
     target, info = target_at(addon, metarig, (0.0, 1.45, 0.0), name="Lamp")
+    settings = bpy.context.scene.reach.settings
+    assert settings.lean                              # on by default: it leans (below)
+    settings.lean = False
     arm = info.arm
     s = np.asarray(arm.shoulder, dtype=float)
     turns = np.radians([-60.0, 60.0])                # the turn's ends, about the spine (z)
@@ -128,6 +132,11 @@ def test_a_target_just_beyond_the_arm_says_leaning_would_reach_it_in_scene_units
     # a scene whose unit is a centimetre: the same distance is a hundredth as many cm
     bpy.context.scene.unit_settings.scale_length = 0.01
     expect_error(f"{beyond_cm / 100:.1f} cm", armature=metarig, target=target)
+    # with the default, Lean on, the same Bake leans the trunk and reaches it
+    settings.lean = True
+    assert bpy.ops.reach.bake() == {"FINISHED"}
+    task = json.loads(bpy.context.scene.reach.last_result)["tasks"][0]
+    assert task["success"] and task["stats"]["lean_deg"] > 0.0, task
 
 
 def test_zero_scale_armature(addon, metarig):

@@ -11,7 +11,8 @@ reach must bear the class out: reached where the envelope says reachable, failed
 "inside an obstacle" or "the arm does not fit" where it says blocked (unless a pose within
 the goal tolerance fits: the envelope classes the point itself, the search succeeds within
 the tolerance), and never ending in a stronger posture than the strongest the envelope
-found there.
+found there. Both with *Lean* off: the arm's envelope (``test_envelope_body`` has the
+body's classes).
 """
 
 import csv
@@ -36,6 +37,7 @@ BLOCKED_REASONS = {"target_in_obstacle", "arm_does_not_fit"}
 STUDY = f"""
 name = "envelope-agreement"
 arm = "right"
+settings = {{{{ lean = false }}}}
 [[scenes]]
 file = "plate.blend"
 armature = "{{armature}}"
@@ -68,6 +70,7 @@ def open_plate(plate):
     props.arm = "RIGHT"
     props.settings.envelope_resolution = RESOLUTION
     props.settings.envelope_extent = EXTENT
+    props.settings.lean = False         # the arm's envelope: the body's is test_envelope_body's
     return bpy.context.scene
 
 
@@ -222,8 +225,8 @@ def test_command_line_writes_the_csv_and_a_still_and_leaves_the_file(addon, plat
     before = (folder / "plate.blend").read_bytes()
     proc = reach_cli("envelope", folder / "plate.blend", "--armature", names["armature"],
                      "--arm", "right", "--envelope-resolution", RESOLUTION,
-                     "--envelope-extent", EXTENT, "--output", tmp_path / "env.csv",
-                     "--render", tmp_path)
+                     "--envelope-extent", EXTENT, "--no-lean", "--output",
+                     tmp_path / "env.csv", "--render", tmp_path)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert (folder / "plate.blend").read_bytes() == before
     rows = list(csv.DictReader((tmp_path / "env.csv").open()))

@@ -105,6 +105,6 @@ def test_a_squat_point_and_a_step_point_of_the_envelope_are_reached_so(addon, ri
 
 def test_without_lean_no_point_is_classed_by_the_body(addon, rig_file):  # noqa: F811
     armature = open_rig(rig_file, "metarig")
-    env = envelope(addon, armature, addon.core.Settings())
+    env = envelope(addon, armature, addon.core.Settings(lean=False))
     counts = env.envelope.counts()
     assert counts["lean"] == counts["squat"] == counts["step"] == 0, counts

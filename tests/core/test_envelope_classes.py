@@ -33,8 +33,10 @@ def arm():
 
 
 def envelope_of(arm, scene, settings=None, resolution=11):
+    """The envelope of ``arm`` in ``scene``; ``settings`` default to the arm's alone (Lean
+    off: the body's classes have tests of their own)."""
     planner = Planner(arm, None if scene is None else obstacles(scene),
-                      envelope.exhaustive(settings or Settings()))
+                      envelope.exhaustive(settings or Settings(lean=False)))
     pts = envelope.shoulder_frame_to_canonical(arm, envelope.grid_coordinates(resolution, 1.15))
     return planner, drain(envelope.envelope_steps(planner.generator, pts))
 
@@ -93,7 +95,7 @@ def test_obstacles_block_points_the_open_scene_reaches(arm):
 
 def test_chest_points_are_lost_without_chest_rotation(arm):
     _, env = envelope_of(arm, None)
-    _, fixed = envelope_of(arm, None, Settings(chest_rotation=False))
+    _, fixed = envelope_of(arm, None, Settings(chest_rotation=False, lean=False))
     chest = env.classes == envelope.CHEST
     assert chest.sum() >= 10
     assert (fixed.classes[chest] >= envelope.BLOCKED).all()

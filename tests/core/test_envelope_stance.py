@@ -159,7 +159,7 @@ def test_without_squat_or_step_their_classes_are_empty(arm):
                       (on.replace(stepping=False), envelope.STEP)):
         env = envelope_of(arm, off, resolution=7)
         assert not np.any(env.classes == gone)
-    assert not np.isin(envelope_of(arm, Settings(), resolution=7).classes,
+    assert not np.isin(envelope_of(arm, Settings(lean=False), resolution=7).classes,
                        (envelope.LEAN, envelope.SQUAT, envelope.STEP)).any()
 
 

@@ -142,4 +142,4 @@ def test_only_a_low_target_past_the_arm_asks_for_the_body():
     assert not wants_body(settings, task(high), failed, arm)
     assert not wants_body(settings, task(near), failed, arm)
     assert not wants_body(settings.replace(squat=False), task(low), failed, arm)
-    assert not wants_body(Settings(), task(low), failed, arm)
+    assert not wants_body(Settings(lean=False), task(low), failed, arm)

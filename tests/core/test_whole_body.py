@@ -117,10 +117,13 @@ def test_a_hand_under_a_desk_rises_before_the_trunk_leans():
     assert np.linalg.norm(wrist - target) <= settings.goal_tolerance * arm.arm_length + 1e-9
 
 
-def test_the_lean_is_off_unless_asked_for():
+def test_the_lean_is_on_by_default_and_off_when_turned_off():
     arm = standard_arm()
-    failed, phase, why = plan_with_lean(arm, {}, ahead(arm, 1.35), Settings())
+    assert Settings().lean and Settings().squat and Settings().stepping
+    failed, phase, why = plan_with_lean(arm, {}, ahead(arm, 1.35), Settings(lean=False))
     assert failed.reason == NEEDS_LEAN and phase is None and why is None
+    _failed, phase, _why = plan_with_lean(arm, {}, ahead(arm, 1.35), Settings())
+    assert phase is not None and phase.lean.angle > 0.0
 
 
 def test_a_sequence_says_that_only_a_single_reach_leans():
@@ -130,7 +133,7 @@ def test_a_sequence_says_that_only_a_single_reach_leans():
     near = arm.to_world_points(arm.shoulder) + np.array([0.0, -0.6, -0.2]) * arm.arm_length
     task = Task("sequence", np.array([near, ahead(arm, 1.35)]), HANGING, names=("A", "B"))
     for settings, said in ((Settings().replace(lean=True), "a reach or guided reach to one target leans"),
-                           (Settings(), "turn on Lean")):
+                           (Settings(lean=False), "turn on Lean")):
         plan = Planner(arm, obstacles({}), settings).plan(task)
         assert plan.reason == NEEDS_LEAN, plan.message
         assert said in plan.message, plan.message
