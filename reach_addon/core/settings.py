@@ -218,8 +218,8 @@ class Settings:
         "about 5 cm on an adult)", "step", 0.0, 0.3)
     gaze: bool = _f(
         False, "Look at target", "Turn the head toward each target (at the neck, within its "
-        "limits), ahead of the hand, and keep it there as the body moves. Off by default "
-        "with the rest of the whole body", "body")
+        "limits), ahead of the hand, and keep it there as the body moves. Off by default: "
+        "it keys the head on every bake", "body")
     gaze_turn_max: float = _f(
         60.0, "Neck turn", "Farthest the neck turns the head left or right: the "
         "AAOS average cervical rotation (1965)", "body", 0.0, 90.0, "deg")
