@@ -166,7 +166,10 @@ def body_class(arm, point, settings, stance=None) -> int:
     ``Settings.squat`` is on), :data:`SQUAT` where a squat does (:func:`squattable`);
     else :data:`STEP` where steps do (:func:`steppable`); else :data:`OUT`. Without Lean,
     or without a ``stance``, only the first; a point below the ground the feet stand on
-    is :data:`OUT`."""
+    is :data:`OUT`; and every one is :data:`OUT` without ``Settings.envelope_body`` (off
+    by default: the body's classes take minutes on the default grid, the arm's seconds)."""
+    if not settings.envelope_body:
+        return OUT
     if leanable(arm, point, settings, stance):
         return LEAN
     if stance is None or not settings.lean:

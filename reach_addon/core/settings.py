@@ -435,6 +435,11 @@ class Settings:
                              "motion", 0.0, 60.0, "s")
 
     # --- the reach envelope (core.envelope; drawn by its own panel, not a planner group) ------
+    envelope_body: bool = _f(
+        False, "Body classes", "With Lean on, class the points no arm pose reaches by what "
+        "of the body would reach them: a lean, a squat, a step. Slow: the balance is "
+        "weighed at every such point (minutes on the default grid, against seconds)",
+        "envelope")
     envelope_resolution: int = _f(
         13, "Resolution", "Grid points along each side of the reach envelope's cube (13: "
         "2,197 points, about 0.2 arm lengths apart)", "envelope", 2, 41)

@@ -73,7 +73,7 @@ def test_a_squat_point_and_a_step_point_of_the_envelope_are_reached_so(addon, ri
     info = addon.blender.rig.build(armature, "right")
     armature, floor = fresh(rig_file, kind, info), bpy.data.objects["Floor"]
     core = addon.core
-    settings = core.Settings().replace(lean=True)
+    settings = core.Settings().replace(lean=True, envelope_body=True)
     env = envelope(addon, armature, settings)
     classes, coords = env.envelope.classes, env.shoulder
     counts = env.envelope.counts()
@@ -105,6 +105,9 @@ def test_a_squat_point_and_a_step_point_of_the_envelope_are_reached_so(addon, ri
 
 def test_without_lean_no_point_is_classed_by_the_body(addon, rig_file):  # noqa: F811
     armature = open_rig(rig_file, "metarig")
-    env = envelope(addon, armature, addon.core.Settings(lean=False))
-    counts = env.envelope.counts()
-    assert counts["lean"] == counts["squat"] == counts["step"] == 0, counts
+    for settings in (addon.core.Settings(lean=False), addon.core.Settings()):
+        # Lean off, or on (the default) without Body classes (off by default: slow)
+        env = envelope(addon, armature, settings)
+        counts = env.envelope.counts()
+        assert counts["lean"] == counts["squat"] == counts["step"] == 0, counts
+        assert counts["out"] > 0, counts

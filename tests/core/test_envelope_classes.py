@@ -142,7 +142,7 @@ def test_with_lean_on_the_points_a_lean_reaches_are_their_own_class(arm):
     needed to bring it within Lean to of the shoulder, the chest turned as it may be (by
     brute force, :func:`lean_reaches`), and the rest of the grid is classed as with Lean
     off."""
-    settings = Settings().replace(lean=True)
+    settings = Settings().replace(lean=True, envelope_body=True)
     _planner, plain = envelope_of(arm, None, resolution=7)
     planner, leaned = envelope_of(arm, None, settings, resolution=7)
     changed = np.flatnonzero(plain.classes != leaned.classes)

@@ -115,7 +115,7 @@ def steps_needed(arm, settings, body, world) -> float:
 
 
 def test_points_past_a_lean_are_squat_or_step_as_the_body_reaches_them(arm):
-    settings = Settings().replace(lean=True)
+    settings = Settings().replace(lean=True, envelope_body=True)
     body = stance(arm)
     plain = envelope_of(arm, settings, with_stance=False)
     env = envelope_of(arm, settings)
@@ -154,7 +154,7 @@ def test_points_past_a_lean_are_squat_or_step_as_the_body_reaches_them(arm):
 
 
 def test_without_squat_or_step_their_classes_are_empty(arm):
-    on = Settings().replace(lean=True)
+    on = Settings().replace(lean=True, envelope_body=True)
     for off, gone in ((on.replace(squat=False), envelope.SQUAT),
                       (on.replace(stepping=False), envelope.STEP)):
         env = envelope_of(arm, off, resolution=7)
@@ -220,7 +220,7 @@ def test_a_lean_point_given_the_stance_has_a_lean_the_body_balances(arm):
     (:func:`balanced_lean`, searched here on a grid); the stance's pivot and balance
     change the class from the plain envelope's, which leans about the arm model's waist
     without weighing it."""
-    settings = Settings().replace(lean=True, lean_hips_back=False, squat=False,
+    settings = Settings().replace(lean=True, envelope_body=True, lean_hips_back=False, squat=False,
                                   stepping=False)
     body = stance(arm)
     plain = envelope_of(arm, settings, with_stance=False)
