@@ -236,13 +236,15 @@ def test_plans_reuse_the_obstacles_until_one_changes(fresh, addon):
 
 
 def test_objects_beyond_reach_are_left_out_until_they_come_near(fresh, addon):
-    """A set-dressed scene: a Plan builds its BVH from the objects within the arm's reach
-    (core.arm.reach_sphere); a far object is neither read nor built, an edit to it builds
-    nothing, and it counts again the moment it moves near — or holds a target."""
+    """A set-dressed scene: a Plan builds its BVH from the objects within the body's reach
+    (core.arm.reach_sphere, grown by the lean's and the steps' reach with Lean on, the
+    default: ``scene.reach_bounds``; the far box stands 30 arm lengths off); a far object is
+    neither read nor built, an edit to it builds nothing, and it counts again the moment
+    it moves near — or holds a target."""
     kept, info, target, pipeline, request = _plate_plan(addon)
     length = info.arm.arm_length
     chest = info.joints_world["shoulder"]
-    far = add_box("Far", chest + 8 * length * info.frame.forward, length)
+    far = add_box("Far", chest + 30 * length * info.frame.forward, length)
 
     def plan():
         outcome = pipeline.run(bpy.context, request, bake=False)
@@ -262,7 +264,7 @@ def test_objects_beyond_reach_are_left_out_until_they_come_near(fresh, addon):
     assert not result.success and "Far" in names and kept.builds == builds + 2
     # a target inside a far closed box is still found inside it
     far.scale = (1.0, 1.0, 1.0)
-    far.location = chest + 8 * length * info.frame.forward
+    far.location = chest + 30 * length * info.frame.forward
     target.location = far.location
     bpy.context.view_layer.update()
     result, names = plan()
