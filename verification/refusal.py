@@ -37,7 +37,9 @@ where it is that an animated obstacle moves into the start pose on a later frame
 as it starts against that obstacle on that frame; a later target's start (where the one
 before it ended, at its own frame) is unchecked, unless no target before it moved the arm
 (a plan refused at its start refuses every target with the start's claim): it is then
-the rig's start, checked as the first target's is.
+the rig's start, checked as the first target's is. The claim ``target_moved`` by
+:func:`check_target_moved`: the target object as Blender evaluates it on the arrival
+frame against the start frame.
 ``target_in_obstacle`` by :func:`check_target_inside`, and where the target lies inside no
 closed obstacle by :func:`check_no_pose_at` (no valid state within the goal tolerance of
 it). Obstacles are this module's own
@@ -57,7 +59,7 @@ import numpy as np
 from reach_addon.core import ik
 from reach_addon.core.errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH,
                                      OUT_OF_REACH, START_HELD, START_IN_COLLISION,
-                                     TARGET_IN_OBSTACLE)
+                                     TARGET_IN_OBSTACLE, TARGET_MOVED)
 from reach_addon.core.sampling import (JOINT_NAMES, JointSpace, StateValidity, checked_joints_of_one,
                                        joints_of, joints_of_one)
 from reach_addon.core.settings import Settings
@@ -69,7 +71,7 @@ from .race import seed_ompl
 #: The reasons whose claim is "no clear path": checked by OMPL (:func:`check_path_claim`).
 PATH_REASONS = (NO_PATH, ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, START_HELD)
 #: Every reason this module answers for (the others are ``unchecked``).
-CHECKED_REASONS = PATH_REASONS + (START_IN_COLLISION, TARGET_IN_OBSTACLE)
+CHECKED_REASONS = PATH_REASONS + (START_IN_COLLISION, TARGET_IN_OBSTACLE, TARGET_MOVED)
 CONFIRMED, FALSE_REFUSAL = "confirmed", "false_refusal"
 INCONCLUSIVE, UNCHECKED = "inconclusive", "unchecked"
 STATUSES = (CONFIRMED, FALSE_REFUSAL, INCONCLUSIVE, UNCHECKED)
@@ -91,7 +93,7 @@ class Verdict:
 
     ``status``: one of :data:`STATUSES`; ``detail``: one line saying why; ``method``:
     what decided (``ik`` no valid goal state, ``ompl`` a search, ``skin``, ``bones``,
-    ``point_in_mesh`` or ``none``); ``seconds``: wall time of this check. For the path
+    ``point_in_mesh``, ``object`` or ``none``); ``seconds``: wall time of this check. For the path
     claim: ``goal_states`` (valid states in the goal region), ``states_checked`` (validity
     tests, the goal region's and OMPL's), ``table1_chest_deg`` (Table 1's chest rotation at
     the target), and for a path found ``path_length`` (how far the wrist travels along it,
@@ -1111,6 +1113,28 @@ def _model_capsules(arm) -> list:
     return caps + [("hand", 3, 4, arm.hand_radius)]
 
 
+def check_target_moved(context, problem, name: str, point, frame: int) -> Verdict:
+    """The claim ``target_moved``: target ``name``, at ``point`` on the start frame, is
+    farther from there on ``frame`` (the arrival) than the goal tolerance, as Blender
+    evaluates the object. Confirmed if so, else a false refusal. Leaves the scene at the
+    start frame."""
+    import bpy
+
+    t0 = time.perf_counter()
+    scene = context.scene
+    scene.frame_set(frame)
+    there = np.array(bpy.data.objects[name].matrix_world.translation)
+    scene.frame_set(problem.frame)
+    length = problem.info.arm.arm_length
+    moved = float(np.linalg.norm(there - np.asarray(point, dtype=float))) / length
+    tolerance = problem.planner.settings.goal_tolerance
+    status = CONFIRMED if moved > tolerance else FALSE_REFUSAL
+    return Verdict(name, TARGET_MOVED, status,
+                   f"the target is {moved:.4f} arm lengths from its start on frame {frame} "
+                   f"(goal tolerance {tolerance:g})", "object",
+                   seconds=time.perf_counter() - t0)
+
+
 def check_report(context, report: dict, task: str = "reach", obstacles: str | None = None, *,
                  overrides: dict | None = None, budget_s: float = OMPL_BUDGET_S,
                  max_states: int | None = None, seed: int = 0) -> list:
@@ -1157,6 +1181,9 @@ def check_report(context, report: dict, task: str = "reach", obstacles: str | No
                        check_deep_start(problem, target=name))
             continue
         point = np.array(bpy.data.objects[name].matrix_world.translation)
+        if reason == TARGET_MOVED:
+            out.append(check_target_moved(context, problem, name, point, int(t["frame_end"])))
+            continue
         if task == "chase":
             scene.frame_set(int(t["frame_end"]))
             point = np.array(bpy.data.objects[name].matrix_world.translation)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..core import RIG_OFF_TARGET, START_HELD, START_IN_COLLISION
+from ..core import RIG_OFF_TARGET, START_HELD, START_IN_COLLISION, TARGET_MOVED
 from ..core.arm import frame_angle
 from ..core.elbow import chicken_wing
 from ..core.orient import palm_frame, wanted_axes
@@ -306,8 +306,11 @@ def measure_arrival(context, armature, info, results, plans, settings) -> None:
     follow in order; a chase, whose target moves on, is left out). Where that is more than
     the goal tolerance (``Settings.goal_tolerance``, plus :data:`ARRIVAL_SLACK`) the result
     is no success: reason ``rig_off_target``, its message saying how far off and which
-    bones were keyed. The keys stay (the user sees what the rig does with them). Changes
-    the scene's frame."""
+    bones were keyed. The target object is read there too, as Blender evaluates it on that
+    frame: where it has moved from where the plan took it (its keys, a parent, a
+    constraint, the character carrying it) and the wrist is off it by more than the
+    tolerance, the reason is ``target_moved`` (:func:`moved_message`). The keys stay (the
+    user sees what the rig does with them). Changes the scene's frame."""
     segments = [(k.plan, seg) for k in plans for seg in k.plan.segments]
     if len(segments) != len(results):
         return
@@ -315,14 +318,25 @@ def measure_arrival(context, armature, info, results, plans, settings) -> None:
     hand = info.bones.arms[info.side].hand
     mw = np.array(armature.matrix_world)
     length = info.arm.arm_length
+    tolerance = settings.goal_tolerance + ARRIVAL_SLACK
     for r, (plan, seg) in zip(results, segments):
         if not r.success or not r.bones_keyed or plan.task.kind == "chase":
             continue
         scene.frame_set(r.frame_end)
         wrist = mw[:3, :3] @ np.array(armature.pose.bones[hand].head) + mw[:3, 3]
-        gap = float(np.linalg.norm(wrist - np.asarray(seg.target, dtype=float))) / length
+        planned = np.asarray(seg.target, dtype=float)
+        gap = float(np.linalg.norm(wrist - planned)) / length
         r.stats["wrist_gap_arm_lengths"] = round(gap, 6)
-        if gap <= settings.goal_tolerance + ARRIVAL_SLACK:
+        target = bpy.data.objects.get(r.target)
+        if target is not None:
+            where = np.array(target.matrix_world.translation)
+            moved = float(np.linalg.norm(where - planned)) / length
+            off = float(np.linalg.norm(wrist - where)) / length
+            if moved > tolerance and off > tolerance:
+                r.success, r.reason = False, TARGET_MOVED
+                r.message = moved_message(r, moved, off, plan.task.kind)
+                continue
+        if gap <= tolerance:
             continue
         r.success, r.reason = False, RIG_OFF_TARGET
         r.message = (f"planned to reach '{r.target}', but the keys put the wrist {gap:.3f} "
@@ -330,3 +344,14 @@ def measure_arrival(context, armature, info, results, plans, settings) -> None:
                      f"move the keyed bones ({', '.join(r.bones_keyed[:6])}) otherwise than "
                      "Reach models them; the keys are left for you to see (please report "
                      "the rig)")
+
+
+def moved_message(r, moved: float, off: float, kind: str) -> str:
+    """The message of a ``target_moved`` result ``r``: the target went ``moved`` arm
+    lengths from where the plan took it, and the wrist ends ``off`` from it."""
+    return (f"planned to reach '{r.target}' where it stood on the frame Reach planned "
+            f"from, but on frame {r.frame_end}, when the wrist arrives, the target is "
+            f"{moved:.3f} arm lengths from there (its keys, a parent or a constraint move "
+            f"it) and the wrist {off:.3f} from it: a {kind} goes to a target that stands "
+            "still; use the chase task to follow a moving target, or keep it still while "
+            "the reach lasts; the keys are left for you to see")

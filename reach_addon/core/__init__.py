@@ -12,7 +12,7 @@ from .arm import ArmConfig, ArmModel, Capsule, Pose, config_from_joints, forward
 from .collision import Obstacles
 from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_REACH, REASONS,
                      RIG_OFF_TARGET, START_HELD, START_IN_COLLISION, TARGET_IN_OBSTACLE,
-                     ReachError)
+                     TARGET_MOVED, ReachError)
 from .settings import Settings
 from .planner import Planner, plan
 from .results import Plan, Segment, Stats
@@ -22,7 +22,7 @@ __all__ = [
     "ArmConfig", "ArmModel", "Capsule", "Pose", "config_from_joints", "forward_kinematics",
     "Obstacles", "ReachError", "REASONS", "OUT_OF_REACH", "TARGET_IN_OBSTACLE", "NO_PATH",
     "START_IN_COLLISION", "START_HELD", "NEEDS_LEAN", "NEEDS_STEP", "ARM_DOES_NOT_FIT",
-    "RIG_OFF_TARGET",
+    "RIG_OFF_TARGET", "TARGET_MOVED",
     "Settings", "TASK_KINDS", "Plan", "Planner", "Segment", "Stats",
     "Task", "plan",
 ]

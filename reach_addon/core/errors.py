@@ -27,8 +27,13 @@ START_HELD = "start_held"                  # clear, but no step from the start i
 #: target (its constraints move the arm otherwise than Reach models them): a fault of
 #: Reach's reading of the rig, reported rather than called a success
 RIG_OFF_TARGET = "rig_off_target"
+#: planned and keyed to where the target stood on the start frame, but the target as
+#: Blender evaluates it has moved away by the frame the wrist arrives (keys, a parent, a
+#: constraint): a reach for a target that stands still, reported rather than called a
+#: success (the chase task follows a moving target)
+TARGET_MOVED = "target_moved"
 REASONS = (OUT_OF_REACH, NEEDS_LEAN, NEEDS_STEP, TARGET_IN_OBSTACLE, ARM_DOES_NOT_FIT, NO_PATH,
-           START_IN_COLLISION, START_HELD, RIG_OFF_TARGET)
+           START_IN_COLLISION, START_HELD, RIG_OFF_TARGET, TARGET_MOVED)
 
 
 class ReachError(ValueError):

@@ -355,3 +355,27 @@ def test_a_target_inside_the_body_is_confirmed_by_no_pose_at_it(tmp_path):
     (v,) = refusal.check_report(bpy.context, report)
     assert (v.status, v.method, v.goal_states) == ("confirmed", "ik", 0), v.detail
     assert "inside no closed obstacle" in v.detail
+
+
+def test_a_target_that_moved_is_confirmed_and_one_forged_still_is_a_false_refusal(tmp_path):
+    """``target_moved`` is a claim about the target object: its keys carry it 0.3 arm
+    lengths up by the frame the wrist arrives, and the check, reading the object as
+    Blender evaluates it on the start and arrival frames, confirms it. The same report
+    with the target's keys removed (it stands still) is a false refusal."""
+    arm, info = humanoid()
+    cup = rigs.add_target("Cup", everyday.at(info, 0.6, 0.1, -0.1))
+    start = np.array(cup.location)
+    up = np.asarray(info.frame.up, dtype=float)
+    for frame, lift in ((1, 0.0), (2, 0.3)):
+        cup.location = tuple(start + lift * info.arm.arm_length * up)
+        cup.keyframe_insert("location", frame=frame)
+    bpy.context.scene.frame_set(1)
+    rc, report = bake(tmp_path, ["Cup"])
+    assert rc == 1 and reasons(report) == {"Cup": "target_moved"}, report["tasks"][0]["message"]
+    [v] = refusal.check_report(bpy.context, report)
+    assert (v.target, v.reason, v.status, v.method) == ("Cup", "target_moved", "confirmed",
+                                                        "object"), v.detail
+    bpy.data.objects["Cup"].animation_data_clear()
+    bpy.data.objects["Cup"].location = tuple(start)
+    [v] = refusal.check_report(bpy.context, report)
+    assert v.status == "false_refusal", v.detail
