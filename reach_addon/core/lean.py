@@ -256,7 +256,9 @@ def skin_hit(world, checker):
     between them, was clear in between; instants are added where a point moves more. Only
     the points that come within their own travel of an obstacle are measured after the
     first instant. A point already within the margin at the first instant is not held to
-    it (a figure may stand against a table; the points round it are)."""
+    the margin (a figure may stand against a table, its soles on the floor; the points
+    round it are), only kept out of the obstacle it touches: it may not be inside a
+    closed obstacle by more than the margin at any instant (:func:`sunk_hit`)."""
     world = np.asarray(world, dtype=float)
     if not world.shape[1] or checker.obstacles.tree is None:
         return None
@@ -264,17 +266,37 @@ def skin_hit(world, checker):
     margin = checker.margin
     first = np.array([checker.obstacles.distance(p, t + margin) for p, t in zip(world[0], travel)])
     near = (first < travel + margin) & (first >= margin)
-    if not near.any():
-        return None
+    touching = (first < margin) & (travel > margin)
     for k in range(1, len(world)):
-        prev, now = world[k - 1][near], world[k][near]
-        step = float(np.linalg.norm(now - prev, axis=1).max())
-        splits = max(1, int(math.ceil(step / (1.5 * max(margin, 1e-12)))))
-        for j in range(1, splits + 1):
-            at = prev + (now - prev) * (j / splits)
-            for p in at:
-                if checker.obstacles.distance(p, margin) < margin:
-                    return k, owner_near(checker, p)
+        if near.any():
+            prev, now = world[k - 1][near], world[k][near]
+            step = float(np.linalg.norm(now - prev, axis=1).max())
+            splits = max(1, int(math.ceil(step / (1.5 * max(margin, 1e-12)))))
+            for j in range(1, splits + 1):
+                at = prev + (now - prev) * (j / splits)
+                for p in at:
+                    if checker.obstacles.distance(p, margin) < margin:
+                        return k, owner_near(checker, p)
+        hit = sunk_hit(world[k][touching], checker) if touching.any() else None
+        if hit is not None:
+            return k, hit
+    return None
+
+
+def sunk_hit(points, checker):
+    """The name of a closed obstacle one of ``points`` (world) lies inside, deeper than the
+    clearance (``checker.margin``), else None: the test of :func:`skin_hit` for the skin
+    that touches an obstacle where it starts (the soles on a floor box; the Goblin's ankle,
+    its skin blended between the shank and the foot, went 7 cm into the floor as a squat
+    tipped the shank over it, and the margin alone never held it). Inside is read by the
+    rays' parity (:meth:`~.collision.Obstacles.point_inside`), so an open mesh (a plane)
+    has no inside and holds nothing here; a point within the margin of a surface is not
+    asked."""
+    margin = checker.margin
+    for p in points:
+        if checker.obstacles.distance(p, margin) >= margin and \
+                checker.obstacles.point_inside(p):
+            return checker.obstacles.enclosing_owner(p)
     return None
 
 
