@@ -81,10 +81,11 @@ def run(addon, armature, info, settings, bake=True):
 
 #: Rigs whose squat is not planned yet, each with its measured cause.
 SQUAT_XFAIL = {
-    "alien": "no squat within the joints' limits: its legs are short for its body (the "
-             "trunk's pivot 1.62 arm lengths under the shoulder, thigh 0.54 and shank 0.71), "
-             "and reaching 0.12 over the floor needs the shins tipped 39.6° over the feet, "
-             "past Ankle limit (38°): heels rising or a knee down (not built) would",
+    "alien": "its legs are short for its body (the trunk's pivot 1.62 arm lengths under "
+             "the shoulder, thigh 0.54 and shank 0.71): the four squats tried within the "
+             "joints' limits bring its lower body against the floor (the last leaning 63° "
+             "with the hips 0.71 arm lengths back); heels rising or a knee down would "
+             "(not built)",
     "robot": "its forearm, 2.4 times its upper arm, hangs along the trunk: held there as "
              "the trunk leans, it lies in the pelvis' capsule 68° into the lean; raised "
              "first (Ready reach), it carries the centre of mass 0.0014 arm lengths farther "
