@@ -38,6 +38,7 @@ import numpy as np
 from ..core import Planner
 from ..core import balance as core_balance
 from ..core.hand_shape import with_shape
+from ..core.hips import LegOverstretchedError
 from ..core.lean import skin_hit
 from ..core.step import Step, StepMotion, plan_step, step_motion
 from ..core.whole_body import wants_step
@@ -152,8 +153,15 @@ def _plan(context, armature, info, planner, keyed, legs, hips, reread, bake_clos
         if step is None:
             whys.append(why)
             break
-        found, why = _try(context, armature, info, planner, keyed, legs, hips, reread,
-                          bake_closest, step, ankles, leg_length)
+        try:
+            found, why = _try(context, armature, info, planner, keyed, legs, hips, reread,
+                              bake_closest, step, ankles, leg_length)
+        except LegOverstretchedError:      # the weight shift over the foot that stays (seed 40044)
+            found, why = None, (
+                f"{step.count} step{'s' if step.count > 1 else ''} "
+                f"{float(np.linalg.norm(step.shift)) / info.arm.arm_length:.2f} arm lengths "
+                "toward it: keeping the weight over the foot that stays would carry the hips "
+                "farther from the other ankle than its leg reaches")
         if found is not None:
             return found, None
         if why not in whys:

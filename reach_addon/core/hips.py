@@ -136,6 +136,12 @@ def lean_and_shift(shoulder, pivot, target, reach: float, lean_max_deg: float, c
     return lean_at(hi), hi
 
 
+class LegOverstretchedError(ValueError):
+    """A hip moved so far from its ankle across the ground that no drop of the hips brings
+    the foot within the leg's reach (:func:`hips_drop`): a posture the legs cannot take,
+    which a caller trying postures refuses and goes on."""
+
+
 def hips_drop(hip, ankle, thigh: float, shank: float, up) -> float:
     """How far (≥ 0) the hip must come down along ``up`` for its ankle to lie within
     :data:`STRAIGHT_SHARE` of the leg's length: the least η with
@@ -148,7 +154,7 @@ def hips_drop(hip, ankle, thigh: float, shank: float, up) -> float:
     vertical = float(d @ up)
     flat = float(np.linalg.norm(d - vertical * up))
     if flat >= most:
-        raise ValueError("the hip has moved farther from its ankle than the leg is long")
+        raise LegOverstretchedError("the hip has moved farther from its ankle than the leg is long")
     return vertical - math.sqrt(most * most - flat * flat)
 
 

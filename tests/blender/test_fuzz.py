@@ -126,6 +126,19 @@ def test_a_start_in_contact_never_touches_again_once_clear():
 CAMPAIGN_FALSE_REFUSALS: dict = {}
 
 
+def test_a_step_the_legs_cannot_take_is_refused_not_raised():
+    """Seed 40044 of a Lean campaign at ad05076: every step tried toward a target 1.95 arm
+    lengths off needed the hips, keeping the weight over the foot that stays, farther from
+    the other ankle than its leg reaches, and posing it raised ``ValueError`` out of the
+    bake (at 912c012 too). Such a step is now refused with that reason, and the reach
+    with it (``needs_step``), which the cross-check confirms."""
+    results = campaign.run_campaign([40044], jobs=1, subframes=1, timeout_s=SCENE_TIMEOUT_S,
+                                    lean=True)
+    assert [(r["seed"], r["category"]) for r in results] == [(40044, "failure_with_reason")], \
+        [r["detail"] for r in results]
+    assert "farther from the other ankle than its leg reaches" in results[0]["detail"]
+
+
 def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
     """False refusals of full campaigns: five in the first 1,193 scenes of the one at
     4289954, 6024, 6356 and 6397 in a later partial run, 783 in one at 76fb172, 209
