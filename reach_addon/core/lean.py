@@ -258,7 +258,8 @@ def skin_hit(world, checker):
     first instant. A point already within the margin at the first instant is not held to
     the margin (a figure may stand against a table, its soles on the floor; the points
     round it are), only kept out of the obstacle it touches: it may not be inside a
-    closed obstacle by more than the margin at any instant (:func:`sunk_hit`)."""
+    closed obstacle by more than the margin at any of the instants given (between them it
+    is not read; :func:`sunk_hit`)."""
     world = np.asarray(world, dtype=float)
     if not world.shape[1] or checker.obstacles.tree is None:
         return None
