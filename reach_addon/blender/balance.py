@@ -303,6 +303,35 @@ def ankles_now(armature, legs) -> tuple:
     return ankles, length
 
 
+#: The farthest (degrees) the legs, hips to ankles, may lean off the scene's gravity for
+#: the body to lean, squat or step (:func:`standing_why_not`): a figure standing, however
+#: its trunk leans, has its hips over its ankles; one lying, sitting or on a tilted parent
+#: does not, and its balance over its feet means nothing. Ours: the paper is silent.
+STANDING_TILT = 30.0
+
+
+def legs_tilt(armature, legs, ground) -> float:
+    """The angle (degrees) between ``ground`` (the unit up against gravity) and the line
+    from the legs' mean ankle to their mean hip, as they stand now."""
+    hips = np.mean([point_of(armature, leg.hip) for leg in legs], axis=0)
+    ankles = np.mean([point_of(armature, leg.ankle) for leg in legs], axis=0)
+    d = hips - ankles
+    c = float(d @ np.asarray(ground, dtype=float)) / max(float(np.linalg.norm(d)), 1e-300)
+    return math.degrees(math.acos(max(-1.0, min(1.0, c))))
+
+
+def standing_why_not(armature, legs, ground, verb: str) -> str | None:
+    """Why the body does not ``verb`` (lean, step): its legs lean more than
+    :data:`STANDING_TILT` off the scene's gravity (:func:`legs_tilt`); else None."""
+    tilt = legs_tilt(armature, legs, ground)
+    if tilt <= STANDING_TILT:
+        return None
+    return (f"the legs of '{armature.name}' lean {tilt:.0f}° off the scene's gravity (Scene "
+            f"> Gravity), and Reach {verb}s only a body standing on its feet (legs within "
+            f"{STANDING_TILT:.0f}° of it): stand the character upright, or set the gravity "
+            "its ground has")
+
+
 def ground_now(armature, legs, up) -> float:
     """The height (along the unit ``up``) of the ground the feet stand on now: the lowest
     point of their soles' skin (:func:`_sole`), else of their bones' joints."""

@@ -120,8 +120,12 @@ def plan(context, armature, info, planner, keyed):
         return None, keyed
     legs = balance.find_legs(armature, info.bones, info.frame)
     bone = lean_bone(armature, info.bones, legs)
+    standing = None if bone is None else balance.standing_why_not(
+        armature, legs, info.frame.ground, "lean")
     if bone is None:
         why = "Reach finds no legs on this rig, and leans only a body standing on its feet"
+    elif standing is not None:
+        why = standing
     elif users_keys(armature, bone):
         why = f"bone '{bone}', which leans the trunk, has keys of its own"
     else:

@@ -98,6 +98,9 @@ def _why_not(armature, info, legs, hips) -> str | None:
     if hips is None:
         return "Reach finds no bone that carries both legs and the trunk"
     up = np.asarray(info.frame.ground, float)
+    standing = balance.standing_why_not(armature, legs, up, "step")
+    if standing is not None:
+        return standing
     keyed = next((n for n in step_bones(armature, legs, hips, up)
                   if users_keys(armature, n) or users_keys(armature, n, "location")), None)
     if keyed is not None:

@@ -235,3 +235,33 @@ def test_a_leg_ik_rig_steps_with_its_controls(addon, rig_file):  # noqa: F811
         moved = end[f"foot_ik.{side}"] - start[f"foot_ik.{side}"]
         assert float(moved @ out) / length > 0.3 and abs(float(moved @ up)) < 1e-4 * length, \
             (side, moved / length)
+
+
+def test_a_body_not_standing_under_gravity_does_not_step_or_lean(addon, rig_file):  # noqa: F811
+    """Fuzz seed 40044 (a Lean campaign): a figure on a parent tilted 48.5° off the
+    scene's gravity was stepped for, and its balance over its feet meant nothing. Here the
+    scene's gravity is turned 50° instead: the step test's target is refused as
+    ``needs_step`` and one 1.3 arm lengths ahead as ``needs_lean``, each saying the legs
+    lean 50° off gravity, and nothing is keyed."""
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    target, _pedestal = scene(armature, info)
+    ahead = bpy.data.objects.new("Ahead", None)
+    ahead.location = tuple(everyday.at(info, 1.3, 0.0, -0.1))
+    bpy.context.scene.collection.objects.link(ahead)
+    tilt = np.radians(50.0)
+    bpy.context.scene.gravity = (0.0, 9.81 * np.sin(tilt), -9.81 * np.cos(tilt))
+    legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
+    up = everyday.gravity_up()
+    assert addon.blender.balance.legs_tilt(armature, legs, up) > 40.0
+    for name, reason, verb in ((target.name, "needs_step", "steps"),
+                               (ahead.name, "needs_lean", "leans")):
+        request = addon.blender.pipeline.Request(
+            armature.name, [name], task="reach", side="right", frame_start=1, draw=False,
+            settings=addon.core.Settings())
+        outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
+        result = outcome.results[0]
+        assert not result.success and result.reason == reason, result.message
+        assert "off the scene's gravity" in result.message, result.message
+        assert f"Reach {verb} only a body standing on its feet" in result.message
+        assert not outcome.baked and not result.bones_keyed
