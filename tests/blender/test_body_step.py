@@ -265,3 +265,25 @@ def test_a_body_not_standing_under_gravity_does_not_step_or_lean(addon, rig_file
         assert "off the scene's gravity" in result.message, result.message
         assert f"Reach {verb} only a body standing on its feet" in result.message
         assert not outcome.baked and not result.bones_keyed
+
+
+def test_a_step_the_legs_cannot_take_is_refused_not_raised(addon, rig_file, monkeypatch):  # noqa: F811
+    """The same GoMakeHuman under gravity turned 50°, with the standing check lifted
+    (``balance.STANDING_TILT`` 90°): every step toward the side target needs the hips,
+    kept over the foot that stays, farther from the other ankle than its leg reaches.
+    That raised ``ValueError`` out of the bake (fuzz seed 40044); each such step is now
+    refused with the reason, and the reach is ``needs_step``."""
+    monkeypatch.setattr(addon.blender.balance, "STANDING_TILT", 90.0)
+    armature = open_rig(rig_file, "gomakehuman")
+    info = addon.blender.rig.build(armature, "right")
+    target, _pedestal = scene(armature, info)
+    tilt = np.radians(50.0)
+    bpy.context.scene.gravity = (0.0, 9.81 * np.sin(tilt), -9.81 * np.cos(tilt))
+    request = addon.blender.pipeline.Request(
+        armature.name, [target.name], task="reach", side="right", frame_start=1, draw=False,
+        settings=addon.core.Settings())
+    outcome = addon.blender.pipeline.run(bpy.context, request, bake=True)
+    result = outcome.results[0]
+    assert not result.success and result.reason == "needs_step", result.message
+    assert "farther from the other ankle than its leg reaches" in result.message
+    assert not outcome.baked and not result.bones_keyed

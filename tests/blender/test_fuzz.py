@@ -126,17 +126,18 @@ def test_a_start_in_contact_never_touches_again_once_clear():
 CAMPAIGN_FALSE_REFUSALS: dict = {}
 
 
-def test_a_step_the_legs_cannot_take_is_refused_not_raised():
-    """Seed 40044 of a Lean campaign at ad05076: every step tried toward a target 1.95 arm
-    lengths off needed the hips, keeping the weight over the foot that stays, farther from
-    the other ankle than its leg reaches, and posing it raised ``ValueError`` out of the
-    bake (at 912c012 too). Such a step is now refused with that reason, and the reach
-    with it (``needs_step``), which the cross-check confirms."""
+def test_a_figure_tilted_off_gravity_is_not_stepped():
+    """Seed 40044 of a Lean campaign at ad05076: GoMakeHuman on a parent tilted 48.5° off
+    the scene's gravity, its target 1.95 arm lengths off. Every step tried needed the
+    hips farther from an ankle than its leg reaches, and posing it raised ``ValueError``
+    out of the bake (at 912c012 too). A figure whose legs lean more than 30° off gravity
+    is now not stepped or leaned, saying so; the reach ends ``needs_step``, which the
+    cross-check confirms (``test_body_step`` covers the step's own refusal)."""
     results = campaign.run_campaign([40044], jobs=1, subframes=1, timeout_s=SCENE_TIMEOUT_S,
                                     lean=True)
     assert [(r["seed"], r["category"]) for r in results] == [(40044, "failure_with_reason")], \
         [r["detail"] for r in results]
-    assert "farther from the other ankle than its leg reaches" in results[0]["detail"]
+    assert "off the scene's gravity" in results[0]["detail"], results[0]["detail"]
 
 
 def test_the_campaigns_refusals_are_checked_as_they_are_claimed():
