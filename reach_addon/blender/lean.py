@@ -26,8 +26,9 @@ from mathutils import Matrix
 from ..core import Planner
 from ..core.lean import TrunkSkin
 from ..core.squat import leg_angles
-from ..core.errors import NEEDS_STEP
-from ..core.whole_body import LeanPhase, lean_then_reach, wants_body, wants_step
+from ..core.errors import NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH
+from ..core.whole_body import (LeanPhase, body_held_back, body_target, lean_then_reach,
+                               wants_body, wants_step)
 from . import balance, own_keys, skin
 from . import hips as hips_mod
 from . import bake as bake_mod
@@ -102,10 +103,11 @@ class RigLean:
 
 
 def plan(context, armature, info, planner, keyed):
-    """Try a lean where ``keyed`` (the :class:`.bake.KeyedPlan` of a single reach) was refused
-    as ``needs_lean`` (or as ``out_of_reach`` below the arm, for a squat:
-    :func:`~..core.whole_body.wants_body`) and ``Settings.lean`` is on
-    (:func:`~..core.whole_body.lean_then_reach`), among ``planner``'s obstacles and
+    """Try a lean where ``keyed`` (the :class:`.bake.KeyedPlan` of a single reach, a
+    sequence or a guided reach) was refused as ``needs_lean`` (or as ``out_of_reach`` below
+    the arm, for a squat) and ``Settings.lean`` is on, toward the target
+    :func:`~..core.whole_body.body_target` picks (:func:`~..core.whole_body.
+    lean_then_reach`), among ``planner``'s obstacles and
     settings, each lean held to the balance (:class:`.lean_balance.BalanceCheck`). Returns
     (:class:`RigLean`, the reach's KeyedPlan on the leaned trunk); or (None, ``keyed``)
     with its message saying why no lean was planned."""
@@ -116,7 +118,12 @@ def plan(context, armature, info, planner, keyed):
         return made[-1]
 
     failed, task = keyed.plan, keyed.plan.task
-    if not wants_body(planner.settings, task, failed, info.arm):
+    aim = body_target(planner.settings, task, failed, info.arm)
+    if aim is None:
+        held_back = body_held_back(planner.settings, task, failed, info.arm)
+        for seg in failed.segments if held_back else ():
+            if not seg.success and seg.reason in (NEEDS_LEAN, OUT_OF_REACH):
+                seg.message += f"; with Lean on: {held_back}"
         return None, keyed
     legs = balance.find_legs(armature, info.bones, info.frame)
     bone = lean_bone(armature, info.bones, legs)
@@ -130,7 +137,7 @@ def plan(context, armature, info, planner, keyed):
         why = f"bone '{bone}', which leans the trunk, has keys of its own"
     else:
         pivot = info.arm.to_canonical_points(pivot_world(armature, bone))
-        target = np.asarray(task.targets[0], dtype=float)
+        target = np.asarray(task.targets[aim], dtype=float)
         check = BalanceCheck(context, armature, info, legs, bone, target,
                              planner.generator.checker)
         keyed_own = None if check.hips is None else hips_keyed(armature, check.hips, legs)
@@ -391,11 +398,14 @@ def report(results, lean: RigLean | None, length: float) -> None:
     :class:`.lean_balance.BalanceCheck` weighed for the lean taken, over the reach's poses)
     and, where the hips move, ``lean_knee_deg``, ``lean_ankle_deg`` and ``lean_thigh_deg``
     (the worst leg's flexion, dorsiflexion and thigh flexion at the full lean); its message
-    says so, and its frames start with the lean's."""
+    says so, and its frames start with the lean's. In a sequence the lean comes before the
+    first target's reach: the later targets' frames are their own, and their messages say
+    the body held its lean (:func:`~..core.whole_body.body_target`)."""
     if lean is None:
         return
-    for r in results:
-        r.frame_start = min(r.frame_start, lean.frame_start)   # a step may come before
+    for k, r in enumerate(results):
+        if k == 0:
+            r.frame_start = min(r.frame_start, lean.frame_start)   # a step may come before
         shift = np.asarray(lean.phase.lean.shift, float) / lean.phase.arm.arm_length
         back, down = float(np.linalg.norm(shift[:2])), max(0.0, -float(shift[2]))
         r.stats.update(lean_deg=round(float(lean.phase.lean.angle), 2),
@@ -409,7 +419,10 @@ def report(results, lean: RigLean | None, length: float) -> None:
         angle = lean.phase.lean.angle
         # after a step (its report comes first): "…, then leaning …"
         then, first = (", then ", "") if "step_count" in r.stats else (", ", " first")
-        if down >= SQUAT_REPORTED:
+        if k > 0:
+            r.message += (f", the body still {'squatting' if down >= SQUAT_REPORTED else 'leaning'}"
+                          f" as for '{results[0].target}' (the trunk {angle:.0f}°)")
+        elif down >= SQUAT_REPORTED:
             r.message += (f"{then}squatting{first}: the hips {down:.2f} arm lengths down and "
                           f"{back:.2f} back, leaning the trunk {angle:.0f}°") + (
                 "" if lean.leg_angles is None else

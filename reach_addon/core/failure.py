@@ -19,8 +19,12 @@ from .errors import (ARM_DOES_NOT_FIT, NEEDS_LEAN, NEEDS_STEP, NO_PATH, OUT_OF_R
 from .search import SearchResult, sphere_directions
 
 
-#: The tasks the body helps, as the refusals name them (``whole_body.BODY_TASKS``).
+#: The tasks the body leans and squats for, as the refusals name them
+#: (``whole_body.BODY_TASKS``).
+BODY_TASKS_SAID = "a single reach, a sequence or a guided reach"
+#: The tasks the body steps for (``whole_body.STEP_TASKS``).
 ONE_TARGET = "a reach or guided reach to one target"
+
 
 def explain_failure(generator, name: str, result: SearchResult, diagnosis, start: Pose):
     """(reason, message) of the failed reach to target ``name`` from ``start``, planned
@@ -62,8 +66,8 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
             f"target '{name}' is out of reach by {size(d.missing)} without leaning "
             f"({d.distance / length:.2f} arm lengths from the shoulder): leaning the trunk "
             f"about {d.lean_deg:.0f}° would reach it ({closest}); " + (
-                f"with Lean on {ONE_TARGET} leans" if settings.lean else
-                f"turn on Lean to lean first ({ONE_TARGET})") +
+                f"with Lean on {BODY_TASKS_SAID} leans" if settings.lean else
+                f"turn on Lean to lean first ({BODY_TASKS_SAID})") +
             ", or move the target or the character closer")
     if d.reason == NEEDS_STEP:
         return NEEDS_STEP, (
@@ -83,9 +87,9 @@ def explain_failure(generator, name: str, result: SearchResult, diagnosis, start
             where = (f"{size(d.missing)} below what the arm reaches from the shoulder, and "
                      f"leaning {settings.lean_max:.0f}° does not bring it within reach: "
                      "only a squat or a knee down would" + (
-                         f": with Lean and Squat on {ONE_TARGET} squats"
+                         f": with Lean and Squat on {BODY_TASKS_SAID} squats"
                          if settings.lean and settings.squat else
-                         f": turn on Lean and Squat to squat first ({ONE_TARGET})"))
+                         f": turn on Lean and Squat to squat first ({BODY_TASKS_SAID})"))
         return OUT_OF_REACH, (
             f"target '{name}' is out of reach: {where} ({closest}); move the target")
     if d.reason == ARM_DOES_NOT_FIT:

@@ -34,9 +34,10 @@ lean, again from where the step ends.
 What these stages leave to later ones, and refuse meanwhile: the ready reach, the lean and
 the reach run one after the other (not blended); the other arm rides on the trunk in the
 plan and its checks (the Blender layer turns it to keep its direction afterwards, and
-checks it again: ``blender/other_arm.py``); only a single reach or a guided reach
-leans (:data:`BODY_TASKS`; a sequence and a chase still refuse as ``needs_lean``), and
-only among obstacles that hold still.
+checks it again: ``blender/other_arm.py``); a sequence leans once, as far as its
+farthest target asks, and holds the lean through its reaches (:func:`body_target`); only
+a single reach or a guided reach to one target steps (:data:`STEP_TASKS`); a chase still
+refuses as ``needs_lean``; and the body moves only among obstacles that hold still.
 """
 
 from __future__ import annotations
@@ -116,8 +117,9 @@ class LeanPhase:
 
 def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None,
                     trunk: TrunkSkin | None = None, body=None):
-    """Plan ``task`` (a reach) with a lean, where ``failed`` (``planner``'s plan of it)
-    was refused as ``needs_lean``: returns (:class:`LeanPhase`, the reach's plan on the
+    """Plan ``task`` (a reach, a sequence or a guided reach) with a lean toward the target
+    :func:`body_target` picks, where ``failed`` (``planner``'s plan of it) was refused as
+    ``needs_lean`` there: returns (:class:`LeanPhase`, the reach's plan on the
     leaned trunk), or (None, why not: a sentence) where no lean is planned; (None, None)
     where none was asked for. ``pivot_c``: the hips' pivot (canonical frame of
     ``planner.arm``); ``make_planner(arm, settings=None)``: a :class:`~.planner.Planner`
@@ -138,9 +140,10 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     is not acceptable or finds no way, the least lean with the chest turned as far as the
     planner may turn it (:func:`~.lean.chest_turns`: a smaller lean, a larger twist)."""
     s, arm = planner.settings, planner.arm
-    if not wants_body(s, task, failed, arm):
+    aim = body_target(s, task, failed, arm)
+    if aim is None:
         return None, None
-    target_c = arm.to_canonical_points(np.asarray(task.targets[0], dtype=float))
+    target_c = arm.to_canonical_points(np.asarray(task.targets[aim], dtype=float))
     table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
     turns = [(table1,), chest_turns(s)]
     leans = [choose_lean(arm, target_c, pivot_c, s, t) for t in turns]
@@ -181,35 +184,76 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     return None, "; ".join(whys)
 
 
-#: The tasks the body helps, with one target: a single reach, and a guided reach (the
-#: search led by guiding nodes). A sequence (or a guided reach through several targets),
-#: whose targets each ask their own posture, and a chase, whose target moves, still
-#: refuse.
-BODY_TASKS = ("reach", "guided")
+#: The tasks the body leans (and squats) for: a single reach, a sequence and a guided
+#: reach, with any number of targets (:func:`body_target`). A step (:data:`STEP_TASKS`)
+#: and a chase, whose target moves, still refuse.
+BODY_TASKS = ("reach", "sequence", "guided")
+#: The tasks the body steps for, with one target: a single reach and a guided reach.
+STEP_TASKS = ("reach", "guided")
+
+
+def body_target(settings, task, failed, arm) -> int | None:
+    """The index of the target the body leans (or squats) toward where ``failed`` (a plan
+    of ``task``, :data:`BODY_TASKS`, with ``Settings.lean`` on) refused one or more of its
+    targets: of those refused as ``needs_lean`` (or, with ``Settings.squat``, as
+    ``out_of_reach`` below the shoulder and beyond the arm, :func:`below_the_arm`: a squat
+    may bring it within reach; one within the arm's length but past its joint limits, or
+    above it, stays refused), the farthest from the shoulder, which asks the deepest lean;
+    None where any target is refused for another reason (a lean does not clear an
+    obstacle) or none is refused.
+
+    The choice is ours (the paper plans the arm alone): a sequence leans once, before its
+    first reach, as far as the target that asks most, and holds that lean through every
+    reach of it (the lean's checks and the balance are weighed on all of them). A person
+    leans in and out between targets; one lean keeps the lean's planning and bake those of
+    a single reach."""
+    if not settings.lean or task.kind not in BODY_TASKS:
+        return None
+    refused = [s for s in failed.segments if not s.success]
+    if not refused or any(not _body_helps(settings, task, arm, s) for s in refused):
+        return None
+    shoulder = np.asarray(arm.shoulder, dtype=float)
+    return max(refused, key=lambda seg: float(np.linalg.norm(
+        arm.to_canonical_points(np.asarray(task.targets[seg.index], dtype=float)) -
+        shoulder))).index
+
+
+def _body_helps(settings, task, arm, seg) -> bool:
+    """Whether the refused segment ``seg`` is one a lean or squat may reach
+    (:func:`body_target`)."""
+    if seg.reason == NEEDS_LEAN:
+        return True
+    target_c = arm.to_canonical_points(np.asarray(task.targets[seg.index], dtype=float))
+    return seg.reason == OUT_OF_REACH and settings.squat and below_the_arm(arm, target_c)
+
+
+def body_held_back(settings, task, failed, arm) -> str | None:
+    """Where a plan of ``task`` (:data:`BODY_TASKS`, ``Settings.lean`` on) refused a target
+    the body might reach and another it may not (:func:`body_target` is None): the clause
+    that says why the body did not lean, naming the other target and its reason; else
+    None."""
+    if not settings.lean or task.kind not in BODY_TASKS:
+        return None
+    refused = [s for s in failed.segments if not s.success]
+    other = next((s for s in refused if not _body_helps(settings, task, arm, s)), None)
+    if other is None or not any(_body_helps(settings, task, arm, s) for s in refused):
+        return None
+    return (f"the body leans only where every refused target is one a lean may reach, and "
+            f"target '{other.name}' is refused as {other.reason}")
 
 
 def wants_body(settings, task, failed, arm) -> bool:
-    """Whether ``failed`` (a reach's plan) is one the body may reach where the arm cannot:
-    a reach or guided reach to one target (:data:`BODY_TASKS`) with ``Settings.lean`` on, refused as
-    ``needs_lean``, or (with
-    ``Settings.squat``) as ``out_of_reach`` for a target below the shoulder and beyond the
-    arm (a squat may bring it within reach; one within the arm's length but past its joint
-    limits, or above it, stays refused)."""
-    if not settings.lean or task.kind not in BODY_TASKS or len(task.targets) != 1:
-        return False
-    if failed.reason == NEEDS_LEAN:
-        return True
-    if failed.reason != OUT_OF_REACH or not settings.squat:
-        return False
-    return below_the_arm(arm, arm.to_canonical_points(np.asarray(task.targets[0], dtype=float)))
+    """Whether ``failed`` (a plan of ``task``) is one the body may reach where the arm
+    cannot: one with a target to lean toward (:func:`body_target`)."""
+    return body_target(settings, task, failed, arm) is not None
 
 
 def wants_step(settings, task, failed, arm) -> bool:
     """Whether ``failed`` is one the body may step toward: with ``Settings.lean`` and
-    ``Settings.stepping`` on, a reach or guided reach to one target (:data:`BODY_TASKS`)
+    ``Settings.stepping`` on, a reach or guided reach to one target (:data:`STEP_TASKS`)
     refused as ``needs_step``, or one the lean and squat are tried for
     (:func:`wants_body`)."""
-    if not (settings.lean and settings.stepping) or task.kind not in BODY_TASKS or \
+    if not (settings.lean and settings.stepping) or task.kind not in STEP_TASKS or \
             len(task.targets) != 1:
         return False
     return failed.reason == NEEDS_STEP or wants_body(settings, task, failed, arm)

@@ -4,10 +4,16 @@ the scenes of ``test_body_lean`` (a cup 1.3 arm lengths ahead, over a table) and
 *guided* reach with *Lean* on, as a user's Bake is. Measured on what Blender evaluates:
 the wrist (the hand bone's head) ends on the target; the report says the trunk leaned,
 or the body stepped, first. Without *Lean* the same guided reach is refused as before.
-A sequence still refuses (one posture per target is not planned yet).
+
+A sequence or guided reach through two targets, a near one and the far one over the
+table, leans once, before its first reach, and holds the lean through both: each target
+reached on its arrival frame, the feet held and the skin clear of the table at every
+frame and instant between (``test_body_lean.walk``).
 """
 
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 import bpy
 import everyday
@@ -15,7 +21,7 @@ import numpy as np
 import pytest
 import test_body_lean
 import test_body_step
-from test_body_lean import attach_loose_parts, open_rig
+from test_body_lean import attach_loose_parts, bone_heads, open_rig, walk
 from test_every_rig import ON_TARGET, rig_file  # noqa: F401  (the fixture)
 
 RIGS = ("metarig", "quaternius")
@@ -74,24 +80,52 @@ def test_without_lean_a_guided_reach_past_the_arm_is_refused_as_before(addon, ri
     assert addon.ui.operators.body_lines(result.stats) == []
 
 
-def test_a_guided_reach_through_two_targets_or_among_moving_boxes_does_not_lean_or_step(
-        addon, rig_file):  # noqa: F811
-    """Only a reach or guided reach to one target, among obstacles that hold still, has
-    the body help; the refusals say so."""
-    armature = open_rig(rig_file, "metarig")
+@pytest.mark.parametrize("kind", RIGS)
+@pytest.mark.parametrize("task", ("sequence", "guided"))
+def test_two_targets_in_turn_lean_once_for_the_far_one(addon, rig_file, kind, task):  # noqa: F811
+    armature = open_rig(rig_file, kind)
+    attach_loose_parts(armature)
     info = addon.blender.rig.build(armature, "right")
-    far, _table = test_body_lean.scene(armature, info, 1.3)
+    bpy.context.scene.frame_set(1)
+    far, table = test_body_lean.scene(armature, info, 1.3)
     near = bpy.data.objects.new("Near Cup", None)
     near.location = tuple(float(x) for x in everyday.at(info, 0.5, 0.1, -0.3))
     bpy.context.scene.collection.objects.link(near)
     pipeline = addon.blender.pipeline
     settings = addon.core.Settings().replace(lean=True)
-    request = pipeline.Request(armature.name, [far.name, near.name], task="guided",
-                               side="right", frame_start=1, draw=False, settings=settings)
-    result = pipeline.run(bpy.context, request, bake=False).results[0]
-    assert result.reason == "needs_lean" and "to one target" in result.message, result.message
-    assert "lean_deg" not in result.stats
+    request = pipeline.Request(armature.name, [near.name, far.name], task=task, side="right",
+                               frame_start=1, draw=False, settings=settings)
+    first, second = pipeline.run(bpy.context, request, bake=True).results
+    print(f"TWO {kind} {task}: {first.message} | {second.message}")
+    assert first.success and second.success, (first.message, second.message)
+    assert first.stats["lean_deg"] > 0.0 and first.stats["lean_frames"] > 0, first.stats
+    assert second.stats["lean_deg"] == first.stats["lean_deg"]
+    assert f"still leaning as for '{near.name}'" in second.message, second.message
+    assert first.frame_start == 1 and second.frame_start >= first.frame_end
+    length = info.arm.arm_length
+    for r, ob in ((first, near), (second, far)):
+        goal = np.array(ob.matrix_world.translation)
+        assert np.linalg.norm(wrist(armature, info, r.frame_end) - goal) <= ON_TARGET * length
+    scene_ = bpy.context.scene
+    scene_.frame_set(first.frame_start)
+    start = bone_heads(armature)
+    span = SimpleNamespace(frame_start=first.frame_start, frame_end=second.frame_end)
+    worst_feet, worst_skin, _now, _feet = walk(addon, armature, info, span, table, start, kind)
+    assert worst_feet <= 5e-4 * length, (kind, worst_feet / length)
+    assert worst_skin > 0.0, (kind, worst_skin / length)
+    # the lean is held from the first arrival to the second
+    bone = armature.pose.bones[first.stats["lean_bone"]]
+    turns = []
+    for f in (first.frame_start + first.stats["lean_frames"], first.frame_end, second.frame_end):
+        scene_.frame_set(f)
+        turns.append(np.array(armature.matrix_world @ bone.matrix)[:3, :3])
+    for r in turns[1:]:
+        c = np.clip((np.trace(r @ turns[0].T) - 1.0) / 2.0, -1.0, 1.0)
+        assert np.degrees(np.arccos(c)) < 0.5, (kind, np.degrees(np.arccos(c)))
 
+
+def test_a_reach_among_moving_boxes_does_not_step(addon, rig_file):  # noqa: F811
+    """The body moves only among obstacles that hold still; the refusal says so."""
     armature = open_rig(rig_file, "metarig")
     info = addon.blender.rig.build(armature, "right")
     side, _counter = test_body_step.scene(armature, info)

@@ -130,7 +130,9 @@ def test_the_hips_keep_pace_with_the_trunk_on_the_way():
 def test_only_a_low_target_past_the_arm_asks_for_the_body():
     arm = standard_arm()
     settings = Settings().replace(lean=True)
-    failed = SimpleNamespace(reason=OUT_OF_REACH)
+    # a refused plan as the planner gives it: one segment, refused as out of reach
+    failed = SimpleNamespace(reason=OUT_OF_REACH, segments=[SimpleNamespace(
+        index=0, name="Cup", success=False, reason=OUT_OF_REACH)])
 
     def task(point):
         return Task("reach", np.asarray(point, float)[None], HANGING)

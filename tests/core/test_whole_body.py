@@ -12,7 +12,7 @@ from geometry import HANGING, arm_penetration, obstacles, segment_clearance, sta
 
 from reach_addon.core import NEEDS_LEAN, Planner, Settings, Task
 from reach_addon.core.lean import lean_axis, leaned_arm, least_lean
-from reach_addon.core.whole_body import lean_then_reach
+from reach_addon.core.whole_body import body_held_back, body_target, lean_then_reach
 from reach_addon.samples import triangle_soup
 
 #: A low table in front of the figure, its top 0.45 below the shoulder (metres, world).
@@ -126,17 +126,64 @@ def test_the_lean_is_on_by_default_and_off_when_turned_off():
     assert phase is not None and phase.lean.angle > 0.0
 
 
-def test_a_sequence_says_that_only_a_single_reach_leans():
-    """With Lean on, a sequence whose target needs a lean is refused (only a single or a
-    guided reach leans), and the message says so instead of asking to turn Lean on."""
-    arm = standard_arm()
+def sequence_near_and_far(arm, near_box=False):
+    """A sequence: a cup within reach, then one 1.35 arm lengths ahead (needs a lean)."""
     near = arm.to_world_points(arm.shoulder) + np.array([0.0, -0.6, -0.2]) * arm.arm_length
-    task = Task("sequence", np.array([near, ahead(arm, 1.35)]), HANGING, names=("A", "B"))
-    for settings, said in ((Settings().replace(lean=True), "a reach or guided reach to one target leans"),
-                           (Settings(lean=False), "turn on Lean")):
-        plan = Planner(arm, obstacles({}), settings).plan(task)
-        assert plan.reason == NEEDS_LEAN, plan.message
-        assert said in plan.message, plan.message
+    return Task("sequence", np.array([near, ahead(arm, 1.35)]), HANGING, names=("A", "B"))
+
+
+def test_a_sequence_leans_once_as_far_as_its_farthest_target_asks():
+    """With Lean on, a sequence whose second target needs a lean leans toward it before
+    the first reach, and both targets are reached on the leaned trunk; without Lean the
+    refusal says to turn it on."""
+    arm = standard_arm()
+    task = sequence_near_and_far(arm)
+    settings = Settings().replace(lean=True)
+    obst = obstacles({})
+    planner = Planner(arm, obst, settings)
+    failed = planner.plan(task)
+    assert failed.reason == NEEDS_LEAN, failed.message
+    assert [s.success for s in failed.segments] == [True, False]
+    assert "a single reach, a sequence or a guided reach leans" in failed.message
+    assert body_target(settings, task, failed, arm) == 1
+    phase, reach = lean_then_reach(planner, task, failed, arm.waist,
+                                   lambda a, s=None: Planner(a, obst, s or settings))
+    assert phase is not None, reach
+    assert reach.success and len(reach.segments) == 2, reach.message
+    joints = reach.world_joints()
+    for seg, goal in zip(reach.segments, task.targets):
+        assert np.linalg.norm(joints[seg.frame_end, 3] - goal) <= \
+            settings.goal_tolerance * arm.arm_length + 1e-9
+    # the lean is toward the far target: the same a single reach to it takes
+    single = Task("reach", task.targets[1:], HANGING, names=("B",))
+    alone, _reach = lean_then_reach(planner, single, planner.plan(single), arm.waist,
+                                    lambda a, s=None: Planner(a, obst, s or settings))
+    assert alone is not None
+    assert phase.lean.angle == pytest.approx(alone.lean.angle)
+    assert np.allclose(phase.lean.axis, alone.lean.axis)
+    plan = Planner(arm, obst, Settings(lean=False)).plan(task)
+    assert plan.reason == NEEDS_LEAN and "turn on Lean" in plan.message, plan.message
+    assert body_target(Settings(lean=False), task, plan, arm) is None
+
+
+def test_a_sequence_with_a_target_a_lean_cannot_mend_does_not_lean_and_says_why():
+    """A sequence whose first target is inside a box and whose second needs a lean: no
+    lean (it would not mend the first), and the clause names the first and its reason."""
+    arm = standard_arm()
+    task = sequence_near_and_far(arm)
+    near = task.targets[0]
+    box = {"Box": [(tuple(near - 0.05), tuple(near + 0.05))]}
+    settings = Settings().replace(lean=True)
+    failed = Planner(arm, obstacles(box), settings).plan(task)
+    reasons = [s.reason for s in failed.segments]
+    assert reasons == ["target_in_obstacle", NEEDS_LEAN], failed.message
+    assert body_target(settings, task, failed, arm) is None
+    why = body_held_back(settings, task, failed, arm)
+    assert why is not None and "'A' is refused as target_in_obstacle" in why, why
+    single = Task("reach", task.targets[1:], HANGING, names=("B",))
+    alone = Planner(arm, obstacles(box), settings).plan(single)
+    assert body_target(settings, single, alone, arm) == 0
+    assert body_held_back(settings, single, alone, arm) is None
 
 
 def test_a_lean_that_would_put_the_head_into_a_shelf_is_refused_naming_it():
