@@ -187,6 +187,18 @@ def note_carried(plan, target: str, bone: str) -> None:
                       f"bone '{bone}' (parent the target to something that stays still)")
 
 
+def note_several(plans) -> None:
+    """Say, in the message of each of ``plans`` (the reaches of one run to several targets,
+    planned one after another) that the body would help, that a reach to several targets
+    does not lean, step or squat: a sequence leans and squats
+    (:func:`~..core.whole_body.body_target`); only a reach to one target steps."""
+    for plan in plans:
+        hint = "reach it on its own" if plan.reason == NEEDS_STEP else \
+            "the sequence task reaches them in turn with a lean"
+        _note_still(plan, f"in a reach to one target, and this run reaches {len(plans)} "
+                          f"targets one after another ({hint})")
+
+
 def _note_still(plan, clause: str) -> None:
     stepping = plan.reason == NEEDS_STEP and wants_step(plan.settings, plan.task, plan,
                                                          plan.arm)

@@ -311,6 +311,8 @@ class PipelineRun:
                 self._step()
         elif self.settings.lean and len(self.plans) == 1 and self.moving:
             lean_mod.note_moving(self.plans[0].plan, sorted(self.moving))
+        elif self.settings.lean and len(self.plans) > 1:
+            lean_mod.note_several([k.plan for k in self.plans])
 
     def _step(self) -> None:
         """Where no lean reaches, a step toward the target, then the reach (and a lean)

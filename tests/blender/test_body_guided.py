@@ -138,3 +138,24 @@ def test_a_reach_among_moving_boxes_does_not_step(addon, rig_file):  # noqa: F81
     assert result.reason == "needs_step", result.message
     assert "steps only among obstacles that hold still" in result.message, result.message
     assert "'Moving Box'" in result.message
+
+
+def test_a_reach_to_two_targets_does_not_lean_and_points_to_the_sequence(addon, rig_file):  # noqa: F811
+    """A reach to several targets plans them as separate reaches, which the body does not
+    help; the far one's refusal says so and names the sequence task, which leans."""
+    armature = open_rig(rig_file, "metarig")
+    info = addon.blender.rig.build(armature, "right")
+    far, _table = test_body_lean.scene(armature, info, 1.3)
+    near = bpy.data.objects.new("Near Cup", None)
+    near.location = tuple(float(x) for x in everyday.at(info, 0.5, 0.1, -0.3))
+    bpy.context.scene.collection.objects.link(near)
+    pipeline = addon.blender.pipeline
+    request = pipeline.Request(armature.name, [near.name, far.name], task="reach",
+                               side="right", frame_start=1, draw=False,
+                               settings=addon.core.Settings().replace(lean=True))
+    first, second = pipeline.run(bpy.context, request, bake=False).results
+    assert first.success, first.message
+    assert second.reason == "needs_lean", second.message
+    assert "the body leans only in a reach to one target, and this run reaches 2 targets" \
+        in second.message and "the sequence task" in second.message, second.message
+    assert "lean_deg" not in second.stats

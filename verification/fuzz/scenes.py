@@ -92,8 +92,8 @@ def _direction(rng, yaw_deg, pitch_deg) -> list:
 
 #: The features only a Lean campaign's scenes have (:func:`_whole_body_target`).
 LEAN_FEATURES = ("target_past_arm", "target_low", "target_step")
-#: With the whole body on, the share of single reaches whose target is drawn again past
-#: the arm (:func:`_whole_body_target`).
+#: With the whole body on, the share of single reaches (and of sequences' and guided
+#: reaches' last targets) drawn again past the arm (:func:`_whole_body_target`).
 PAST_ARM_SHARE = 0.6
 
 
@@ -103,7 +103,8 @@ LEGGED_RIGS = ("quaternius", "gomakehuman", "metarig", "cesium")
 
 
 def _whole_body_target(rng, spec: dict, t: dict, features: set) -> None:
-    """A Lean campaign's single reach (its own random stream, so every other draw stays):
+    """A Lean campaign's single reach, or a sequence's or guided reach's last target (its
+    own random stream, so every other draw stays):
     with :data:`PAST_ARM_SHARE`, its target drawn again where the body must help, just past
     the arm (1.0-1.45 arm lengths, ahead or to the side, level or below: a lean), low in
     front (1.5-2.4 arm lengths, 55-85° down: a squat or bend, or the floor's refusal) or
@@ -362,8 +363,9 @@ def generate(seed: int, quick: bool = False, shapes: bool = True, lean: bool = F
         if names:
             features.add("odd_names")
         targets.append(t)
-    if lean and task == "reach" and len(targets) == 1:
-        _whole_body_target(np.random.default_rng([seed, 4]), spec, targets[0], features)
+    if lean and (task == "reach" and len(targets) == 1 or task in ("sequence", "guided")):
+        # a sequence's or guided reach's last target (it leans once, for the farthest)
+        _whole_body_target(np.random.default_rng([seed, 4]), spec, targets[-1], features)
         rig = spec["rig"]
     spec["targets"] = targets
     frame = int(rng.integers(-5, 40)) if rng.random() < 0.25 else 1
