@@ -42,15 +42,18 @@ _cache: dict = {}          # scene name -> (key, EnvelopeOutcome)
 
 def read_stance(armature, info, settings) -> Stance | None:
     """The body as it stands now (:class:`~reach_addon.core.stance.Stance`, world), for the
-    envelope's squat and step classes; None without Lean or where Reach finds no legs or
-    no bone to lean the trunk (:func:`.lean.lean_bone`), as a reach would not lean there.
+    envelope's squat and step classes; None without Lean, where Reach finds no legs or
+    no bone to lean the trunk (:func:`.lean.lean_bone`), or where the legs lean past
+    :data:`.balance.STANDING_TILT` off the scene's gravity
+    (:func:`.balance.standing_why_not`), as a reach would not lean, squat or step there.
     Its margin is a reach's: ``Settings.balance_margin`` arm lengths inside the feet, over
     the rig's own where it stands past them."""
     if not settings.lean:
         return None
     legs = balance.find_legs(armature, info.bones, info.frame)
     bone = lean_bone(armature, info.bones, legs)
-    if bone is None:
+    if bone is None or balance.standing_why_not(armature, legs, info.frame.ground,
+                                                "lean") is not None:
         return None
     up = np.asarray(info.frame.ground, dtype=float)
     ankles, leg_length = balance.ankles_now(armature, legs)

@@ -111,3 +111,21 @@ def test_without_lean_no_point_is_classed_by_the_body(addon, rig_file):  # noqa:
         counts = env.envelope.counts()
         assert counts["lean"] == counts["squat"] == counts["step"] == 0, counts
         assert counts["out"] > 0, counts
+
+
+def test_a_figure_not_standing_under_gravity_has_no_squat_or_step_class(addon, rig_file):  # noqa: F811
+    """Quaternius on its floor with the scene's gravity turned 50°: a reach neither squats
+    nor steps for it (``test_body_step``), so its envelope has no point of those classes,
+    where standing it has both (the test above, same rig and settings)."""
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    armature = fresh(rig_file, "quaternius", info)
+    tilt = np.radians(50.0)
+    bpy.context.scene.gravity = (0.0, 9.81 * np.sin(tilt), -9.81 * np.cos(tilt))
+    legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
+    up = -np.asarray(bpy.context.scene.gravity, float) / 9.81
+    assert addon.blender.balance.legs_tilt(armature, legs, up) > 40.0
+    settings = addon.core.Settings().replace(lean=True, envelope_body=True)
+    counts = envelope(addon, armature, settings).envelope.counts()
+    print(f"ENVELOPE tilted: {counts}")
+    assert counts["squat"] == counts["step"] == 0, counts
