@@ -21,10 +21,11 @@ import numpy as np
 
 from .arm import ArmConfig, Pose
 from .collision import Obstacles
-from .errors import START_IN_COLLISION, require_finite
+from .errors import NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, START_IN_COLLISION, require_finite
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
 from .planner import Planner
+from .whole_body import below_the_arm
 
 #: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
 DEFAULT_BUDGET_S = 1.0 / 30.0
@@ -246,12 +247,26 @@ class LiveSession:
         self._searcher = None
         self._finish(result, diagnosis, start, problem)
 
+    def _body_note(self, reason) -> str:
+        """Where a Plan or Bake would have the body help (``Settings.lean`` on, a target
+        beyond the arm, or below it with ``Settings.squat``: :func:`~.whole_body.
+        below_the_arm`), the clause that says Live does not: it poses the arm alone, each
+        slice a search of the arm (a lean is planned, posed and weighed on the rig)."""
+        s, arm = self.planner.settings, self.planner.arm
+        low = reason == OUT_OF_REACH and s.squat and below_the_arm(
+            arm, arm.to_canonical_points(np.asarray(self.target, dtype=float)))
+        if not s.lean or not (reason in (NEEDS_LEAN, NEEDS_STEP) or low):
+            return ""
+        return "; Live poses the arm alone: Plan or Bake the reach to have the body lean, " \
+            "squat or step"
+
     def _finish(self, result: SearchResult, diagnosis, start: Pose, problem):
         status = LiveStatus(MOVING, None, f"on '{self.name}'", self._distance(start),
                             result.nodes_searched, result.search_time_s)
         if not result.success:
             status.reason, status.message = self.planner.explain_failure(
                 self.name, result, diagnosis, start)
+            status.message += self._body_note(status.reason)
         end = result.path[-1] if result.path else start
         if problem is not None and self.planner.generator.pose_collides(end):
             status.reason = START_IN_COLLISION

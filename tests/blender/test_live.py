@@ -118,6 +118,8 @@ def test_unreachable_target_reaches_closest_and_says_why(fresh, addon):
     assert live.state().session.status.reason == "needs_step"     # 2 arm lengths away
     text = " ".join(live.status_lines())
     assert "out of reach" in text and target.name in text
+    # a Bake would step (Lean is on by default); Live says it does not
+    assert "Live poses the arm alone: Plan or Bake the reach" in text, text
     # as close as it can: the arm nearly straight, the wrist about one arm length short of a
     # target two arm lengths from the shoulder
     best = np.linalg.norm(far - shoulder) - length

@@ -168,6 +168,11 @@ def test_out_of_reach_gets_the_closest_approach_and_says_why(arm):
     assert np.linalg.norm(wrist - far) < np.linalg.norm(start - far) - 0.5 * arm.arm_length
     assert flexion_deg(shown[-1][1]) <= 45.0
     assert st.distance == pytest.approx(np.linalg.norm(wrist - far) / arm.arm_length)
+    # Lean is on by default: a Bake would step; Live says it poses the arm alone
+    assert "Live poses the arm alone" in st.message
+    off = LiveSession(arm, obstacles(WALL), s.replace(lean=False), HANGING, "far cup")
+    follow(off, [far], triangles_of(WALL))
+    assert off.status.reason == NEEDS_STEP and "Live poses" not in off.status.message
 
 
 def test_a_target_inside_an_obstacle_is_named(arm):
