@@ -144,7 +144,8 @@ def plan(context, armature, info, planner, keyed):
         body = None if check.hips is None or keyed_own else BalanceBody(
             context, armature, info, legs, bone, check.hips, planner.settings, check)
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
-                                              trunk_skin(armature, info, bone), body)
+                                              trunk_skin(armature, info, bone), body,
+                                              split=bone != info.bones.keyed_chest)
         if phase is not None:
             bases = lean_basis(armature, bone, world_rotations(info, phase.lean, phase.fractions))
             first = keyed.first_frame
@@ -403,6 +404,16 @@ def _hold(channels, bones, lean_bone, frame_from, frame_to) -> None:
 SQUAT_REPORTED = 0.05
 
 
+def reported(plans, lean: RigLean | None) -> list:
+    """The run's :class:`.bake.KeyedPlan` list whose segments its results follow: ``plans``,
+    after the ready reach where that reaches the task's first targets (a sequence's
+    upright part, :attr:`~..core.whole_body.LeanPhase.ready_reaches`), as the bake keys
+    them."""
+    if lean is None or lean.ready is None or not lean.phase.ready_reaches:
+        return list(plans)
+    return [lean.ready] + list(plans)
+
+
 def report(results, lean: RigLean | None, length: float) -> None:
     """Put the lean into the reach's result (:class:`.results.TaskResult`), in place: its
     ``stats`` gain ``lean_deg``, ``lean_frames``, ``lean_bone``, ``lean_hips_back`` and
@@ -411,18 +422,26 @@ def report(results, lean: RigLean | None, length: float) -> None:
     and, where the hips move, ``lean_knee_deg``, ``lean_ankle_deg`` and ``lean_thigh_deg``
     (the worst leg's flexion, dorsiflexion and thigh flexion at the full lean); its message
     says so, and its frames start with the lean's. In a sequence the lean comes before the
-    first target's reach: the later targets' frames are their own, and their messages say
-    the body held its lean (:func:`~..core.whole_body.body_target`)."""
+    first target refused upright (:func:`~..core.whole_body.upright_part`; the targets
+    before it, reached upright, are left as they are): the later targets' frames are their
+    own, and their messages say the body held its lean."""
     if lean is None:
         return
+    upright = lean.phase.ready_reaches      # reached before the lean: as they were
+    results = results[upright:]
+    ready = lean.phase.ready
+    # after a sequence's upright part: from its last arrival (the arm may rise first)
+    after = None if not upright else lean.frame_start + ready.segments[upright - 1].frame_end
+    rise = 0 if ready is None else lean.lean_first - (after if upright else lean.frame_start)
+    raised = rise > 0
     for k, r in enumerate(results):
-        if k == 0:
-            r.frame_start = min(r.frame_start, lean.frame_start)   # a step may come before
+        if k == 0:      # a step may come before
+            r.frame_start = after if upright else min(r.frame_start, lean.frame_start)
         shift = np.asarray(lean.phase.lean.shift, float) / lean.phase.arm.arm_length
         back, down = float(np.linalg.norm(shift[:2])), max(0.0, -float(shift[2]))
         r.stats.update(lean_deg=round(float(lean.phase.lean.angle), 2),
                        lean_frames=lean.phase.frames, lean_bone=lean.bone,
-                       lean_ready_frames=lean.phase.ready_frames,
+                       lean_ready_frames=rise,
                        lean_com_margin=round(lean.margin / length, 4),
                        lean_hips_back=round(back, 4), lean_hips_down=round(down, 4))
         if lean.leg_angles is not None:
@@ -442,5 +461,5 @@ def report(results, lean: RigLean | None, length: float) -> None:
         else:
             r.message += f"{then}leaning the trunk {angle:.0f}° at the hips{first}" + (
                 f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")
-        if lean.phase.ready is not None:
+        if raised and k == 0:
             r.message += ", the arm raised toward it before the lean"

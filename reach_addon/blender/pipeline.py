@@ -432,7 +432,8 @@ class PipelineRun:
         outcome.failure = self.failure
         if baked is not None:
             outcome.baked, outcome.action = True, baked.action
-        outcome.results = task_results(self.info, self.plans, baked.bones if baked else [],
+        plans = lean_mod.reported(self.plans, self.lean)     # a sequence's upright part too
+        outcome.results = task_results(self.info, plans, baked.bones if baked else [],
                                        self.request, baked)
         step_mod.report(outcome.results, self.step)          # first: it comes first
         lean_mod.report(outcome.results, self.lean, self.info.arm.arm_length)
@@ -444,7 +445,7 @@ class PipelineRun:
                 r.message += ", the head turned half way toward it (farther would touch)"
         if outcome.baked:
             measure_baked(self.context, self.armature, self.info, outcome.results,
-                          self.settings, self.obstacles, self.plans)
+                          self.settings, self.obstacles, plans)
         for r in outcome.results if self.still else ():
             r.message += f"; {self.still}"
         self.outcome = outcome

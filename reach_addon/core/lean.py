@@ -323,7 +323,8 @@ def capsules_hit(ends, capsules, checker):
     return None
 
 
-def lean_hit(arm, joints_c, lean: Lean, fractions, checker, trunk: TrunkSkin | None = None):
+def lean_hit(arm, joints_c, lean: Lean, fractions, checker, trunk: TrunkSkin | None = None,
+             turn: float = 0.0):
     """The first part that touches an obstacle as the trunk leans: (fraction, part name,
     obstacle name), or ``None`` where the lean is clear. The arm holds its start pose
     (``joints_c``, canonical (5, 3), followed by the hand shape's rows where the arm has one:
@@ -331,7 +332,8 @@ def lean_hit(arm, joints_c, lean: Lean, fractions, checker, trunk: TrunkSkin | N
     included, as ``checker`` tests them) are tested on every frame of ``fractions`` and
     :data:`LEAN_SUBSTEPS` instants between two, and then the trunk on them: its skin where
     the rig gives it (``trunk``, :func:`skin_hit`: part "trunk"), else the chest's and
-    head's capsules (:func:`capsules_hit`)."""
+    head's capsules (:func:`capsules_hit`), the part the chest carries turned by ``turn``
+    (degrees: the chest's turn the arm holds, :func:`~.torso.rotate_about_spine`)."""
     joints_c = np.asarray(joints_c, dtype=float)
     f = np.asarray(fractions, dtype=float)
     steps = np.linspace(0.0, 1.0, LEAN_SUBSTEPS + 2)[1:]
@@ -342,11 +344,14 @@ def lean_hit(arm, joints_c, lean: Lean, fractions, checker, trunk: TrunkSkin | N
         if hit is not None:
             return float(fraction), hit[0], hit[1]
     if trunk is not None:
-        hit = skin_hit(carried(trunk.points, transforms), checker)
+        points = np.array(trunk.points, dtype=float)
+        points[trunk.turns] = rotate_about_spine(points[trunk.turns], turn)
+        hit = skin_hit(carried(points, transforms), checker)
         part = None if hit is None else "trunk"
     else:
         body = [c for c in arm.body_capsules if c.turns_with_chest]
-        hit = capsules_hit(np.stack([carried([c.a, c.b], transforms) for c in body], axis=1)
+        ends = [rotate_about_spine(np.array([c.a, c.b], dtype=float), turn) for c in body]
+        hit = capsules_hit(np.stack([carried(e, transforms) for e in ends], axis=1)
                            if body else np.zeros((len(transforms), 0, 2, 3)), body, checker)
         part = None if hit is None else hit[1]
     return None if hit is None else (float(instants[hit[0]]), part, hit[-1])

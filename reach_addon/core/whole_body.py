@@ -103,6 +103,9 @@ class LeanPhase:
     fractions: np.ndarray
     arm: ArmModel
     ready: Plan | None = None
+    #: how many of the task's targets ``ready`` reaches (a sequence's first targets, reached
+    #: upright before the lean: :func:`upright_part`); 0 where it goes to a ready point
+    ready_reaches: int = 0
 
     @property
     def frames(self) -> int:
@@ -116,7 +119,7 @@ class LeanPhase:
 
 
 def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None,
-                    trunk: TrunkSkin | None = None, body=None):
+                    trunk: TrunkSkin | None = None, body=None, split: bool = True):
     """Plan ``task`` (a reach, a sequence or a guided reach) with a lean toward the target
     :func:`body_target` picks, where ``failed`` (``planner``'s plan of it) was refused as
     ``needs_lean`` there: returns (:class:`LeanPhase`, the reach's plan on the
@@ -133,7 +136,13 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     capsules where given; ``body``:
     the rig's balance (:func:`~.hips.shifted_lean`), with which a lean that
     ``acceptable`` refuses, before or after its reach, is tried again with the hips moved
-    back (``Settings.lean_hips_back``).
+    back (``Settings.lean_hips_back``); ``split``: where the first refused target of a
+    sequence (or guided reach) comes after others, reach those upright first and lean
+    after them (:func:`upright_part`; the phase's ``ready`` is their plan, followed by the
+    arm's ready reach where it rose first, ``ready_reaches`` their count), else (or where
+    that finds no lean) lean before the first. The Blender layer turns it off where the
+    lean bone is the chest it keys: the upright reaches turn the chest, which the lean's
+    keys would overwrite.
 
     Recruitment, as the issue orders it: the chest turns as the paper's Table 1 has it at
     the target, and the lean takes the rest (:func:`~.lean.choose_lean`); where that lean
@@ -144,6 +153,58 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     if aim is None:
         return None, None
     target_c = arm.to_canonical_points(np.asarray(task.targets[aim], dtype=float))
+    first = next(i for i, seg in enumerate(failed.segments) if not seg.success)
+    base = float(task.start.body_rotation)
+    later = ""
+    if split and first > 0:
+        upright, rest = upright_part(planner, task, failed, first)
+        phase, why = _lean_toward(planner, rest, target_c, pivot_c, make_planner, acceptable,
+                                  trunk, body, base)
+        if phase is not None:
+            # where the arm rose toward the far target before the lean (a ready reach from
+            # where the upright part ends, the chest held), both are upright reaches in turn
+            ready = upright if phase.ready is None else dataclasses.replace(
+                upright, poses=upright.poses + list(phase.ready.poses[1:]))
+            return dataclasses.replace(phase, ready=ready, ready_reaches=first), why
+        names = ", ".join(f"'{n}'" for n in task.names[:first]) or f"{first} target(s)"
+        later = f"with {names} reached upright first: {why or 'no lean'}; leaning before them: "
+    phase, why = _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable,
+                              trunk, body, base)
+    return (phase, why) if phase is not None else (None, later + why)
+
+
+def upright_part(planner, task, failed, first: int):
+    """A sequence's (or guided reach's) first ``first`` targets, which ``failed`` (its plan
+    on the upright trunk) reached: (their plan, cut from ``failed``; the task of the rest,
+    starting where that plan ends, its hand's palm and fingers carried on from the task's
+    start, :func:`~.orient.hand_locals`). The body leans after them, for the rest
+    (:func:`lean_then_reach`): a person reaches what is near before leaning for what is
+    far, and a target near the body may be out of reach from the leaned trunk."""
+    end = failed.segments[first - 1].frame_end
+    cut = {"targets": task.targets[:first], "names": tuple(task.names[:first]),
+           "orientations": None if task.orientations is None else task.orientations[:first]}
+    upright = dataclasses.replace(failed, task=dataclasses.replace(task, **cut),
+                                  poses=list(failed.poses[:end + 1]),
+                                  segments=list(failed.segments[:first]))
+    pose = failed.poses[end]
+    start = planner.generator.config_pose(task.start, task.start_hand)
+    finger, palm = hand_locals(start, task.start_palm, task.start_fingers)
+    frame = hand_frame(pose)
+    rest = dataclasses.replace(
+        task, targets=task.targets[first:], names=tuple(task.names[first:]),
+        orientations=None if task.orientations is None else task.orientations[first:],
+        start=pose.config, start_hand=tuple(pose.hand),
+        start_palm=None if task.start_palm is None else frame @ palm,
+        start_fingers=None if task.start_fingers is None else frame @ finger)
+    return upright, rest
+
+
+def _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable, trunk, body,
+                 base: float):
+    """:func:`lean_then_reach` toward the canonical ``target_c``, for ``task`` from its
+    start (``base``: the chest's turn the rig stands with, from which the body's checks
+    turn the trunk): (:class:`LeanPhase`, the reach's plan) or (None, why not)."""
+    s, arm = planner.settings, planner.arm
     table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
     turns = [(table1,), chest_turns(s)]
     leans = [choose_lean(arm, target_c, pivot_c, s, t) for t in turns]
@@ -159,7 +220,8 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     for lean, turn in zip(leans, turns_tried):
         why = acceptable(lean) if acceptable is not None else None
         if why is None:
-            phase, why = _balanced_reach(planner, task, lean, make_planner, trunk, acceptable)
+            phase, why = _balanced_reach(planner, task, lean, make_planner, trunk, acceptable,
+                                         base)
             if phase is not None:
                 return phase, why
         for share in (SHIFT_SHARES if shifting and why is not None else ()):
@@ -169,7 +231,7 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
             why = acceptable(shifted)
             if why is None:
                 phase, why = _balanced_reach(planner, task, shifted, make_planner, trunk,
-                                             acceptable)
+                                             acceptable, base)
                 if phase is not None:
                     return phase, why
             if getattr(why, "cause", "") == BALANCE:
@@ -177,7 +239,7 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
         whys.append(why)
     if shifting and s.squat:
         phase, why = squat_then_reach(planner, task, target_c, pivot_c, turns, body,
-                                      make_planner, trunk, acceptable)
+                                      make_planner, trunk, acceptable, base)
         if phase is not None:
             return phase, why
         whys.append(why)
@@ -273,7 +335,7 @@ SQUAT_APART = 2
 
 
 def squat_then_reach(planner, task, target_c, pivot_c, turns, body, make_planner, trunk,
-                     acceptable):
+                     acceptable, base: float = 0.0):
     """Stage 4: the squat or bend (:func:`~.squat.squat_leans`) with the chest turned as
     Table 1 has it, else as far as the planner may turn it (``turns``, as
     :func:`lean_then_reach` tries them), then the reach on it, each posture held to
@@ -302,23 +364,24 @@ def squat_then_reach(planner, task, target_c, pivot_c, turns, body, make_planner
         why = acceptable(q.lean) if acceptable is not None else None
         if why is None:
             phase, why = _balanced_reach(planner, task, q.lean, make_planner, trunk,
-                                         acceptable)
+                                         acceptable, base)
             if phase is not None:
                 return phase, why
     return None, f"squatting: {why}"
 
 
-def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable):
+def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable, base: float = 0.0):
     """:func:`_lean_and_reach`, and the body weighed again on every pose of the reach
     (``acceptable(lean, arm_world, turned)``: the arm's joints in the world, (P, 5, 3),
     and ``turned(points, k)``, world points the chest carries where its turn on pose k
     takes them, so the other arm and the head turn back as the reaching shoulder comes
-    forward): (phase, the reach's plan), or (None, why not)."""
+    forward; counted from ``base``, the turn the rig stands with, as a reach after a
+    sequence's first targets starts turned): (phase, the reach's plan), or (None, why not)."""
     phase, reach = _lean_and_reach(planner, task, lean, make_planner, trunk, acceptable)
     if phase is None or acceptable is None:
         return phase, reach
     arm = phase.arm
-    turns = [p.config.body_rotation - reach.poses[0].config.body_rotation for p in reach.poses]
+    turns = [p.config.body_rotation - base for p in reach.poses]
 
     def turned(points, k):
         return arm.to_world_points(rotate_about_spine(arm.to_canonical_points(points),
@@ -352,7 +415,7 @@ def _leaned_reach(planner, task, lean, make_planner, trunk, held, ready=None):
     s, arm = planner.settings, planner.arm
     fractions = lean_frames(arm, held.joints, lean, s, task.fps)
     hit = lean_hit(arm, with_shape(arm, held.joints, held.bend, held.roll), lean, fractions,
-                   planner.generator.checker, trunk)
+                   planner.generator.checker, trunk, held.config.body_rotation)
     if hit is not None:
         fraction, part, obstacle = hit
         return None, (f"leaning {lean.angle * fraction:.0f}° of the {lean.angle:.0f}° it "

@@ -132,10 +132,11 @@ def sequence_near_and_far(arm, near_box=False):
     return Task("sequence", np.array([near, ahead(arm, 1.35)]), HANGING, names=("A", "B"))
 
 
-def test_a_sequence_leans_once_as_far_as_its_farthest_target_asks():
-    """With Lean on, a sequence whose second target needs a lean leans toward it before
-    the first reach, and both targets are reached on the leaned trunk; without Lean the
-    refusal says to turn it on."""
+def test_a_sequence_reaches_the_near_target_upright_then_leans_for_the_far_one():
+    """With Lean on, a sequence whose second target needs a lean reaches the first upright,
+    as planned without the body, then leans toward the second as a single reach to it
+    would, and reaches it on the leaned trunk; with ``split`` off it leans before the first
+    and reaches both on the leaned trunk; without Lean the refusal says to turn it on."""
     arm = standard_arm()
     task = sequence_near_and_far(arm)
     settings = Settings().replace(lean=True)
@@ -146,21 +147,36 @@ def test_a_sequence_leans_once_as_far_as_its_farthest_target_asks():
     assert [s.success for s in failed.segments] == [True, False]
     assert "a single reach, a sequence or a guided reach leans" in failed.message
     assert body_target(settings, task, failed, arm) == 1
-    phase, reach = lean_then_reach(planner, task, failed, arm.waist,
-                                   lambda a, s=None: Planner(a, obst, s or settings))
+
+    def make(a, s=None):
+        return Planner(a, obst, s or settings)
+
+    tolerance = settings.goal_tolerance * arm.arm_length + 1e-9
+    phase, reach = lean_then_reach(planner, task, failed, arm.waist, make)
     assert phase is not None, reach
-    assert reach.success and len(reach.segments) == 2, reach.message
-    joints = reach.world_joints()
-    for seg, goal in zip(reach.segments, task.targets):
-        assert np.linalg.norm(joints[seg.frame_end, 3] - goal) <= \
-            settings.goal_tolerance * arm.arm_length + 1e-9
+    assert phase.ready_reaches == 1 and len(phase.ready.segments) == 1
+    near_end = failed.segments[0].frame_end
+    assert len(phase.ready.poses) == near_end + 1
+    assert np.allclose(phase.ready.world_joints(), failed.world_joints()[:near_end + 1])
+    assert np.linalg.norm(phase.ready.world_joints()[-1, 3] - task.targets[0]) <= tolerance
+    assert reach.success and len(reach.segments) == 1, reach.message
+    assert reach.poses[0].config.body_rotation == pytest.approx(
+        failed.poses[near_end].config.body_rotation)
+    assert np.linalg.norm(reach.world_joints()[reach.segments[0].frame_end, 3] -
+                          task.targets[1]) <= tolerance
     # the lean is toward the far target: the same a single reach to it takes
     single = Task("reach", task.targets[1:], HANGING, names=("B",))
-    alone, _reach = lean_then_reach(planner, single, planner.plan(single), arm.waist,
-                                    lambda a, s=None: Planner(a, obst, s or settings))
+    alone, _reach = lean_then_reach(planner, single, planner.plan(single), arm.waist, make)
     assert alone is not None
     assert phase.lean.angle == pytest.approx(alone.lean.angle)
     assert np.allclose(phase.lean.axis, alone.lean.axis)
+    # leaning before the first: both reached on the leaned trunk
+    before, both = lean_then_reach(planner, task, failed, arm.waist, make, split=False)
+    assert before is not None and before.ready is None and before.ready_reaches == 0
+    assert both.success and len(both.segments) == 2, both.message
+    joints = both.world_joints()
+    for seg, goal in zip(both.segments, task.targets):
+        assert np.linalg.norm(joints[seg.frame_end, 3] - goal) <= tolerance
     plan = Planner(arm, obst, Settings(lean=False)).plan(task)
     assert plan.reason == NEEDS_LEAN and "turn on Lean" in plan.message, plan.message
     assert body_target(Settings(lean=False), task, plan, arm) is None
