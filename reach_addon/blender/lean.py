@@ -26,7 +26,7 @@ from mathutils import Matrix
 from ..core import Planner
 from ..core.lean import TrunkSkin
 from ..core.squat import leg_angles
-from ..core.errors import NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH
+from ..core.errors import NEEDS_STEP
 from ..core.whole_body import (LeanPhase, body_held_back, body_target, lean_then_reach,
                                wants_body, wants_step)
 from . import balance, own_keys, skin
@@ -120,10 +120,9 @@ def plan(context, armature, info, planner, keyed):
     failed, task = keyed.plan, keyed.plan.task
     aim = body_target(planner.settings, task, failed, info.arm)
     if aim is None:
-        held_back = body_held_back(planner.settings, task, failed, info.arm)
-        for seg in failed.segments if held_back else ():
-            if not seg.success and seg.reason in (NEEDS_LEAN, OUT_OF_REACH):
-                seg.message += f"; with Lean on: {held_back}"
+        held_back, helped = body_held_back(planner.settings, task, failed, info.arm)
+        for seg in helped:
+            seg.message += f"; with Lean on: {held_back}"
         return None, keyed
     legs = balance.find_legs(armature, info.bones, info.frame)
     bone = lean_bone(armature, info.bones, legs)

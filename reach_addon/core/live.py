@@ -21,11 +21,11 @@ import numpy as np
 
 from .arm import ArmConfig, Pose
 from .collision import Obstacles
-from .errors import NEEDS_LEAN, NEEDS_STEP, OUT_OF_REACH, START_IN_COLLISION, require_finite
+from .errors import NEEDS_STEP, START_IN_COLLISION, require_finite
 from .search import BestFirstSearch, SearchResult
 from .settings import Settings
 from .planner import Planner
-from .whole_body import below_the_arm
+from .whole_body import body_helps
 
 #: Time one :meth:`LiveSession.advance` may take by default: one frame at 30 fps.
 DEFAULT_BUDGET_S = 1.0 / 30.0
@@ -249,13 +249,12 @@ class LiveSession:
 
     def _body_note(self, reason) -> str:
         """Where a Plan or Bake would have the body help (``Settings.lean`` on, a target
-        beyond the arm, or below it with ``Settings.squat``: :func:`~.whole_body.
-        below_the_arm`), the clause that says Live does not: it poses the arm alone, each
+        beyond the arm or a step away, or below it with ``Settings.squat``:
+        :func:`~.whole_body.body_helps`), the clause that says Live does not: it poses the arm alone, each
         slice a search of the arm (a lean is planned, posed and weighed on the rig)."""
-        s, arm = self.planner.settings, self.planner.arm
-        low = reason == OUT_OF_REACH and s.squat and below_the_arm(
-            arm, arm.to_canonical_points(np.asarray(self.target, dtype=float)))
-        if not s.lean or not (reason in (NEEDS_LEAN, NEEDS_STEP) or low):
+        s = self.planner.settings
+        if not s.lean or not (reason == NEEDS_STEP or
+                              body_helps(s, self.planner.arm, reason, self.target)):
             return ""
         return "; Live poses the arm alone: Plan or Bake the reach to have the body lean, " \
             "squat or step"

@@ -34,8 +34,9 @@ lean, again from where the step ends.
 What these stages leave to later ones, and refuse meanwhile: the ready reach, the lean and
 the reach run one after the other (not blended); the other arm rides on the trunk in the
 plan and its checks (the Blender layer turns it to keep its direction afterwards, and
-checks it again: ``blender/other_arm.py``); a sequence leans once, as far as its
-farthest target asks, and holds the lean through its reaches (:func:`body_target`); only
+checks it again: ``blender/other_arm.py``); a sequence reaches its first targets upright
+and then leans once, as far as its farthest refused target asks, and holds the lean
+through the rest (:func:`body_target`, :func:`upright_part`); only
 a single reach or a guided reach to one target steps (:data:`STEP_TASKS`); a chase still
 refuses as ``needs_lean``; and the body moves only among obstacles that hold still.
 """
@@ -264,15 +265,15 @@ def body_target(settings, task, failed, arm) -> int | None:
     None where any target is refused for another reason (a lean does not clear an
     obstacle) or none is refused.
 
-    The choice is ours (the paper plans the arm alone): a sequence leans once, before its
-    first reach, as far as the target that asks most, and holds that lean through every
-    reach of it (the lean's checks and the balance are weighed on all of them). A person
-    leans in and out between targets; one lean keeps the lean's planning and bake those of
-    a single reach."""
+    The choice is ours (the paper plans the arm alone): a sequence leans once, after the
+    targets it reaches upright (:func:`upright_part`), as far as the target that asks most,
+    and holds that lean through the rest (the lean's checks and the balance are weighed on
+    all of them). A person may lean in and out between targets; one lean keeps the lean's
+    planning and bake those of a single reach."""
     if not settings.lean or task.kind not in BODY_TASKS:
         return None
     refused = [s for s in failed.segments if not s.success]
-    if not refused or any(not _body_helps(settings, task, arm, s) for s in refused):
+    if not refused or any(not _helps(settings, task, arm, s) for s in refused):
         return None
     shoulder = np.asarray(arm.shoulder, dtype=float)
     return max(refused, key=lambda seg: float(np.linalg.norm(
@@ -280,28 +281,35 @@ def body_target(settings, task, failed, arm) -> int | None:
         shoulder))).index
 
 
-def _body_helps(settings, task, arm, seg) -> bool:
-    """Whether the refused segment ``seg`` is one a lean or squat may reach
-    (:func:`body_target`)."""
-    if seg.reason == NEEDS_LEAN:
+def body_helps(settings, arm, reason, target_world) -> bool:
+    """Whether a target at ``target_world`` refused for ``reason`` is one a lean or squat
+    may reach: ``needs_lean``, or (with ``Settings.squat``) ``out_of_reach`` below the
+    shoulder and beyond the arm (:func:`below_the_arm`)."""
+    if reason == NEEDS_LEAN:
         return True
-    target_c = arm.to_canonical_points(np.asarray(task.targets[seg.index], dtype=float))
-    return seg.reason == OUT_OF_REACH and settings.squat and below_the_arm(arm, target_c)
+    return reason == OUT_OF_REACH and settings.squat and below_the_arm(
+        arm, arm.to_canonical_points(np.asarray(target_world, dtype=float)))
 
 
-def body_held_back(settings, task, failed, arm) -> str | None:
-    """Where a plan of ``task`` (:data:`BODY_TASKS`, ``Settings.lean`` on) refused a target
-    the body might reach and another it may not (:func:`body_target` is None): the clause
-    that says why the body did not lean, naming the other target and its reason; else
-    None."""
+def _helps(settings, task, arm, seg) -> bool:
+    """:func:`body_helps` for the refused segment ``seg`` of a plan of ``task``."""
+    return body_helps(settings, arm, seg.reason, task.targets[seg.index])
+
+
+def body_held_back(settings, task, failed, arm) -> tuple:
+    """Where a plan of ``task`` (:data:`BODY_TASKS`, ``Settings.lean`` on) refused targets
+    the body might reach and another it may not (:func:`body_target` is None): (the clause
+    that says why the body did not lean, naming the other target and its reason; the
+    segments it is said of, those the body might have reached); else (None, [])."""
     if not settings.lean or task.kind not in BODY_TASKS:
-        return None
+        return None, []
     refused = [s for s in failed.segments if not s.success]
-    other = next((s for s in refused if not _body_helps(settings, task, arm, s)), None)
-    if other is None or not any(_body_helps(settings, task, arm, s) for s in refused):
-        return None
+    other = next((s for s in refused if not _helps(settings, task, arm, s)), None)
+    helped = [s for s in refused if _helps(settings, task, arm, s)]
+    if other is None or not helped:
+        return None, []
     return (f"the body leans only where every refused target is one a lean may reach, and "
-            f"target '{other.name}' is refused as {other.reason}")
+            f"target '{other.name}' is refused as {other.reason}"), helped
 
 
 def wants_body(settings, task, failed, arm) -> bool:
@@ -335,7 +343,7 @@ SQUAT_APART = 2
 
 
 def squat_then_reach(planner, task, target_c, pivot_c, turns, body, make_planner, trunk,
-                     acceptable, base: float = 0.0):
+                     acceptable, base: float):
     """Stage 4: the squat or bend (:func:`~.squat.squat_leans`) with the chest turned as
     Table 1 has it, else as far as the planner may turn it (``turns``, as
     :func:`lean_then_reach` tries them), then the reach on it, each posture held to
@@ -370,7 +378,7 @@ def squat_then_reach(planner, task, target_c, pivot_c, turns, body, make_planner
     return None, f"squatting: {why}"
 
 
-def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable, base: float = 0.0):
+def _balanced_reach(planner, task, lean, make_planner, trunk, acceptable, base: float):
     """:func:`_lean_and_reach`, and the body weighed again on every pose of the reach
     (``acceptable(lean, arm_world, turned)``: the arm's joints in the world, (P, 5, 3),
     and ``turned(points, k)``, world points the chest carries where its turn on pose k

@@ -194,12 +194,13 @@ def test_a_sequence_with_a_target_a_lean_cannot_mend_does_not_lean_and_says_why(
     reasons = [s.reason for s in failed.segments]
     assert reasons == ["target_in_obstacle", NEEDS_LEAN], failed.message
     assert body_target(settings, task, failed, arm) is None
-    why = body_held_back(settings, task, failed, arm)
+    why, helped = body_held_back(settings, task, failed, arm)
     assert why is not None and "'A' is refused as target_in_obstacle" in why, why
+    assert [seg.name for seg in helped] == ["B"]       # said of the one a lean would reach
     single = Task("reach", task.targets[1:], HANGING, names=("B",))
     alone = Planner(arm, obstacles(box), settings).plan(single)
     assert body_target(settings, single, alone, arm) == 0
-    assert body_held_back(settings, single, alone, arm) is None
+    assert body_held_back(settings, single, alone, arm) == (None, [])
 
 
 def test_a_lean_that_would_put_the_head_into_a_shelf_is_refused_naming_it():
