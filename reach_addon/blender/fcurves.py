@@ -74,6 +74,8 @@ class Channels:
 
     def __init__(self, armature, action):
         self.action = action
+        self.armature = armature
+        self.added = False           # a curve was made since the last :meth:`refresh`
         if not hasattr(action, "slots"):
             self.bag = action
             return
@@ -90,9 +92,28 @@ class Channels:
         fc = self.bag.fcurves.find(path, index=index)
         if fc is None:
             fc = self.bag.fcurves.new(path, index=index)
+            self.added = True
         if fc.group is None:
             fc.group = self.bag.groups.get(group) or self.bag.groups.new(group)
         return fc
+
+
+    def refresh(self) -> None:
+        """Have Blender evaluate the curves made since the last call. On an object with NLA
+        tracks, Blender (4.2–5.0) goes on evaluating its action as it was when assigned: a
+        curve added to it since is not evaluated (a glTF import's muted walk track and a key
+        the user set first left every baked key unseen). Assigning the action again, its slot
+        kept, makes it evaluate them."""
+        ad = self.armature.animation_data
+        if not self.added or ad is None or not len(ad.nla_tracks) or ad.use_tweak_mode:
+            self.added = False
+            return
+        slot = getattr(ad, "action_slot", None)
+        ad.action = None
+        ad.action = self.action
+        if slot is not None and ad.action_slot != slot:
+            ad.action_slot = slot
+        self.added = False
 
 
 # Keyframe attributes (enums as their integer values for foreach_get/set).
@@ -164,3 +185,4 @@ def write_channel(channels, path, values, frames, group):
         for a in _BOOLS:
             pts.foreach_set(a, merged(old[a], np.zeros(nn, bool)))
         fc.update()
+    channels.refresh()

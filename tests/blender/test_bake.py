@@ -448,3 +448,24 @@ def test_a_target_that_moves_away_during_a_reach_is_not_called_reached(fresh, ad
     where = np.array(target.matrix_world.translation)
     assert float(np.linalg.norm(where - start)) / length == pytest.approx(0.3, abs=1e-4)
     assert float(np.linalg.norm(wrist - where)) / length > 0.25
+
+
+def test_a_rig_with_a_muted_clip_and_a_key_of_the_users_evaluates_the_bake(fresh, addon):
+    """CesiumMan as glTF imports it keeps its walk in a muted NLA track. A key the user set
+    first makes the action; Blender then went on evaluating that action as it was, and every
+    curve the bake added was unseen (the wrist stayed at rest, 0.5 arm lengths from its
+    target, and the bake was refused as a rig Reach does not model)."""
+    import everyday
+
+    arm = rigs.load("cesium")
+    rigs.rest_still(arm)
+    assert len(arm.animation_data.nla_tracks) and all(t.mute for t in arm.animation_data.nla_tracks)
+    info = addon.blender.rig.build(arm, "right")
+    spine = arm.pose.bones[info.bones.chest].parent
+    spine.keyframe_insert("rotation_quaternion", frame=200)
+    target = rigs.add_target("Ahead", everyday.at(info, 0.6, 0.3, -0.1))
+    _outcome, res, _plan, _first = rigs.bake_reach(addon, arm, target)
+    bpy.context.scene.frame_set(res.frame_end)
+    hand = arm.pose.bones[info.bones.arms["right"].hand]
+    wrist = np.array(arm.matrix_world @ hand.head)
+    assert np.linalg.norm(wrist - np.array(target.location)) < 0.01 * info.arm.arm_length
