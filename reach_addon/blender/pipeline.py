@@ -26,6 +26,7 @@ from ..core.steps import drain, relay
 from ..core.chase import chase_steps
 from ..core.sweep import plan_among_moving
 from . import bake as bake_mod
+from . import body_stage
 from . import body as body_mod
 from . import gaze as gaze_mod
 from . import other_arm as other_arm_mod
@@ -36,7 +37,7 @@ from .fcurves import ensure_action
 from . import rig as rig_mod
 from . import viz
 from .bake import KeyedPlan
-from .carried import carried_targets, carrying_bone
+from .carried import carried_targets
 from .envelope import read_stance
 from .results import arm_note, measure_baked, start_as_it_shows, task_results
 from .scene import (KEPT, ObstacleCache, body_extent, character_objects, finite, gather_pieces,
@@ -279,7 +280,9 @@ class PipelineRun:
         frame by frame among each frame's obstacles (:func:`~reach_addon.core.chase.
         chase_steps`); any other task among the places moving obstacles take
         (:func:`~reach_addon.core.sweep.plan_among_moving`). ``planner``: the last one used.
-        A start the skin shows clear is ``start_held`` (:func:`.results.start_as_it_shows`)."""
+        A start the skin shows clear is ``start_held`` (:func:`.results.start_as_it_shows`).
+        Then the body: a lean, squat or step where one reach's target is beyond the arm
+        (:func:`.body_stage.plan`: ``lean``, ``step``)."""
         self.planner = Planner(self.info.arm, self.obstacles, self.settings)
         self.plans = []
         frame = self.frame_start
@@ -299,36 +302,7 @@ class PipelineRun:
             frame += len(plan.poses)
         start_as_it_shows(self.armature, self.info, [k.plan for k in self.plans],
                           self.obstacles, self._sweep if self.moving else None)
-        carried = [(t.name, b) for t in self.targets
-                   if (b := carrying_bone(t, self.armature)) is not None]
-        if self.settings.lean and len(self.plans) == 1 and carried:
-            lean_mod.note_carried(self.plans[0].plan, *carried[0])
-        elif self.settings.lean and len(self.plans) == 1 and not self.moving and \
-                self.frame_obstacles is None:        # a lean, then the reach (stage 1)
-            self.lean, self.plans[0] = lean_mod.plan(self.context, self.armature, self.info,
-                                                     self.planner, self.plans[0])
-            if self.lean is None and not self.plans[0].plan.success:   # a step (stage 5)
-                self._step()
-        elif self.settings.lean and len(self.plans) == 1 and self.moving:
-            lean_mod.note_moving(self.plans[0].plan, sorted(self.moving))
-        elif self.settings.lean and len(self.plans) > 1:
-            lean_mod.note_several([k.plan for k in self.plans])
-
-    def _step(self) -> None:
-        """Where no lean reaches, a step toward the target, then the reach (and a lean)
-        from where it ends (:func:`.step.plan`): ``step``; ``info`` becomes the rig read
-        there (``info_start``: as it stood)."""
-        first = np.array(self.targets[0].matrix_world.translation)
-        side, overrides = self.info.side, self.request.overrides
-
-        def reread():
-            return rig_mod.build(self.armature, side, overrides, target=first)
-
-        found, self.plans[0] = step_mod.plan(self.context, self.armature, self.info,
-                                             self.planner, self.plans[0], reread,
-                                             self.request.bake_closest)
-        if found is not None:
-            self.step, self.lean, self.info = found, found.lean, found.info
+        body_stage.plan(self)                 # the body under the arm (issue 41)
 
     def _frame_planners(self) -> list:
         """A planner per frame of a chase, one per distinct set of obstacles."""

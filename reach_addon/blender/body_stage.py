@@ -1,0 +1,56 @@
+"""The body under the arm, after the arm's plans (stage 4 of :class:`.pipeline.
+PipelineRun`; issue 41, stages 2–5 of ``docs/design/core.md``'s whole-body reach).
+
+With Lean on, a single reach (or a sequence or guided reach, :mod:`..core.whole_body`)
+whose target the arm and chest could not reach is planned again with the trunk leaning
+or the figure squatting (:func:`.lean.plan`), and where that does not reach either, with a
+step toward it first (:func:`.step.plan`). What the body does not do is said in the
+refused plans' messages: a target the character carries, obstacles that move, several
+reaches.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import lean as lean_mod
+from . import rig as rig_mod
+from . import step as step_mod
+from .carried import carrying_bone
+
+
+def plan(run) -> None:
+    """The body for ``run`` (a :class:`.pipeline.PipelineRun` whose arm is planned): sets
+    its ``lean`` and ``step``, and ``plans[0]`` to the reach from where they end."""
+    settings = run.settings
+    if not settings.lean:
+        return
+    carried = [(t.name, b) for t in run.targets
+               if (b := carrying_bone(t, run.armature)) is not None]
+    if len(run.plans) == 1 and carried:
+        lean_mod.note_carried(run.plans[0].plan, *carried[0])
+    elif len(run.plans) == 1 and not run.moving and run.frame_obstacles is None:
+        run.lean, run.plans[0] = lean_mod.plan(run.context, run.armature, run.info,
+                                               run.planner, run.plans[0])
+        if run.lean is None and not run.plans[0].plan.success:
+            _step(run)
+    elif len(run.plans) == 1 and run.moving:
+        lean_mod.note_moving(run.plans[0].plan, sorted(run.moving))
+    elif len(run.plans) > 1:
+        lean_mod.note_several([k.plan for k in run.plans])
+
+
+def _step(run) -> None:
+    """Where no lean reaches, a step toward the target, then the reach (and a lean) from
+    where it ends (:func:`.step.plan`): ``run.step``; ``run.info`` becomes the rig read
+    there."""
+    first = np.array(run.targets[0].matrix_world.translation)
+    side, overrides = run.info.side, run.request.overrides
+
+    def reread():
+        return rig_mod.build(run.armature, side, overrides, target=first)
+
+    found, run.plans[0] = step_mod.plan(run.context, run.armature, run.info, run.planner,
+                                        run.plans[0], reread, run.request.bake_closest)
+    if found is not None:
+        run.step, run.lean, run.info = found, found.lean, found.info
