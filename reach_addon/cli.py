@@ -60,7 +60,8 @@ BAKE_REPORT_KEYS = ("rig_residual_arm_lengths", "wrist_gap_arm_lengths", "linear
 #: the balance (``com_margin_*``, ``support_from``), the lean and squat (``lean_*``, the
 #: other arm's ``lean_other_arm`` among them), the step (``step_*``), the head's turn
 #: (``gaze_*``) and the other arm's note.
-BODY_REPORT_PREFIXES = ("com_margin", "support_from", "lean_", "step_", "gaze_", "other_arm_")
+BODY_REPORT_PREFIXES = ("com_margin", "support_from", "lean_", "step_", "gaze_", "other_arm_",
+                        "spine_")
 
 
 class Interrupted(BaseException):

@@ -71,10 +71,13 @@ class BakeResult:
     linear_spans: list = field(default_factory=list)
     #: per plan, the spans still closer than that after it (0 when every instant is clear)
     close_spans: list = field(default_factory=list)
+    #: the report's figures of the chest's turn shared down the spine
+    #: (:meth:`.spine_share.SpineShare.key`)
+    spine: dict = field(default_factory=dict)
 
 
 def bake(context, armature, info, plans, new_action=False, then=None,
-         start_pose=None) -> BakeResult:
+         start_pose=None, spine=None) -> BakeResult:
     """Write keys for ``plans`` on ``armature``, whose arm ``info`` (:class:`.rig.RigInfo`)
     describes: one key per frame on each keyed bone's rotation channels, the hand's palm
     siblings and the chest (when a plan turns it) included, and the IK/FK switch set to
@@ -85,8 +88,9 @@ def bake(context, armature, info, plans, new_action=False, then=None,
     once the plans are keyed, before that check (a lean keys the trunk there, so the check
     sees the trunk move). ``start_pose``: every bone's armature-space matrix in the pose
     the first plan starts from, where that is not the pose now (a lean's: :func:`.lean.
-    carried_start`). Raises ReachError if a keyed bone is missing. Returns a
-    :class:`BakeResult`."""
+    carried_start`). ``spine``: the :class:`.spine_share.SpineShare` that spreads the
+    chest's turn down the spine, keyed after ``then`` (None: the chest alone). Raises
+    ReachError if a keyed bone is missing. Returns a :class:`BakeResult`."""
     plans = [KeyedPlan.of(p) for p in plans]
     bmap = info.bones
     pose = armature.pose.bones
@@ -141,6 +145,10 @@ def bake(context, armature, info, plans, new_action=False, then=None,
     result = BakeResult(action.name, order, (first, last), residual)
     if then is not None:
         then(result)
+    if spine is not None and "chest" in keyed:
+        result.spine, more = spine.key(context, armature, keyed["chest"], first, last)
+        result.bones = [b for b in spine.bones if more] + result.bones
+        curves += more
     if all(k.checkers for k in plans):
         curves = [channels.bag.fcurves.find(path, index=i) for path, i in dict.fromkeys(curves)]
         result.linear_spans, result.close_spans = straighten(

@@ -254,7 +254,8 @@ def trunk_skin(armature, info, bone) -> TrunkSkin | None:
     return TrunkSkin(info.arm.to_canonical_points(np.concatenate(points)), np.concatenate(turns))
 
 
-def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False):
+def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False,
+         spine=None):
     """Key the ready reach where there is one, the lean, then the reach on the leaned trunk
     (:func:`.bake.bake`, for ``info``'s arm on the leaned trunk): the plans are baked with
     the lean bone posed at the full lean (the ready reach's poses, relative to the trunk,
@@ -262,7 +263,8 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
     are checked, the lean bone is keyed on the lean's frames (continuous with what the bake
     keyed on it, where it keyed it: the chest may be the lean bone), upright before them and
     held at the full lean through the reach, and every bone and switch the bake keyed holds
-    its key at the reach's first frame through the lean (:func:`_key_lean`). Returns the
+    its key at the reach's first frame through the lean (:func:`_key_lean`); ``spine`` as
+    :func:`.bake.bake` takes it. Returns the
     bake's :class:`.bake.BakeResult`, its frame range from the first frame keyed."""
     pb = armature.pose.bones[lean.bone]
     before = pb.matrix_basis.copy()
@@ -278,7 +280,8 @@ def bake(context, armature, info, lean: RigLean, plans, new_action: bool = False
                                ready + list(plans), new_action,
                                then=lambda r: _key_lean(context, armature, info, lean, r,
                                                         hips_keys),
-                               start_pose=carried_start(armature, lean.bone, upright))
+                               start_pose=carried_start(armature, lean.bone, upright),
+                               spine=spine)
     except Exception:
         pb.matrix_basis = before
         context.view_layer.update()

@@ -32,7 +32,7 @@ from . import gaze as gaze_mod
 from . import other_arm as other_arm_mod
 from . import lean as lean_mod
 from . import step as step_mod
-from . import own_keys
+from . import own_keys, spine_share
 from .fcurves import ensure_action
 from . import rig as rig_mod
 from . import viz
@@ -365,15 +365,17 @@ class PipelineRun:
             # the reach is keyed from where the step ends: a rig whose constraints the bake
             # evaluates (Rigify's) is read there, not where the step starts
             self.context.scene.frame_set(self.step.reach_first)
+        spine = spine_share.for_rig(self.armature, self.info, self.settings, self.lean is not None)
         if self.to_key and self.lean is not None:
             self.baked = lean_mod.bake(self.context, self.armature, self.info, self.lean,
-                                       self.to_key, new_action)
+                                       self.to_key, new_action, spine)
         elif self.to_key:
             self.baked = bake_mod.bake(self.context, self.armature, self.info, self.to_key,
-                                       new_action)
+                                       new_action, spine=spine)
         if self.to_key and self.step is not None:
             self.baked.frames = (self.step.frame_start, self.baked.frames[1])
         if self.to_key:
+            self.turns |= self.baked.spine
             if self.lean is not None:
                 self.turns.update(other_arm_mod.key(
                     self.context, self.armature, self.info, self.lean.lean_first,

@@ -104,6 +104,12 @@ class Settings:
         "feet (Table 1 measures it so; the figure's pelvis stays). Standing people reach "
         "about 96° (Montgomery et al. 2011: trunk 32.6° + pelvis 63.8°); 60° is above every "
         "Table 1 value up to 170° of direction", "body", 0.0, 90.0, "deg")
+    spine_share: float = _f(
+        0.4, "Spine share", "Share of the chest's turn that the spine bones below the chest "
+        "take, each by its length, the chest keeping its pose: people spread a trunk's turn "
+        "over the thoracolumbar spine, and in White & Panjabi's representative segment "
+        "values (1990) the segments below the mid-thorax give a little under half of it. "
+        "0: the chest bone turns alone", "body", 0.0, 0.9)
     table1_arm_length_m: float = _f(
         TABLE1_REFERENCE_ARM_LENGTH_M, "Table 1 arm",
         "Shoulder-to-wrist length of the adult Table 1 is read for (a 1.75 m adult by "
