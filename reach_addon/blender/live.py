@@ -45,7 +45,7 @@ import numpy as np
 from ..core import Plan, ReachError, Stats
 from ..core.live import DEFAULT_BUDGET_S, LiveSession, LiveStatus
 from . import bake as bake_mod
-from . import bone_matrices, gaze, pipeline
+from . import bone_matrices, gaze, pipeline, spine_share
 from . import rig as rig_mod
 from .fcurves import Channels, write_channel
 from .settle import settle
@@ -102,6 +102,10 @@ class LiveState:
     #: the neck as it stood before Live turned it, where the head looks at the target
     #: (``Settings.gaze``, :func:`.gaze.look_now`)
     neck: gaze.NeckFrame | None = None
+    #: the spine bones that take a share of the chest's turn (:mod:`.spine_share`), and
+    #: theirs and the chest's channel matrices at the start
+    spine: spine_share.SpineShare = field(default_factory=spine_share.SpineShare)
+    spine_start: dict = field(default_factory=dict)
 
 
 _state: LiveState | None = None
@@ -146,11 +150,14 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
     start_pose = {pb.name: np.array(pb.matrix) for pb in armature.pose.bones}
     start_world = {role: mw @ start_pose[ref] for role, ref in reference.items()}
     chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
+    spine = spine_share.for_rig(armature, info, request.settings, leaning=False)
+    spine_start = {n: np.array(armature.pose.bones[n].matrix_basis)
+                   for n in (*spine.bones, bmap.keyed_chest)}
     return LiveState(scene.name, request, armature.name, target.name, info, session, cache,
                      mw, np.linalg.inv(mw), session.pose,
                      start_pose, start_world, chest_head, keyed, reference, budget_s,
                      neck=_neck_reference(context, armature, info, request.settings,
-                                          [target]))
+                                          [target]), spine=spine, spine_start=spine_start)
 
 
 def _neck_reference(context, armature, info, settings, targets):
@@ -341,6 +348,13 @@ def _apply(st: LiveState, armature) -> None:
     if before is not None:
         before["posed"].update(locals_)
     settle(bpy.context, armature, st.keyed, st.reference, targets_arm, locals_, st.start_pose)
+    chest = st.keyed.get("chest")
+    if st.spine.bones and chest in locals_:       # the chest's turn spread down the spine
+        locals_[chest] = locals_[chest].copy()
+        locals_[chest][-1] = spine_share.pose_now(armature, st.spine, st.spine_start, chest,
+                                                  locals_[chest][-1])
+        if before is not None:
+            before["posed"].update(st.spine.bones)
     for name, mats in locals_.items():
         path, values = bone_matrices.channel_values(pose[name], mats)
         setattr(pose[name], path, tuple(float(v) for v in values[-1]))
@@ -370,9 +384,10 @@ def key_pose(context=None) -> bake_mod.BakeResult:
                            new_action=False)
     start = st.info.start.body_rotation
     if abs(pose.config.body_rotation - start) > 1e-9:
-        name = st.info.bones.keyed_chest
-        _key_as_posed(armature, name, frame)
-        result.bones = [name] + [b for b in result.bones if b != name]
+        names = [*st.spine.bones, st.info.bones.keyed_chest]
+        for name in names:
+            _key_as_posed(armature, name, frame)
+        result.bones = names + [b for b in result.bones if b not in names]
     if st.neck is not None:                  # the head, turned toward the target
         _key_as_posed(armature, st.neck.name, frame)
         result.bones = result.bones + [st.neck.name]

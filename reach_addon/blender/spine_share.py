@@ -158,24 +158,19 @@ def _offset(bone) -> np.ndarray:
     return np.linalg.inv(np.array(bone.parent.matrix_local)) @ np.array(bone.matrix_local)
 
 
-def _key(context, armature, share: SpineShare, chest: str, first: int, last: int) -> tuple:
-    frames = np.arange(first, last + 1, dtype=float)
+def _solve(armature, share: SpineShare, chest: str, bases, rots, chest_basis) -> tuple:
+    """(the chest's turns (F,) since ``rots[0]``, its channel matrices (F, 4, 4) that keep
+    its pose, the shared bones' turns (F, n, 3, 3) in their own axes) for the chest's
+    rotations ``rots`` (F, 3, 3) and channel matrices ``chest_basis`` (F, 4, 4), the shared
+    bones' channel matrices ``bases`` (n, 4, 4) before their turn. The lines the bones turn
+    about are read from the pose now: the chest's head keeps its place in each shared
+    bone's axes, whatever they turned."""
     pose, bones = armature.pose.bones, armature.data.bones
-    channels = Channels(armature, ensure_action(armature, False))
-    pc = pose[chest]
-    path, size = _channel(pc)
-    full = f'pose.bones["{chest}"].{path}'
-    curves = [channels.bag.fcurves.find(full, index=i) for i in range(size)]
-    values = np.array([[pc.path_resolve(path)[i] if c is None else c.evaluate(f)
-                        for i, c in enumerate(curves)] for f in frames])
-    rots = np.array([_rotation(pc, v) for v in values])
     thetas, axis_c = turn_angles(rots)
-    basis_c = np.repeat(np.array(pc.matrix_basis)[None], len(frames), 0)   # T·R·S
-    basis_c[:, :3, :3] = rots * np.array(pc.scale)[None, None, :]
-    mc = np.array(pc.matrix)
+    mc = np.array(pose[chest].matrix)
     up = mc[:3, :3] @ axis_c          # the chest's turn axis in the armature
     head_c = mc[:3, 3]
-    turns = np.empty((len(frames), len(share.bones), 3, 3))
+    turns = np.empty((len(rots), len(share.bones), 3, 3))
     for j, (name, w) in enumerate(zip(share.bones, share.weights)):
         m = np.array(pose[name].matrix)
         line = head_c - m[:3, 3]
@@ -184,9 +179,44 @@ def _key(context, armature, share: SpineShare, chest: str, first: int, last: int
         sign = 1.0 if line @ up >= 0.0 else -1.0
         for f, t in enumerate(thetas):
             turns[f, j] = axis_rotation(local, sign * w * t)
-    bases = np.array([np.array(pose[n].matrix_basis) for n in share.bones])
     offsets = np.array([_offset(bones[n]) for n in share.bones])
-    new_chest = chest_bases(offsets, bases, turns, _offset(bones[chest]), basis_c)
+    return thetas, chest_bases(offsets, bases, turns, _offset(bones[chest]), chest_basis), turns
+
+
+def pose_now(armature, share: SpineShare, start: dict, chest: str, chest_basis) -> np.ndarray:
+    """Live's share of one pose: the shared bones posed (their ``matrix_basis``) for the
+    chest's channel matrix ``chest_basis`` (4, 4), turned from ``start`` (bone → channel
+    matrix at the session's start, the chest's among them). Returns the chest's channel
+    matrix that keeps its pose."""
+    def unit(m):
+        return m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+
+    rots = np.stack([unit(start[chest]), unit(chest_basis)])
+    bases = np.array([start[n] for n in share.bones])
+    _t, new_chest, turns = _solve(armature, share, chest, bases, rots,
+                                  np.stack([start[chest], chest_basis]))
+    for j, name in enumerate(share.bones):
+        b = bases[j].copy()
+        b[:3, :3] = b[:3, :3] @ turns[-1, j]
+        armature.pose.bones[name].matrix_basis = Matrix(b.tolist())
+    return new_chest[-1]
+
+
+def _key(context, armature, share: SpineShare, chest: str, first: int, last: int) -> tuple:
+    frames = np.arange(first, last + 1, dtype=float)
+    pose = armature.pose.bones
+    channels = Channels(armature, ensure_action(armature, False))
+    pc = pose[chest]
+    path, size = _channel(pc)
+    full = f'pose.bones["{chest}"].{path}'
+    curves = [channels.bag.fcurves.find(full, index=i) for i in range(size)]
+    values = np.array([[pc.path_resolve(path)[i] if c is None else c.evaluate(f)
+                        for i, c in enumerate(curves)] for f in frames])
+    rots = np.array([_rotation(pc, v) for v in values])
+    basis_c = np.repeat(np.array(pc.matrix_basis)[None], len(frames), 0)   # T·R·S
+    basis_c[:, :3, :3] = rots * np.array(pc.scale)[None, None, :]
+    bases = np.array([np.array(pose[n].matrix_basis) for n in share.bones])
+    thetas, new_chest, turns = _solve(armature, share, chest, bases, rots, basis_c)
     keyed = []
     for j, name in enumerate(share.bones):
         b = np.repeat(bases[j][None], len(frames), 0)

@@ -210,8 +210,16 @@ def test_key_pose_keys_what_is_shown_chest_included(fresh, addon):
     curves = rigs.fcurves(action)
     keyed = {fc.data_path.split('"')[1] for fc in curves}
     chest = info.bones.keyed_chest
-    assert {"upper_arm.R", "forearm.R", "hand.R", chest} <= keyed
+    # the chest's turn spread down the spine as a bake spreads it (Settings.spine_share)
+    spine = live.state().spine.bones
+    assert spine == ("spine.001", "spine.002")
+    assert {"upper_arm.R", "forearm.R", "hand.R", chest, *spine} <= keyed
     assert all([k.co[0] for k in fc.keyframe_points] == [7.0] for fc in curves)
+    turned = [2 * math.degrees(math.acos(min(1.0, abs(arm.pose.bones[b].rotation_quaternion[0]))))
+              for b in (*spine, chest)]
+    total = abs(pose.config.body_rotation - info.start.body_rotation)       # degrees
+    assert sum(turned[:2]) == pytest.approx(0.4 * total, abs=1.0), (turned, total)
+    assert turned[2] == pytest.approx(0.6 * total, abs=1.0), (turned, total)
     live.stop(push_undo=False)
     # the keys hold the pose: leave the frame, come back, the wrist is where it was
     bpy.context.scene.frame_set(1)
