@@ -146,8 +146,12 @@ def bake(context, armature, info, plans, new_action=False, then=None,
     if then is not None:
         then(result)
     if spine is not None and "chest" in keyed:
-        result.spine, more = spine.key(context, armature, keyed["chest"], first, last)
-        result.bones = [b for b in spine.bones if more] + result.bones
+        # the pelvis's turn keeps the lower body clear of the obstacles where they hold still
+        checkers = {id(c): c for k in plans for c in k.checkers}
+        result.spine, more = spine.key(context, armature, keyed["chest"], first, last,
+                                       next(iter(checkers.values())) if len(checkers) == 1
+                                       else None)
+        result.bones = list(dict.fromkeys(p.split('"')[1] for p, _i in more)) + result.bones
         curves += more
     if all(k.checkers for k in plans):
         curves = [channels.bag.fcurves.find(path, index=i) for path, i in dict.fromkeys(curves)]

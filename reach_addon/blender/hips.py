@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.hips import hips_drop, two_bone_knee
+from ..core.hips import STRAIGHT_SHARE, hips_drop, two_bone_knee
 from ..core.squat import Leg as LegJoints
 from ..core.squat import knee_pole
 from . import balance
@@ -90,7 +90,7 @@ def _below(armature, leg, joint) -> str | None:
 
 
 def pose_shift(context, armature, legs, hips: str, shift_world, up, forward,
-               feet_world=None) -> float:
+               feet_world=None, turn=None, as_it_stands: bool = False) -> float:
     """Pose the hips moved by ``shift_world`` (and down as far as the legs need,
     :func:`~..core.hips.hips_drop`) with both feet where they are (see the module
     docstring), or moved by ``feet_world`` ((legs, 3) world offsets: a step, the foot's
@@ -98,7 +98,12 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up, forward,
     that is forward of the leg
     (``forward``: the body's), else straight forward: a leg held straight has no bend of its
     own to follow, and a knee bends only forward (the Knight, in a T-pose, bent its knees
-    backward until this). Returns how far the hips came down (world units)."""
+    backward until this). ``turn``: (pivot, rotation (3, 3)), both world: the hips also
+    turned about the pivot (moved with them) after the shift (the pelvis's share of the
+    chest's turn, :mod:`.pelvis_turn`). ``as_it_stands``: a leg standing straighter than
+    :data:`~..core.hips.STRAIGHT_SHARE` may stay as straight (else the hips come down to
+    that share before anything else: 1.2 mm on the metarig). Returns how far the hips came
+    down (world units)."""
     point = balance.point_of
     up = np.asarray(up, dtype=float)
     feet = [_below(armature, leg, leg.ankle) for leg in legs]
@@ -116,16 +121,30 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up, forward,
         if b[3] is not None:
             b[3][:3, 3] += a_inv @ off
     shift = np.asarray(shift_world, dtype=float)
-    drop = max(hips_drop(h + shift, a, float(np.linalg.norm(k - h)),
-                         float(np.linalg.norm(a - off - k)), up)
-               for (h, k, a, _m), off in zip(before, offsets))
+
+    def turned(p):
+        return p if turn is None else turn[1] @ (p - turn[0]) + turn[0]
+
+    def straight(h, k, a):
+        if not as_it_stands:
+            return STRAIGHT_SHARE
+        return max(STRAIGHT_SHARE, min(1.0, float(np.linalg.norm(a - h)) / float(
+            np.linalg.norm(k - h) + np.linalg.norm(a - k))))
+
+    shares = [straight(h, k, a) for h, k, a, _m in before]
+    drop = max(hips_drop(turned(h) + shift, a, float(np.linalg.norm(k - h)),
+                         float(np.linalg.norm(a - off - k)), up, s)
+               for (h, k, a, _m), off, s in zip(before, offsets, shares))
     _move(context, armature, hips, shift - drop * up)
-    for leg, name, (h, k, a, foot), off, end in zip(legs, feet, before, offsets, ends):
+    if turn is not None:
+        _turn(context, armature, hips, np.asarray(turn[0], float) + shift - drop * up, turn[1])
+    for leg, name, (h, k, a, foot), off, end, s in zip(legs, feet, before, offsets, ends,
+                                                       shares):
         thigh, shank = float(np.linalg.norm(k - h)), float(np.linalg.norm(a - off - k))
         hip_now = point(armature, leg.hip)
         # the knee bends the way it bends as the leg stands (a moved foot's offset from
         # the knee would turn it sideways)
-        knee = two_bone_knee(hip_now, a, thigh, shank, knee_pole(h, k, a - off, forward))
+        knee = two_bone_knee(hip_now, a, thigh, shank, knee_pole(h, k, a - off, forward), s)
         _turn(context, armature, leg.hip[0], hip_now,
               _least_rotation(point(armature, leg.knee) - hip_now, knee - hip_now))
         knee_now = point(armature, leg.knee)

@@ -200,20 +200,29 @@ class BalanceCheck:
                 pose_leaned(self.context, self.armature, self.info, self.bone, basis,
                             self.legs, self.hips, shift_world(self.info, lean, fraction))
                 world.append(skin.skin_points(self.armature, names, 0.5, True))
-        if not len(world[0]):
-            return None
-        world = np.array(world)
-        up = np.asarray(self.info.frame.ground, dtype=float)
-        ankles = max(float(balance.point_of(self.armature, leg.ankle) @ up) for leg in self.legs)
-        feet = world[0] @ up <= ankles
-        feet_checker = SimpleNamespace(obstacles=self.checker.obstacles,
-                                       margin=FEET_CLEARANCE * self.checker.margin)
-        for part, held, checker in (("lower body", ~feet, self.checker),
-                                    ("feet", feet, feet_checker)):
-            hit = skin_hit(world[:, held], checker) if held.any() else None
-            if hit is not None:
-                return part, hit[1]
+        return lower_body_hit(self.armature, self.legs, world, self.checker,
+                              self.info.frame.ground)
+
+
+def lower_body_hit(armature, legs, world, checker, up):
+    """(part, obstacle) where the lower body's skin ``world`` (instants, points, 3: the
+    first as the figure stands) comes within ``checker``'s clearance of an obstacle
+    (:func:`~..core.lean.skin_hit`, exact about crossing between instants), else None: the
+    points below the ankles (``up``: the ground's normal) held to :data:`FEET_CLEARANCE` of
+    it, as planted feet are."""
+    if not len(world[0]):
         return None
+    world = np.array(world)
+    up = np.asarray(up, dtype=float)
+    ankles = max(float(balance.point_of(armature, leg.ankle) @ up) for leg in legs)
+    feet = world[0] @ up <= ankles
+    feet_checker = SimpleNamespace(obstacles=checker.obstacles,
+                                   margin=FEET_CLEARANCE * checker.margin)
+    for part, held, check in (("lower body", ~feet, checker), ("feet", feet, feet_checker)):
+        hit = skin_hit(world[:, held], check) if held.any() else None
+        if hit is not None:
+            return part, hit[1]
+    return None
 
 
 #: How far (arm lengths) an ankle may move as the hips move before :class:`BalanceCheck`

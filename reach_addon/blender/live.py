@@ -150,7 +150,8 @@ def _open(context, request: pipeline.Request, budget_s: float) -> LiveState:
     start_pose = {pb.name: np.array(pb.matrix) for pb in armature.pose.bones}
     start_world = {role: mw @ start_pose[ref] for role, ref in reference.items()}
     chest_head = (mw @ start_pose[bmap.keyed_chest])[:3, 3]
-    spine = spine_share.for_rig(armature, info, request.settings, leaning=False)
+    spine = spine_share.for_rig(armature, info, request.settings, leaning=False,
+                                with_pelvis=False)
     spine_start = {n: np.array(armature.pose.bones[n].matrix_basis)
                    for n in (*spine.bones, bmap.keyed_chest)}
     return LiveState(scene.name, request, armature.name, target.name, info, session, cache,

@@ -365,7 +365,8 @@ class PipelineRun:
             # the reach is keyed from where the step ends: a rig whose constraints the bake
             # evaluates (Rigify's) is read there, not where the step starts
             self.context.scene.frame_set(self.step.reach_first)
-        spine = spine_share.for_rig(self.armature, self.info, self.settings, self.lean is not None)
+        spine = spine_share.for_rig(self.armature, self.info, self.settings,
+                                     self.lean is not None or self.step is not None)
         if self.to_key and self.lean is not None:
             self.baked = lean_mod.bake(self.context, self.armature, self.info, self.lean,
                                        self.to_key, new_action, spine)

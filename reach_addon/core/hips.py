@@ -142,13 +142,14 @@ class LegOverstretchedError(ValueError):
     which a caller trying postures refuses and goes on."""
 
 
-def hips_drop(hip, ankle, thigh: float, shank: float, up) -> float:
+def hips_drop(hip, ankle, thigh: float, shank: float, up, share: float = STRAIGHT_SHARE
+              ) -> float:
     """How far (≥ 0) the hip must come down along ``up`` for its ankle to lie within
-    :data:`STRAIGHT_SHARE` of the leg's length: the least η with
+    ``share`` (:data:`STRAIGHT_SHARE`) of the leg's length: the least η with
     |hip − η·up − ankle| ≤ s (thigh + shank)."""
     up = np.asarray(up, dtype=float)
     d = np.asarray(hip, dtype=float) - np.asarray(ankle, dtype=float)
-    most = STRAIGHT_SHARE * (float(thigh) + float(shank))
+    most = share * (float(thigh) + float(shank))
     if float(np.linalg.norm(d)) <= most:
         return 0.0
     vertical = float(d @ up)
@@ -167,15 +168,16 @@ def legs_drop(leg_joints, shift, up) -> float:
                         for j in leg_joints])
 
 
-def two_bone_knee(hip, ankle, thigh: float, shank: float, pole) -> np.ndarray:
+def two_bone_knee(hip, ankle, thigh: float, shank: float, pole,
+                  share: float = STRAIGHT_SHARE) -> np.ndarray:
     """The knee (3,) of a leg whose hip joint and ankle are given, its thigh and shank of
     the given lengths, bent toward ``pole`` (a direction; its part across the hip-ankle
     line is used):
 
     .. math:: a = \\frac{l_1^2 - l_2^2 + d^2}{2d},\\quad k = h + a\\,u + \\sqrt{l_1^2 - a^2}\\,v
 
-    with ``d`` the hip-to-ankle distance (at most :data:`STRAIGHT_SHARE` of the leg's
-    length), ``u`` the unit direction from hip to ankle and ``v`` the pole made
+    with ``d`` the hip-to-ankle distance (at most ``share``, :data:`STRAIGHT_SHARE`, of the
+    leg's length), ``u`` the unit direction from hip to ankle and ``v`` the pole made
     perpendicular to it."""
     hip, ankle = np.asarray(hip, dtype=float), np.asarray(ankle, dtype=float)
     l1, l2 = float(thigh), float(shank)
@@ -184,7 +186,7 @@ def two_bone_knee(hip, ankle, thigh: float, shank: float, pole) -> np.ndarray:
     if d <= 1e-12:
         raise ValueError("the hip joint is on its ankle")
     u = line / d
-    d = min(d, STRAIGHT_SHARE * (l1 + l2))
+    d = min(d, share * (l1 + l2))
     v = np.asarray(pole, dtype=float) - (np.asarray(pole, dtype=float) @ u) * u
     n = float(np.linalg.norm(v))
     if n <= 1e-12:

@@ -101,7 +101,8 @@ class Settings:
                               "direction by Table 1", "body")
     chest_rotation_max: float = _f(
         CHEST_ROTATION_MAX_DEG, "Max chest turn", "Greatest chest rotation against the "
-        "feet (Table 1 measures it so; the figure's pelvis stays). Standing people reach "
+        "feet (Table 1 measures it so; the pelvis and spine share it: Trunk turn, Spine "
+        "share). Standing people reach "
         "about 96° (Montgomery et al. 2011: trunk 32.6° + pelvis 63.8°); 60° is above every "
         "Table 1 value up to 170° of direction", "body", 0.0, 90.0, "deg")
     spine_share: float = _f(
@@ -109,7 +110,13 @@ class Settings:
         "take, each by its length, the chest keeping its pose: people spread a trunk's turn "
         "over the thoracolumbar spine, and in White & Panjabi's representative segment "
         "values (1990) the segments below the mid-thorax give a little under half of it. "
-        "0: the chest bone turns alone", "body", 0.0, 0.9)
+        "0: the chest bone turns alone (and the pelvis stays)", "body", 0.0, 0.9)
+    trunk_turn_max: float = _f(
+        33.0, "Trunk turn", "Greatest turn of the chest against the pelvis: where Table 1's "
+        "turn goes past it, the pelvis turns over the planted feet and takes the rest, the "
+        "legs following (standing people turning to reach: trunk 32.6°, pelvis 63.8°, "
+        "Montgomery et al. 2011). At Max chest turn or above, the pelvis never turns",
+        "body", 0.0, 90.0, "deg")
     table1_arm_length_m: float = _f(
         TABLE1_REFERENCE_ARM_LENGTH_M, "Table 1 arm",
         "Shoulder-to-wrist length of the adult Table 1 is read for (a 1.75 m adult by "

@@ -169,3 +169,118 @@ def test_a_lean_keeps_the_spine_below_the_chest_as_one_piece(addon, rig_file):  
     assert "spine_bones" not in result.stats
     keyed = {fc.data_path.split('"')[1] for fc in rigs.fcurves(armature.animation_data.action)}
     assert "spine.002" not in keyed, sorted(keyed)
+
+
+#: How far the chest and the hand may be at a key from where the chest alone put them, with
+#: the pelvis turning (arm lengths): a leg standing straight needs the hips to come down by
+#: the square of the hip joint's move over twice the leg (0.5 mm on the Male Base Mesh).
+PELVIS_DROP = 2e-3
+
+
+def behind(addon, armature, info, **settings):
+    target = bpy.data.objects.get("Behind") or bpy.data.objects.new("Behind", None)
+    if target.name not in bpy.context.scene.objects:
+        bpy.context.scene.collection.objects.link(target)
+    target.location = tuple(everyday.at(info, -0.55, 0.45, -0.2))
+    pipeline = addon.blender.pipeline
+    request = pipeline.Request(armature.name, [target.name], task="reach", side="right",
+                               frame_start=1, draw=False,
+                               settings=addon.core.Settings().replace(**settings))
+    result = pipeline.run(bpy.context, request, bake=True).results[0]
+    assert result.success, result.message
+    return result
+
+
+def heads(armature):
+    mw = armature.matrix_world
+    return {pb.name: np.array(mw @ pb.head) for pb in armature.pose.bones}
+
+
+@pytest.mark.parametrize("kind", KINDS + ("rigify",))
+def test_past_the_trunks_range_the_pelvis_turns_over_planted_feet(addon, rig_file, kind):  # noqa: F811
+    """A target behind the shoulder turns the chest past 33° against the feet: the pelvis
+    takes the rest, about the vertical, the feet planted, the chest and the hand where the
+    chest alone put them."""
+    armature = open_rig(rig_file, kind)
+    info = addon.blender.rig.build(armature, "right")
+    chest, hand = info.bones.keyed_chest, info.bones.arms["right"].hand
+    length, up = info.arm.arm_length, np.asarray(info.frame.ground, dtype=float)
+    alone = behind(addon, armature, info, spine_share=0.0)
+    frames = np.arange(alone.frame_start, alone.frame_end + 1, dtype=float)
+    before = track(armature, (chest, hand), frames)
+    total = angle_axis(rotation(before[-1][chest]) @ rotation(before[0][chest]).T)[0]
+
+    armature = open_rig(rig_file, kind)
+    bpy.context.scene.frame_set(1)
+    start = heads(armature)
+    result = behind(addon, armature, info)
+    stats = result.stats
+    pelvis = stats.get("spine_pelvis_bone")
+    print(f"PELVIS {kind}: chest {total:.1f}°, {pelvis} {stats.get('spine_pelvis_deg')}°, "
+          f"spine {stats.get('spine_turn_deg')}°; {stats.get('spine_note')}")
+    if info.bones.key_chest:
+        assert "torso controls" in stats["spine_note"]
+        return
+    if total < 33.0 + 0.5:
+        assert pelvis is None, stats
+        return
+    assert pelvis is not None, stats
+    after = track(armature, (chest, hand, pelvis), frames)
+    diffs = [[float(np.linalg.norm(a[b][:3, 3] - c[b][:3, 3]) / length) for b in (chest, hand)]
+             for a, c in zip(before, after)]
+    worst = max(max(d) for d in diffs)
+    assert worst < PELVIS_DROP, (kind, worst)
+    turn, axis = angle_axis(rotation(after[-1][pelvis]) @ rotation(after[0][pelvis]).T)
+    assert turn == pytest.approx(total - 33.0, abs=0.5), (kind, turn, total)
+    assert abs(axis @ up) > 0.99, (kind, axis)
+    assert stats["spine_pelvis_deg"] == pytest.approx(turn, abs=0.5)
+    assert stats["spine_turn_deg"] == pytest.approx(0.4 * 33.0, abs=0.5)
+    # the feet planted: every bone whose head stood below the knees (a tenth of an arm
+    # below the lower knee: the knees themselves move as the hips turn over them), at
+    # every frame
+    legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
+    knee = min(float(addon.blender.balance.point_of(armature, leg.knee) @ up) for leg in legs)
+    low = [n for n, p in start.items() if p @ up < knee - 0.1 * length]
+    assert low
+    slid = 0.0
+    for f in frames:
+        bpy.context.scene.frame_set(int(f))
+        now = heads(armature)
+        slid = max(slid, max(np.linalg.norm(now[n] - start[n]) for n in low) / length)
+    assert slid < 0.002, (kind, slid)
+    print(f"  chest and hand within {worst:.1e} arm lengths, feet {slid:.1e}")
+
+
+def test_a_bar_before_the_thighs_keeps_the_pelvis_still(addon, rig_file):  # noqa: F811
+    """The pelvis's turn carries the hips and thighs round: where their skin would come
+    within the clearance of an obstacle (a bar 0.03 arm lengths in front of the thighs,
+    the pelvis let turn past 10° of trunk), the pelvis stays, the spine and chest take the
+    whole turn, and the report says why; without the bar it turns."""
+    from test_body_lean import skin_vertices
+
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
+    hip = np.mean([addon.blender.balance.point_of(armature, leg.hip) for leg in legs], axis=0)
+    length = info.arm.arm_length
+    forward, up = np.asarray(info.frame.forward, float), np.asarray(info.frame.ground, float)
+    band = hip - 0.1 * length * up
+    skin = skin_vertices(armature, set())
+    thighs = skin[np.abs((skin - band) @ up) < 0.15 * length]
+    nearest = thighs[int(np.argmax((thighs - band) @ forward))]    # the bar at its height
+    band = band + float((nearest - band) @ up) * up
+    front = float((nearest - band) @ forward)
+    depth = 0.05 * length
+    turned = behind(addon, armature, info, trunk_turn_max=10.0)
+    assert turned.stats.get("spine_pelvis_deg", 0.0) > 20.0, turned.stats
+
+    armature = open_rig(rig_file, "quaternius")
+    rigs.add_box("Bar", band + (front + 0.03 * length + depth / 2) * forward,
+                 np.array([depth, 0.8 * length, 0.1 * length]),
+                 np.column_stack([forward, np.cross(up, forward), up]))
+    result = behind(addon, armature, info, trunk_turn_max=10.0)
+    stats = result.stats
+    assert "spine_pelvis_bone" not in stats, stats
+    assert "the pelvis stays: turning the pelvis would bring the lower body against 'Bar'" \
+        in stats["spine_note"], stats
+    assert stats["spine_turn_deg"] > 0.4 * 30.0, stats
