@@ -130,6 +130,7 @@ def scene_demo(out_dir, render: bool = True, out=None) -> int:
             print(f"{'':15s} rendered {name}.png", file=out, flush=True)
         scene_.keep_display(scene, name)
         scene_.key_pose(armature, rest, end + GAP)
+        scene_.rest_body(armature, standing, frame, end, end + GAP)
         frame = end + GAP + 1
     # the whole body: Lean on, a cup on the floor beside her (not in the paper's Table 2),
     # as high over it as her hand's and forearm's capsules let a wrist come

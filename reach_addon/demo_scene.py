@@ -213,6 +213,19 @@ def key_pose(armature, rest, frame):
         pb.keyframe_insert("location", frame=frame)
 
 
+def rest_body(armature, standing, first: int, last: int, at: int) -> None:
+    """Key the bones Reach keyed as the body's on frames ``first``..``last`` (the spine's
+    and the pelvis's share of the chest's turn, the legs under a turned pelvis) back to
+    ``standing`` on frame ``at``, recorded as Reach's own keys there (the demo's, not a
+    user's: the next task may move them again)."""
+    from .blender import own_keys
+
+    body = _keyed_bones(armature, first, last)
+    if body:
+        key_pose(armature, {n: standing[n] for n in body}, at)
+        own_keys.record(armature.animation_data.action, body, last + 1, at)
+
+
 def _keyed_bones(armature, first: int, last: int) -> list:
     """The bones Reach keyed on frames ``first``..``last`` (:mod:`.blender.own_keys`)."""
     from .blender import own_keys
