@@ -125,13 +125,7 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up, forward,
     def turned(p):
         return p if turn is None else turn[1] @ (p - turn[0]) + turn[0]
 
-    def straight(h, k, a):
-        if not as_it_stands:
-            return STRAIGHT_SHARE
-        return max(STRAIGHT_SHARE, min(1.0, float(np.linalg.norm(a - h)) / float(
-            np.linalg.norm(k - h) + np.linalg.norm(a - k))))
-
-    shares = [straight(h, k, a) for h, k, a, _m in before]
+    shares = [_straight(h, k, a, as_it_stands) for h, k, a, _m in before]
     drop = max(hips_drop(turned(h) + shift, a, float(np.linalg.norm(k - h)),
                          float(np.linalg.norm(a - off - k)), up, s)
                for (h, k, a, _m), off, s in zip(before, offsets, shares))
@@ -157,6 +151,31 @@ def pose_shift(context, armature, legs, hips: str, shift_world, up, forward,
     for leg_carried, off in zip(carried, offsets):
         _carry(context, armature, leg_carried, a_inv @ off)
     return float(drop)
+
+
+def _straight(h, k, a, as_it_stands: bool) -> float:
+    """The share of its length a leg (hip ``h``, knee ``k``, ankle ``a``) is solved up to:
+    :data:`~..core.hips.STRAIGHT_SHARE`, or, ``as_it_stands``, as straight as it stands
+    where that is straighter."""
+    if not as_it_stands:
+        return STRAIGHT_SHARE
+    return max(STRAIGHT_SHARE, min(1.0, float(np.linalg.norm(a - h)) / float(
+        np.linalg.norm(k - h) + np.linalg.norm(a - k))))
+
+
+def turn_drop(armature, legs, pivot, rotation, up) -> float:
+    """How far (world) :func:`pose_shift` with no shift, ``turn=(pivot, rotation)`` and
+    ``as_it_stands`` brings the hips down, read from the legs as they stand without posing
+    anything: a hip joint turned away from over its ankle asks a straight leg for more
+    length than it has."""
+    point = balance.point_of
+    out = 0.0
+    for leg in legs:
+        end = _shank_end(armature, leg)
+        h, k, a = point(armature, leg.hip), point(armature, leg.knee), point(armature, end[1])
+        out = max(out, hips_drop(rotation @ (h - pivot) + pivot, a, float(np.linalg.norm(k - h)),
+                                 float(np.linalg.norm(a - k)), up, _straight(h, k, a, True)))
+    return out
 
 
 def foot_bones(armature, leg, up) -> list:

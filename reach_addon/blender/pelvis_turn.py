@@ -87,14 +87,27 @@ def excess(thetas, limit: float) -> np.ndarray:
     return np.sign(thetas) * np.maximum(0.0, np.abs(thetas) - limit)
 
 
+#: How far (arm lengths) the pelvis's turn may bring the hips down: a leg standing straight
+#: asks for more length as its hip joint turns away from over the ankle, and the hips come
+#: down by about the square of that move over twice the leg. The chest's head, and the arm
+#: with it, comes down as much, which the planner did not see: the turn is held to where it
+#: stays within this (a far reach that turned the Male Base Mesh's chest 60° brought its
+#: wrist 0.006 arm lengths off the target at 27° of pelvis).
+DROP = 5e-4
+
+
 def pose_frames(context, armature, pelvis: Pelvis, chest: str, angles, sign: float) -> tuple:
-    """The channel matrices {bone: (F, 4, 4)} of the hips bone and the legs' bones with the
-    pelvis turned by each of ``angles`` (radians; ``sign`` orients them as the chest's turn
-    about :func:`turn_axis`) and the feet planted, the pose put back after; or (None, why)
-    where a foot would slide."""
+    """(the channel matrices {bone: (F, 4, 4)} of the hips bone and the legs' bones with
+    the pelvis turned by each of ``angles`` (radians; ``sign`` orients them as the chest's
+    turn about :func:`turn_axis`) and the feet planted, the pose put back after; the turns
+    taken, held to where the hips come down at most :data:`DROP` (:func:`.hips.
+    turn_drop`)), or (None, why) where a foot would slide."""
     pose = armature.pose.bones
     pivot, axis = turn_axis(armature, pelvis, chest)
     up, forward = pelvis.ground, pelvis.forward
+    angles = np.asarray(angles, dtype=float)
+    cap = _cap(armature, pelvis, pivot, axis, sign, float(np.abs(angles).max(initial=0.0)))
+    angles = np.clip(angles, -cap, cap)
     legs = list(pelvis.legs)
     names = [pelvis.bone] + hips_mod.leg_bones(armature, legs)
     ankles0 = np.array([balance.point_of(armature, leg.ankle) for leg in legs])
@@ -112,8 +125,26 @@ def pose_frames(context, armature, pelvis: Pelvis, chest: str, angles, sign: flo
             slid = max(slid, float(np.linalg.norm(ankles - ankles0, axis=1).max()))
     if slid > FEET_SLIDE * pelvis.arm_length:
         return None, (f"turning the pelvis would slide a foot "
-                      f"{slid / pelvis.arm_length:.3f} arm lengths")
-    return {n: np.array(v) for n, v in out.items()}, None
+                      f"{slid / pelvis.arm_length:.3f} arm lengths"), angles
+    return {n: np.array(v) for n, v in out.items()}, None, angles
+
+
+def _cap(armature, pelvis: Pelvis, pivot, axis, sign: float, most: float) -> float:
+    """The largest turn (radians, up to ``most``) whose drop of the hips stays within
+    :data:`DROP` (bisection: the drop grows with the turn)."""
+    limit = DROP * pelvis.arm_length
+
+    def drop(angle):
+        turn = axis_rotation(axis, math.degrees(sign * angle))
+        return hips_mod.turn_drop(armature, list(pelvis.legs), pivot, turn, pelvis.ground)
+
+    if most <= 0.0 or drop(most) <= limit:
+        return most
+    lo, hi = 0.0, most
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if drop(mid) <= limit else (lo, mid)
+    return lo
 
 
 def below_chest_hit(context, armature, chest: str, lowest: str, bases: dict, legs,

@@ -225,9 +225,11 @@ def _pelvis(context, armature, share: SpineShare, chest: str, rots) -> tuple:
     mw = np.array(armature.matrix_world)
     up = mw[:3, :3] @ np.array(armature.pose.bones[chest].matrix)[:3, :3] @ axis_c   # world
     sign = 1.0 if pelvis_turn.turn_axis(armature, share.pelvis, chest)[1] @ up >= 0.0 else -1.0
-    posed, why = pelvis_turn.pose_frames(context, armature, share.pelvis, chest, phi, sign)
+    posed, why, phi = pelvis_turn.pose_frames(context, armature, share.pelvis, chest, phi, sign)
     if posed is None:
         return None, {}, why
+    if np.abs(phi).max(initial=0.0) < 1e-9:
+        return None, {}, "a leg standing straight would bring the hips down"
     before = np.array(armature.pose.bones[share.pelvis.bone].matrix_basis)
     lower = (phi, before, posed.pop(share.pelvis.bone))
     return lower, posed, None

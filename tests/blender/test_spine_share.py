@@ -173,8 +173,9 @@ def test_a_lean_keeps_the_spine_below_the_chest_as_one_piece(addon, rig_file):  
 
 #: How far the chest and the hand may be at a key from where the chest alone put them, with
 #: the pelvis turning (arm lengths): a leg standing straight needs the hips to come down by
-#: the square of the hip joint's move over twice the leg (0.5 mm on the Male Base Mesh).
-PELVIS_DROP = 2e-3
+#: the square of the hip joint's move over twice the leg, which the turn is held within
+#: (pelvis_turn.DROP, 5e-4).
+PELVIS_DROP = 6e-4
 
 
 def behind(addon, armature, info, **settings):
@@ -231,10 +232,12 @@ def test_past_the_trunks_range_the_pelvis_turns_over_planted_feet(addon, rig_fil
     worst = max(max(d) for d in diffs)
     assert worst < PELVIS_DROP, (kind, worst)
     turn, axis = angle_axis(rotation(after[-1][pelvis]) @ rotation(after[0][pelvis]).T)
-    assert turn == pytest.approx(total - 33.0, abs=0.5), (kind, turn, total)
+    # all past 33°, or less where a straight leg would bring the hips down farther than
+    # pelvis_turn.DROP (the Male Base Mesh)
+    assert 0.5 * (total - 33.0) < turn < total - 33.0 + 0.5, (kind, turn, total)
     assert abs(axis @ up) > 0.99, (kind, axis)
     assert stats["spine_pelvis_deg"] == pytest.approx(turn, abs=0.5)
-    assert stats["spine_turn_deg"] == pytest.approx(0.4 * 33.0, abs=0.5)
+    assert stats["spine_turn_deg"] == pytest.approx(0.4 * (total - turn), abs=0.5)
     # the feet planted: every bone whose head stood below the knees (a tenth of an arm
     # below the lower knee: the knees themselves move as the hips turn over them), at
     # every frame
@@ -248,7 +251,7 @@ def test_past_the_trunks_range_the_pelvis_turns_over_planted_feet(addon, rig_fil
         now = heads(armature)
         slid = max(slid, max(np.linalg.norm(now[n] - start[n]) for n in low) / length)
     assert slid < 0.002, (kind, slid)
-    print(f"  chest and hand within {worst:.1e} arm lengths, feet {slid:.1e}")
+    print(f"  chest and hand within {worst:.1e} arm lengths, feet {slid:.1e}, pelvis {turn:.1f}°")
 
 
 def test_a_bar_before_the_thighs_keeps_the_pelvis_still(addon, rig_file):  # noqa: F811
