@@ -146,15 +146,23 @@ def bake(context, armature, info, plans, new_action=False, then=None,
     if then is not None:
         then(result)
     if spine is not None and "chest" in keyed:
-        # the pelvis's turn keeps the lower body clear of the obstacles where they hold still
-        checkers = {id(c): c for k in plans for c in k.checkers}
-        result.spine, more = spine.key(context, armature, keyed["chest"], first, last,
-                                       next(iter(checkers.values())) if len(checkers) == 1
-                                       else None)
-        result.bones = list(dict.fromkeys(p.split('"')[1] for p, _i in more)) + result.bones
-        curves += more
+        curves += _spread(context, armature, spine, keyed["chest"], plans, result, first, last)
     if all(k.checkers for k in plans):
         curves = [channels.bag.fcurves.find(path, index=i) for path, i in dict.fromkeys(curves)]
         result.linear_spans, result.close_spans = straighten(
             context, armature, info, plans, curves, reference)
     return result
+
+
+def _spread(context, armature, spine, chest: str, plans, result: BakeResult, first: int,
+            last: int) -> list:
+    """Key ``spine`` (:class:`.spine_share.SpineShare`) on frames ``first``..``last``, its skin
+    held clear of the obstacles of ``plans`` where one checker holds them all (they do not
+    move); its figures into ``result.spine`` and its bones before the others. Returns the
+    rotation channels it keyed, as (data path, index) pairs."""
+    checkers = {id(c): c for k in plans for c in k.checkers}
+    result.spine, more = spine.key(context, armature, chest, first, last,
+                                   next(iter(checkers.values())) if len(checkers) == 1
+                                   else None)
+    result.bones = list(dict.fromkeys(p.split('"')[1] for p, _i in more)) + result.bones
+    return more
