@@ -215,13 +215,21 @@ def lower_body_hit(armature, legs, world, checker, up):
     world = np.array(world)
     up = np.asarray(up, dtype=float)
     ankles = max(float(balance.point_of(armature, leg.ankle) @ up) for leg in legs)
-    feet = world[0] @ up <= ankles
+    hit = feet_apart_hit(world, world[0] @ up <= ankles, checker, "lower body")
+    return None if hit is None else (hit[0], hit[1][1])
+
+
+def feet_apart_hit(world, feet, checker, body: str):
+    """(part, (instant, obstacle)) where the skin ``world`` (instants, points, 3) comes
+    within ``checker``'s clearance of an obstacle (:func:`~..core.lean.skin_hit`), the
+    points ``feet`` (a mask) held to :data:`FEET_CLEARANCE` of it, the others (the
+    ``body``) to all of it; else None."""
     feet_checker = SimpleNamespace(obstacles=checker.obstacles,
                                    margin=FEET_CLEARANCE * checker.margin)
-    for part, held, check in (("lower body", ~feet, checker), ("feet", feet, feet_checker)):
+    for part, held, check in ((body, ~feet, checker), ("feet", feet, feet_checker)):
         hit = skin_hit(world[:, held], check) if held.any() else None
         if hit is not None:
-            return part, hit[1]
+            return part, hit
     return None
 
 

@@ -31,7 +31,6 @@ from __future__ import annotations
 import dataclasses
 from contextlib import contextmanager
 from dataclasses import dataclass
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -39,7 +38,6 @@ from ..core import Planner
 from ..core import balance as core_balance
 from ..core.hand_shape import with_shape
 from ..core.hips import LegOverstretchedError
-from ..core.lean import skin_hit
 from ..core.step import Step, StepMotion, plan_step, step_motion
 from ..core.whole_body import wants_step
 from . import balance, own_keys, skin
@@ -47,7 +45,7 @@ from . import hips as hips_mod
 from .bake import KeyedPlan
 from .fcurves import Channels, ensure_action
 from .lean import lean_bone
-from .lean_balance import FEET_CLEARANCE, FEET_SLIDE
+from .lean_balance import FEET_SLIDE, feet_apart_hit
 from .own_keys import users_keys
 from .rig_detect import constrained
 
@@ -352,14 +350,11 @@ def _walk(context, armature, info, legs, hips, motion, names, checker, held):
         return None, least, f"the {hit[1]} would touch '{hit[2]}' on the step's frame {hit[0]}"
     world = np.array(world)
     if world.shape[1] and checker is not None:
-        feet = world[0] @ up <= ankle0
-        feet_checker = SimpleNamespace(obstacles=checker.obstacles,
-                                       margin=FEET_CLEARANCE * checker.margin)
-        for part, held, check in (("body", ~feet, checker), ("feet", feet, feet_checker)):
-            hit = skin_hit(world[:, held], check) if held.any() else None
-            if hit is not None:
-                return None, least, (f"the {part} would touch '{hit[1]}' on the step's "
-                                     f"frame {hit[0]}")
+        found = feet_apart_hit(world, world[0] @ up <= ankle0, checker, "body")
+        if found is not None:
+            part, hit = found
+            return None, least, (f"the {part} would touch '{hit[1]}' on the step's "
+                                 f"frame {hit[0]}")
     return {n: np.array(v) for n, v in bases.items()}, least, None
 
 
