@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from ..core import Plan, ReachError, Stats
 from ..core.live import DEFAULT_BUDGET_S, LiveSession, LiveStatus
@@ -348,6 +349,8 @@ def _apply(st: LiveState, armature) -> None:
     locals_ = bone_matrices.local_matrices(armature, st.keyed, targets_arm, st.start_pose)
     if before is not None:
         before["posed"].update(locals_)
+    for name in st.spine.bones:       # as at the start, which the keys are solved against
+        pose[name].matrix_basis = Matrix(st.spine_start[name].tolist())
     settle(bpy.context, armature, st.keyed, st.reference, targets_arm, locals_, st.start_pose)
     chest = st.keyed.get("chest")
     if st.spine.bones and chest in locals_:       # the chest's turn spread down the spine
@@ -380,13 +383,17 @@ def key_pose(context=None) -> bake_mod.BakeResult:
     _apply(st, armature)
     context.view_layer.update()
     frame = scene.frame_current
+    names = [*st.spine.bones, st.info.bones.keyed_chest]
+    # as Live shows them: the bake's keys are evaluated over the pose (a rig with NLA tracks
+    # has its action assigned again when a curve is made, and is evaluated at once)
+    shown = {n: armature.pose.bones[n].matrix_basis.copy() for n in names}
     plan = Plan(None, st.info.arm, st.session.settings, [pose], [], Stats())
     result = bake_mod.bake(context, armature, st.info, [bake_mod.KeyedPlan(plan, frame)],
                            new_action=False)
     start = st.info.start.body_rotation
     if abs(pose.config.body_rotation - start) > 1e-9:
-        names = [*st.spine.bones, st.info.bones.keyed_chest]
         for name in names:
+            armature.pose.bones[name].matrix_basis = shown[name]
             _key_as_posed(armature, name, frame)
         result.bones = names + [b for b in result.bones if b not in names]
     if st.neck is not None:                  # the head, turned toward the target

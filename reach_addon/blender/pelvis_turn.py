@@ -5,8 +5,8 @@ Table 1 turns the chest up to 60° against the feet (``chest_rotation_max``); a 
 on its pelvis about 33° (standing people turning to reach: trunk 32.6°, pelvis 63.8°,
 Montgomery et al. 2011). Where the chest's turn goes past *Trunk turn*, the pelvis takes
 the rest: the hips bone (the lowest bone that carries both legs and the chest) turns about
-the line from its head to the chest's head, so the chest's head stays where the planner
-has it, and each leg is solved again with its foot planted (:func:`.hips.pose_shift`: the
+the vertical through the chest's head (:func:`turn_axis`), so the chest's head stays where
+the planner has it, and each leg is solved again with its foot planted (:func:`.hips.pose_shift`: the
 thigh and shank turned so the knee meets them, bent as it was, the foot given back its
 place and tilt; the hips come down where a straight leg would otherwise have to stretch,
 by a fraction of a millimetre). The spine and the chest share what is left
@@ -99,9 +99,10 @@ DROP = 5e-4
 def pose_frames(context, armature, pelvis: Pelvis, chest: str, angles, sign: float) -> tuple:
     """(the channel matrices {bone: (F, 4, 4)} of the hips bone and the legs' bones with
     the pelvis turned by each of ``angles`` (radians; ``sign`` orients them as the chest's
-    turn about :func:`turn_axis`) and the feet planted, the pose put back after; the turns
-    taken, held to where the hips come down at most :data:`DROP` (:func:`.hips.
-    turn_drop`)), or (None, why) where a foot would slide."""
+    turn about :func:`turn_axis`) and the feet planted, the pose put back after, or None;
+    None, or why it is None (a foot would slide); the turns taken, held to where the hips
+    come down at most :data:`DROP` (:func:`.hips.turn_drop`)). Raises ValueError where a
+    leg cannot be solved."""
     pose = armature.pose.bones
     pivot, axis = turn_axis(armature, pelvis, chest)
     up, forward = pelvis.ground, pelvis.forward

@@ -22,17 +22,19 @@ chest control is left alone: its own torso controls spread the turn over the spi
 the first baked frame. The pelvis takes ``φ(f)``, what ``θ`` goes past *Trunk turn*. Each
 shared bone ``j`` turns by ``w_j (θ − φ)`` about the line from its head to the chest's head (so
 the chest's head stays where it is), ``w_j`` the share times the bone's length over the
-chain's; then the chest's channel is keyed again so that its pose in the armature is
-exactly the one the plan keyed (:func:`chest_bases`): the arm, the other arm and the head
-ride on it as planned, and only the trunk below the chest bends its twist over more
-joints. What the lean, the hips and the step key below the chain cancels out of that
+chain's; then the chest's channel is keyed again so that its turn in the armature is
+exactly the one the plan keyed (:func:`chest_bases`), its head where it was but for the
+fraction of a millimetre a straight leg brings the hips down (:data:`.pelvis_turn.DROP`):
+the arm, the other arm and the head ride on it as planned, and only the trunk below the
+chest bends its twist over more joints. What carries the chain cancels out of that
 (:func:`chest_bases` never reads it).
 
 **Checked** (:func:`_shared`): the skin below the chest, posed as keyed on every frame, keeps
 the clearance from the obstacles (:func:`.pelvis_turn.below_chest_hit`). Where it would not,
 the pelvis stays; where even the spine's share would not, the chest turns alone; the
-report says which (``spine_note``). Among obstacles that move (a chase, a sweep: no one
-checker for the whole motion) the chest turns alone. This runs inside
+report says which (``spine_note``). Where no one checker holds the obstacles of the whole
+motion (a chase among obstacles that move, planned frame by frame) the chest turns alone.
+This runs inside
 :func:`.bake.bake`, before the instants between keys are checked, so those checks see it.
 """
 
@@ -84,6 +86,10 @@ def share_of(armature, info, settings, legs, with_pelvis: bool = True) -> SpineS
         return SpineShare(note="the rig's own torso controls spread the chest's turn")
     bones = armature.data.bones
     chest = bones[info.bones.keyed_chest]
+    if not _plain(armature, chest):
+        return SpineShare(note=f"the chest '{chest.name}' does not simply follow its parent "
+                          "(a constraint, or it keeps its own rotation or scale), and turns "
+                          "alone")
     below = set()
     for leg in legs or ():
         if leg.hip[0] in bones:
@@ -91,8 +97,8 @@ def share_of(armature, info, settings, legs, with_pelvis: bool = True) -> SpineS
             below |= {hip.name} | {b.name for b in ancestors(hip)}
     chain, stop = [], None
     for b in ancestors(chest):
-        if (b.name in below or b.parent is None or constrained(armature.pose.bones[b.name])
-                or not b.use_inherit_rotation or own_keys.users_keys(armature, b.name)):
+        if (b.name in below or b.parent is None or not _plain(armature, b)
+                or own_keys.users_keys(armature, b.name)):
             stop = b
             break
         chain.append(b)
@@ -110,6 +116,13 @@ def share_of(armature, info, settings, legs, with_pelvis: bool = True) -> SpineS
     weights = share * lengths / lengths.sum()
     return SpineShare(tuple(b.name for b in chain), tuple(float(w) for w in weights), note,
                       pelvis)
+
+
+def _plain(armature, bone) -> bool:
+    """Whether ``bone`` follows its parent as plain parenting does (no constraint that acts,
+    its parent's rotation and scale inherited): what :func:`chest_bases` solves for."""
+    return (not constrained(armature.pose.bones[bone.name]) and bone.use_inherit_rotation
+            and getattr(bone, "inherit_scale", "FULL") == "FULL")
 
 
 def _rotation(pb, values) -> np.ndarray:
@@ -225,7 +238,11 @@ def _pelvis(context, armature, share: SpineShare, chest: str, rots) -> tuple:
     mw = np.array(armature.matrix_world)
     up = mw[:3, :3] @ np.array(armature.pose.bones[chest].matrix)[:3, :3] @ axis_c   # world
     sign = 1.0 if pelvis_turn.turn_axis(armature, share.pelvis, chest)[1] @ up >= 0.0 else -1.0
-    posed, why, phi = pelvis_turn.pose_frames(context, armature, share.pelvis, chest, phi, sign)
+    try:
+        posed, why, phi = pelvis_turn.pose_frames(context, armature, share.pelvis, chest, phi,
+                                                  sign)
+    except ValueError as exc:        # a leg that cannot be solved (LegOverstretchedError too)
+        return None, {}, f"its legs cannot follow ({exc})"
     if posed is None:
         return None, {}, why
     if np.abs(phi).max(initial=0.0) < 1e-9:
@@ -244,11 +261,11 @@ def _shared(context, armature, share: SpineShare, chest: str, rots, chest_basis,
     nothing shared where even the spine's share touches or ``checker`` is None (obstacles
     that move)."""
     pose = armature.pose.bones
-    lower, legs, why = (None, {}, None) if share.pelvis is None else _pelvis(
-        context, armature, share, chest, rots)
     if checker is None:
         return turn_angles(rots)[0], chest_basis, {}, None, (
             "the chest turns alone: the obstacles move during the reach")
+    lower, legs, why = (None, {}, None) if share.pelvis is None else _pelvis(
+        context, armature, share, chest, rots)
     bases = np.array([np.array(pose[n].matrix_basis) for n in share.bones])
     while True:
         thetas, new_chest, moved = _solve(armature, share, chest, bases, rots, chest_basis,
@@ -314,7 +331,10 @@ def _key(context, armature, share: SpineShare, chest: str, first: int, last: int
                         location=share.pelvis is not None and name == share.pelvis.bone)
     p, v = channel_values(pc, new_chest)
     write_channel(channels, full, v, frames, chest)
-    own_keys.record(channels.action, list(keyed_bases), first, last)
+    # the chest's keys are solved against the bones below it: a bake again clears them
+    # with those (own_keys.clear_overlapping), not leaving them turned for a spine that is gone
+    own_keys.record(channels.action, list(keyed_bases) + ([chest] if keyed_bases else []),
+                    first, last)
     context.view_layer.update()
     if phi is not None:
         figures["spine_pelvis_bone"] = share.pelvis.bone
