@@ -158,12 +158,13 @@ def _spread(context, armature, spine, chest: str, plans, result: BakeResult, fir
             last: int) -> list:
     """Key ``spine`` (:class:`.spine_share.SpineShare`) on frames ``first``..``last``, its skin
     held clear of the obstacles of ``plans`` where one checker holds them all (they do not
-    move); its figures into ``result.spine`` and its bones after the others. Returns the
+    move); its figures into ``result.spine`` and its bones before the others. Returns the
     rotation channels it keyed, as (data path, index) pairs."""
     checkers = {id(c): c for k in plans for c in k.checkers}
     result.spine, more = spine.key(context, armature, chest, first, last,
                                    next(iter(checkers.values())) if len(checkers) == 1
                                    else None)
-    result.bones = result.bones + [b for b in dict.fromkeys(p.split('"')[1] for p, _i in more)
-                                   if b not in result.bones]
+    # hierarchy order, the hand last (readers take the last keyed bone for the hand)
+    result.bones = [b for b in dict.fromkeys(p.split('"')[1] for p, _i in more)
+                    if b not in result.bones] + result.bones
     return more
