@@ -229,6 +229,11 @@ def test_without_lean_the_same_target_is_refused_with_a_hint(addon, rig_file):  
 #: The issue's lean: a target this far ahead of the shoulder (arm lengths), :data:`BELOW`
 #: under it.
 FAR = 1.3
+#: The rigs that reach :data:`FAR` upright, the chest turned (about 60° on the Male Base
+#: Mesh) instead of leaning: the arm and chest are planned first and a lean only where they
+#: fail, and issue 41's costing of a stage's trunk effort, by which a lean would win over
+#: such a twist, is not built. Held here so that the day it is, the test says so.
+UPRIGHT_FAR = ("alien", "malebase")
 
 
 @pytest.mark.parametrize("kind", KINDS + ("rigify",))
@@ -268,6 +273,8 @@ def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_fil
           f"feet {worst / length:.6f}")
     assert worst / length < 0.02, f"{kind}: a foot moved {worst / length:.4f} arm lengths"
     assert result.stats["com_margin_min"] >= min(0.0, result.stats["com_margin_start"]) - 1e-4
+    leaned = (result.stats.get("lean_deg") or 0.0) > 0.0
+    assert leaned == (kind not in UPRIGHT_FAR), (kind, result.message)
 
 
 def test_hips_with_keys_of_their_own_stay_where_the_user_keyed_them(addon, rig_file):  # noqa: F811
