@@ -68,7 +68,8 @@ class SpineShare:
             checker=None) -> tuple:
         """Key the share on frames ``first``..``last`` (see the module docstring), the
         ``chest``'s keys made to hold its planned pose; ``checker``: the obstacles the
-        pelvis's turn keeps the lower body clear of. Returns (report figures, the keyed
+        skin below the chest is kept clear of (None: they move, and nothing is shared).
+        Returns (report figures, the keyed
         channels as (data path, index) pairs)."""
         if not self.bones and self.pelvis is None:
             return ({"spine_note": self.note} if self.note else {}), []
@@ -367,7 +368,7 @@ def for_rig(armature, info, settings, leaning: bool, with_pelvis: bool = True) -
     if leaning and settings.spine_share > 0.0:
         return SpineShare(note="the body leans or steps: its checks hold the trunk below "
                           "the chest as one piece, and the chest turns alone")
-    if settings.spine_share <= 0.0 and not with_pelvis:
+    if settings.spine_share <= 0.0:        # nothing shared, the pelvis neither
         return SpineShare()
     return share_of(armature, info, settings, balance.find_legs(armature, info.bones,
                                                                 info.frame), with_pelvis)
