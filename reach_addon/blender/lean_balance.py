@@ -194,12 +194,12 @@ class BalanceCheck:
         bases = lean_basis(self.armature, self.bone, world_rotations(self.info, lean, fractions))
         names = hips_mod.lower_bones(self.armature, self.hips, self.bone)
         moved = [self.bone, self.hips] + hips_mod.leg_bones(self.armature, self.legs)
-        world = []
+        world, chosen = [], {}
         for basis, fraction in zip(bases, fractions):
             with hips_mod.Posed(self.context, self.armature, moved):
                 pose_leaned(self.context, self.armature, self.info, self.bone, basis,
                             self.legs, self.hips, shift_world(self.info, lean, fraction))
-                world.append(skin.skin_points(self.armature, names, 0.5, True))
+                world.append(skin.skin_points(self.armature, names, 0.5, True, chosen))
         return lower_body_hit(self.armature, self.legs, world, self.checker,
                               self.info.frame.ground)
 

@@ -161,13 +161,13 @@ def below_chest_hit(context, armature, chest: str, lowest: str, bases: dict, leg
         {chest} | {b.name for b in bones[chest].children_recursive})
     pose = armature.pose.bones
     count = len(next(iter(bases.values())))
-    world = []
+    world, chosen = [], {}
     with hips_mod.Posed(context, armature, list(bases)):
         for f in range(count):
             for n, mats in bases.items():
                 pose[n].matrix_basis = Matrix(mats[f].tolist())
             context.view_layer.update()
-            world.append(skin.skin_points(armature, names, 0.5, True))
+            world.append(skin.skin_points(armature, names, 0.5, True, chosen))
     if legs:
         return lower_body_hit(armature, list(legs), world, checker, ground)
     hit = skin_hit(np.array(world), checker) if len(world[0]) else None

@@ -68,11 +68,13 @@ def _chosen(ob, armature, bone_names, weight: float, share: bool) -> np.ndarray:
     return out
 
 
-def _skin_meshes(armature, bone_names, weight: float, share: bool):
+def _skin_meshes(armature, bone_names, weight: float, share: bool, chosen=None):
     """(evaluated mesh, its world vertices (V, 3), which of them ``bone_names`` move (a
     boolean mask; all of a rigid part's)) of each mesh that moves with those bones
     (:func:`skin_points`' choice), as Blender evaluates it now. A mesh whose evaluated
-    vertices do not match its own (a modifier that adds geometry) is left out."""
+    vertices do not match its own (a modifier that adds geometry) is left out. ``chosen``:
+    a dict (object name → mask) that keeps the masks for the next call with the same bones,
+    where the skin is read frame after frame (the choice walks every vertex's weights)."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
     for ob in scene_objects(armature):
         rigid = rigid_part(ob, armature)
@@ -84,8 +86,12 @@ def _skin_meshes(armature, bone_names, weight: float, share: bool):
         mesh = ev.data
         if len(mesh.vertices) != len(ob.data.vertices) or not len(mesh.vertices):
             continue
-        mine = np.ones(len(mesh.vertices), dtype=bool) if rigid is not None else \
-            _chosen(ob, armature, bone_names, weight, share)
+        mine = None if chosen is None else chosen.get(ob.name)
+        if mine is None:
+            mine = np.ones(len(mesh.vertices), dtype=bool) if rigid is not None else \
+                _chosen(ob, armature, bone_names, weight, share)
+            if chosen is not None:
+                chosen[ob.name] = mine
         if not mine.any():
             continue
         co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
@@ -94,13 +100,15 @@ def _skin_meshes(armature, bone_names, weight: float, share: bool):
         yield mesh, co.reshape(-1, 3).astype(float) @ mw[:3, :3].T + mw[:3, 3], mine
 
 
-def skin_points(armature, bone_names, weight: float = 0.5, share: bool = False) -> np.ndarray:
+def skin_points(armature, bone_names, weight: float = 0.5, share: bool = False,
+                chosen=None) -> np.ndarray:
     """World positions (n, 3) of the skin that ``bone_names`` move, as Blender evaluates it
     now: the vertices weighted at least ``weight`` to their vertex groups (``share``: by the
     share of their weights, :func:`_chosen`) in the meshes the armature deforms, and every
     vertex of the rigid parts parented to them. Empty (0, 3) where these bones move no
-    skin."""
-    out = [co[mine] for _mesh, co, mine in _skin_meshes(armature, bone_names, weight, share)]
+    skin. ``chosen``: see :func:`_skin_meshes` (pass the same dict on every frame)."""
+    out = [co[mine] for _mesh, co, mine in _skin_meshes(armature, bone_names, weight, share,
+                                                        chosen)]
     return np.concatenate(out) if out else np.zeros((0, 3))
 
 

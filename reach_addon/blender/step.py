@@ -324,6 +324,7 @@ def _walk(context, armature, info, legs, hips, motion, names, checker, held):
     hands = balance.hands_now(armature, info.bones)
     soles = balance.Soles(armature, legs, up)
     ankle0 = min(float(balance.point_of(armature, leg.ankle) @ up) for leg in legs)
+    chosen = {}                      # the skin's vertices, chosen once for every frame
     for f in range(len(motion.hips)):
         with hips_mod.Posed(context, armature, names):
             pose_step(context, armature, info, legs, hips, motion, f)
@@ -334,7 +335,7 @@ def _walk(context, armature, info, legs, hips, motion, names, checker, held):
                                                                     legs, hands))
             polygon = soles.polygon(planted)
             margin = core_balance.balance_margin(com, polygon, up)
-            world.append(skin.skin_points(armature, everything, 0.5, True))
+            world.append(skin.skin_points(armature, everything, 0.5, True, chosen))
             carried.append(balance.point_of(armature, (hips, "head")))
         least = min(least, margin)
         # not below 0, nor below the rig's own as it stands (posed by the step's IK: a
