@@ -90,6 +90,9 @@ class RigLean:
     #: the ready reach before the lean (:attr:`~..core.whole_body.LeanPhase.ready`) as the
     #: bake keys it: on the leaned trunk, checked on the upright one; None without one
     ready: KeyedPlan | None = None
+    #: where the lean was taken instead of an upright reach that turned the chest past
+    #: Table 1's (:func:`~..core.effort.twist_for_reach`), that twist (degrees), else None
+    spared_twist: float | None = None
 
     @property
     def lean_first(self) -> int:
@@ -102,7 +105,7 @@ class RigLean:
         return self.lean_first + self.phase.frames
 
 
-def plan(context, armature, info, planner, keyed):
+def plan(context, armature, info, planner, keyed, aim: int | None = None):
     """Try a lean where ``keyed`` (the :class:`.bake.KeyedPlan` of a single reach, a
     sequence or a guided reach) was refused as ``needs_lean`` (or as ``out_of_reach`` below
     the arm, for a squat) and ``Settings.lean`` is on, toward the target
@@ -110,7 +113,10 @@ def plan(context, armature, info, planner, keyed):
     lean_then_reach`), among ``planner``'s obstacles and
     settings, each lean held to the balance (:class:`.lean_balance.BalanceCheck`). Returns
     (:class:`RigLean`, the reach's KeyedPlan on the leaned trunk); or (None, ``keyed``)
-    with its message saying why no lean was planned."""
+    with its message saying why no lean was planned. ``aim``: where ``keyed`` reached its
+    target with the chest turned past Table 1's (:func:`~..core.effort.twist_for_reach`),
+    the index of the target to lean toward instead; ``keyed`` is then returned as it is
+    where no lean is planned."""
     made = []
 
     def make_planner(arm, settings=None):
@@ -118,7 +124,7 @@ def plan(context, armature, info, planner, keyed):
         return made[-1]
 
     failed, task = keyed.plan, keyed.plan.task
-    aim = body_target(planner.settings, task, failed, info.arm)
+    aim = body_target(planner.settings, task, failed, info.arm) if aim is None else aim
     if aim is None:
         held_back, helped = body_held_back(planner.settings, task, failed, info.arm)
         for seg in helped:
@@ -144,7 +150,7 @@ def plan(context, armature, info, planner, keyed):
             context, armature, info, legs, bone, check.hips, planner.settings, check)
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
                                               trunk_skin(armature, info, bone), body,
-                                              split=bone != info.bones.keyed_chest)
+                                              split=bone != info.bones.keyed_chest, aim=aim)
         if phase is not None:
             bases = lean_basis(armature, bone, world_rotations(info, phase.lean, phase.fractions))
             first = keyed.first_frame
@@ -164,6 +170,8 @@ def plan(context, armature, info, planner, keyed):
         why = reach_or_why
         if keyed_own and planner.settings.lean_hips_back:
             why += f" (the hips stay: bone '{keyed_own}' has keys of its own)"
+    if failed.success:
+        return None, keyed
     for seg in failed.segments:
         if seg.reason == failed.reason:
             seg.message += f"; with Lean on: {why}"
@@ -422,7 +430,8 @@ def report(results, lean: RigLean | None, length: float) -> None:
     ``lean_hips_down`` (arm lengths), ``lean_com_margin`` (arm lengths: the least
     :class:`.lean_balance.BalanceCheck` weighed for the lean taken, over the reach's poses)
     and, where the hips move, ``lean_knee_deg``, ``lean_ankle_deg`` and ``lean_thigh_deg``
-    (the worst leg's flexion, dorsiflexion and thigh flexion at the full lean); its message
+    (the worst leg's flexion, dorsiflexion and thigh flexion at the full lean), and
+    ``lean_spared_twist_deg`` where the lean was taken instead of a twist; its message
     says so, and its frames start with the lean's. In a sequence the lean comes before the
     first target refused upright (:func:`~..core.whole_body.upright_part`; the targets
     before it, reached upright, are left as they are): the later targets' frames are their
@@ -465,3 +474,7 @@ def report(results, lean: RigLean | None, length: float) -> None:
                 f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")
         if raised and k == 0:
             r.message += ", the arm raised toward it before the lean"
+        if lean.spared_twist is not None and k == 0:
+            r.stats.update(lean_spared_twist_deg=round(lean.spared_twist, 1))
+            r.message += (f" (instead of turning the chest {lean.spared_twist:.0f}° past "
+                          "Table 1's, which costs the trunk more)")

@@ -142,6 +142,13 @@ class Settings:
         "lengths): people reaching by a lean extend the arm nearly straight (the functional "
         "reach test); 0.98 leaves the elbow bent about 23° on equal arm segments", "body",
         0.5, 1.0)
+    twist_weight: float = _f(
+        1.0, "Twist effort", "Weight of the chest's turn past Table 1's against a lean in "
+        "the trunk's effort (normalized joint displacement, Yang, Marler et al. 2004): "
+        "where the chest was turned past Table 1's to bring a target beyond the arm "
+        "within reach, the trunk leans instead wherever that costs less. 0: a twist costs "
+        "nothing, and the trunk leans only where no turn of the chest reaches", "body",
+        0.0, 10.0)
     lean_ready: float = _f(
         0.8, "Ready reach", "Where the arm, held as it stands, would touch or find no way "
         "as the trunk leans, it first reaches on the upright trunk this far (a share of "

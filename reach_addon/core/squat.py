@@ -57,6 +57,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .balance import balance_margin
+from .effort import joint_displacement
 from .hips import STRAIGHT_SHARE, body_frame, horizontal_toward, shifted_centre, two_bone_knee
 from .lean import Lean, lean_axis, least_lean
 from .torso import rotate_about_spine
@@ -130,9 +131,10 @@ def reach_of(leg: Leg, shift) -> bool:
 
 def effort(theta, knee, ankle, hip, settings) -> float:
     """The posture's effort: each joint's share of its range, squared, summed (see the
-    module docstring)."""
-    return (float(theta) / settings.bend_max) ** 2 + (float(knee) / settings.knee_max) ** 2 + \
-        (float(ankle) / settings.ankle_max) ** 2 + (float(hip) / settings.hip_max) ** 2
+    module docstring; :func:`~.effort.joint_displacement`)."""
+    return joint_displacement(theta, settings.bend_max) + \
+        joint_displacement(knee, settings.knee_max) + \
+        joint_displacement(ankle, settings.ankle_max) + joint_displacement(hip, settings.hip_max)
 
 
 @dataclass(frozen=True)

@@ -44,6 +44,7 @@ refuses as ``needs_lean``; and the body moves only among obstacles that hold sti
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +58,7 @@ from .lean import (Lean, TrunkSkin, capsules_hit, chest_turns, choose_lean, lean
 from .orient import hand_locals
 from .results import Plan
 from .squat import squat_leans
+from .effort import trunk_effort
 from .torso import body_rotation_deg, rotate_about_spine
 
 
@@ -120,7 +122,8 @@ class LeanPhase:
 
 
 def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None,
-                    trunk: TrunkSkin | None = None, body=None, split: bool = True):
+                    trunk: TrunkSkin | None = None, body=None, split: bool = True,
+                    aim: int | None = None):
     """Plan ``task`` (a reach, a sequence or a guided reach) with a lean toward the target
     :func:`body_target` picks, where ``failed`` (``planner``'s plan of it) was refused as
     ``needs_lean`` there: returns (:class:`LeanPhase`, the reach's plan on the
@@ -143,18 +146,20 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     arm's ready reach where it rose first, ``ready_reaches`` their count), else (or where
     that finds no lean) lean before the first. The Blender layer turns it off where the
     lean bone is the chest it keys: the upright reaches turn the chest, which the lean's
-    keys would overwrite.
+    keys would overwrite. ``aim``: the index of the target to lean toward instead of
+    :func:`body_target`'s, where ``failed`` reached every target (turning the chest past
+    Table 1's, which costs more than a lean: :func:`~.effort.twist_for_reach`).
 
     Recruitment, as the issue orders it: the chest turns as the paper's Table 1 has it at
     the target, and the lean takes the rest (:func:`~.lean.choose_lean`); where that lean
     is not acceptable or finds no way, the least lean with the chest turned as far as the
     planner may turn it (:func:`~.lean.chest_turns`: a smaller lean, a larger twist)."""
     s, arm = planner.settings, planner.arm
-    aim = body_target(s, task, failed, arm)
+    aim = body_target(s, task, failed, arm) if aim is None else aim
     if aim is None:
         return None, None
     target_c = arm.to_canonical_points(np.asarray(task.targets[aim], dtype=float))
-    first = next(i for i, seg in enumerate(failed.segments) if not seg.success)
+    first = next((i for i, seg in enumerate(failed.segments) if not seg.success), aim)
     base = float(task.start.body_rotation)
     later = ""
     if split and first > 0:
@@ -208,17 +213,16 @@ def _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable, tru
     s, arm = planner.settings, planner.arm
     table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
     turns = [(table1,), chest_turns(s)]
-    leans = [choose_lean(arm, target_c, pivot_c, s, t) for t in turns]
+    leans, turns_tried = _leans_to_try(arm, target_c, pivot_c, s, table1)
     whys = []
-    if leans[1] is None:
+    if not leans:
         whys.append(f"no lean up to {s.lean_max:.0f}° at the hips brings it within reach")
-        leans, turns_tried = [], []
-    elif leans[0] is None or leans[0].angle <= leans[1].angle + 0.5:
-        leans, turns_tried = leans[1:], turns[1:]
-    else:
-        turns_tried = turns
     shifting = body is not None and s.lean_hips_back
-    for lean, turn in zip(leans, turns_tried):
+    tipped, tries = math.inf, 0     # the least lean refused for the balance; leans tried
+    for k, (lean, turn) in enumerate(zip(leans, turns_tried)):
+        if k < len(leans) - 1 and (lean.angle >= tipped - 1e-9 or tries == LEAN_TRIES):
+            continue       # a lean as deep tips the body as far; the last is always tried
+        tries += 1
         why = acceptable(lean) if acceptable is not None else None
         if why is None:
             phase, why = _balanced_reach(planner, task, lean, make_planner, trunk, acceptable,
@@ -237,7 +241,10 @@ def _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable, tru
                     return phase, why
             if getattr(why, "cause", "") == BALANCE:
                 break              # a smaller shift leaves the body farther past its feet
-        whys.append(why)
+        if getattr(why, "cause", "") == BALANCE:
+            tipped = lean.angle
+        if why not in whys:
+            whys.append(why)
     if shifting and s.squat:
         phase, why = squat_then_reach(planner, task, target_c, pivot_c, turns, body,
                                       make_planner, trunk, acceptable, base)
@@ -245,6 +252,33 @@ def _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable, tru
             return phase, why
         whys.append(why)
     return None, "; ".join(whys)
+
+
+#: How many of :func:`_leans_to_try`'s leans :func:`_lean_toward` tries at most (a
+#: lean as deep as one refused for the balance is not tried, nor counted).
+LEAN_TRIES = 6
+
+
+def _leans_to_try(arm, target_c, pivot_c, s, table1: float) -> tuple:
+    """The leans :func:`_lean_toward` tries in turn, and the chest turn (a 1-tuple,
+    degrees) each was chosen with (:func:`~.hips.shifted_lean` keeps it where the lean
+    would tip the body): for Table 1's turn and each of :func:`~.lean.chest_turns`, the
+    least lean that brings ``target_c`` within reach (:func:`~.lean.choose_lean`), least
+    :func:`~.effort.trunk_effort` first (the turn past Table 1's, and the lean): Table 1's
+    lean leads where a twist would cost more than the lean it saves, as people lean before
+    they twist; a deeper lean then gives way to a smaller one with the chest turned farther
+    (Quaternius' alien, whose 16° lean for the far target tips it past its feet whatever
+    its hips do, reaches it with less lean and more twist). Last, the least lean of all,
+    its hips' shift sought with every turn (the smallest lean, the largest twist). Empty
+    where no lean reaches."""
+    turns = [table1] + [t for t in chest_turns(s) if abs(t - table1) > 1e-9]
+    found = [(abs(t - table1), lean, (t,)) for t in turns
+             if (lean := choose_lean(arm, target_c, pivot_c, s, (t,))) is not None]
+    if not found:
+        return [], []
+    found.sort(key=lambda f: (trunk_effort(f[0], f[1].angle, s), f[0]))
+    least = min(found, key=lambda f: f[1].angle)[1]
+    return [f[1] for f in found] + [least], [f[2] for f in found] + [tuple(turns[1:])]
 
 
 #: The tasks the body leans (and squats) for: a single reach, a sequence and a guided

@@ -229,18 +229,20 @@ def test_without_lean_the_same_target_is_refused_with_a_hint(addon, rig_file):  
 #: The issue's lean: a target this far ahead of the shoulder (arm lengths), :data:`BELOW`
 #: under it.
 FAR = 1.3
-#: The rigs that reach :data:`FAR` upright, the chest turned (about 60° on the Male Base
-#: Mesh) instead of leaning: the arm and chest are planned first and a lean only where they
-#: fail, and issue 41's costing of a stage's trunk effort, by which a lean would win over
-#: such a twist, is not built. Held here so that the day it is, the test says so.
-UPRIGHT_FAR = ("alien", "malebase")
+#: The rig whose :data:`FAR` lean moves its hips back the most plainly (0.15 arm lengths, a
+#: lean of 36°), where the tests of hips keyed by the user and of a wall behind them are
+#: run. Quaternius' moved them 0.14 back before a twist's trunk effort was weighed against
+#: the lean's (``core.effort``); it now leans 18° with them where they stand.
+HIPS_BACK_RIG = "knight"
 
 
 @pytest.mark.parametrize("kind", KINDS + ("rigify",))
 def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_file, kind,  # noqa: F811
                                                                   tmp_path):
     """Issue "Reach past the arm", *Lean*: a target :data:`FAR` arm lengths ahead is reached
-    by leaning, the hips moving back where the lean alone would tip the body; the wrist
+    by leaning on every rig (the Alien and the Male Base Mesh, which can reach it upright
+    with the chest turned 35° and 60° past Table 1's, lean instead: ``core.effort``), the
+    hips moving back where the lean alone would tip the body; the wrist
     (the hand bone's head as Blender evaluates it) ends on the target; the feet stay
     (every bone whose head starts in the lowest 15 % of the figure moves less than 2 % of
     an arm length at every frame) and the centre of mass stays over them (the report's
@@ -273,16 +275,18 @@ def test_a_target_far_ahead_is_reached_leaning_with_the_hips_back(addon, rig_fil
           f"feet {worst / length:.6f}")
     assert worst / length < 0.02, f"{kind}: a foot moved {worst / length:.4f} arm lengths"
     assert result.stats["com_margin_min"] >= min(0.0, result.stats["com_margin_start"]) - 1e-4
-    leaned = (result.stats.get("lean_deg") or 0.0) > 0.0
-    assert leaned == (kind not in UPRIGHT_FAR), (kind, result.message)
+    assert (result.stats.get("lean_deg") or 0.0) > 0.0, (kind, result.message)
+    if kind == HIPS_BACK_RIG:           # what the two tests below hold back
+        assert result.stats["lean_hips_back"] > 0.1, result.stats
 
 
 def test_hips_with_keys_of_their_own_stay_where_the_user_keyed_them(addon, rig_file):  # noqa: F811
     """Nothing lost: where the hips bone's location is keyed by the user, the lean does not
-    move the hips back (it would overwrite those keys). Quaternius' 1.3-arm-length lean,
-    which moves its hips 0.14 arm lengths back when they are free, is planned without them
-    (a smaller lean with the chest turned farther) and the user's keys are as they were."""
-    armature = open_rig(rig_file, "quaternius")
+    move the hips back (it would overwrite those keys). The :data:`HIPS_BACK_RIG`'s
+    1.3-arm-length lean, which moves its hips back when they are free, is planned without
+    them (a smaller lean with the chest turned farther) and the user's keys are as they
+    were."""
+    armature = open_rig(rig_file, HIPS_BACK_RIG)
     info = addon.blender.rig.build(armature, "right")
     legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
     lean_mod = importlib.import_module(addon.__name__ + ".blender.lean")
@@ -316,13 +320,13 @@ def test_hips_with_keys_of_their_own_stay_where_the_user_keyed_them(addon, rig_f
 
 
 def test_hips_that_would_move_back_into_a_wall_keep_the_body_clear(addon, rig_file):  # noqa: F811
-    """The whole body is checked: a wall stands just behind Quaternius' hips (its face 0.02
-    arm lengths behind the skin, from 0.3 arm lengths under the hip joints to 0.3 over
-    them), and the 1.3-arm-length lean, which moves its hips 0.14 arm lengths back where
+    """The whole body is checked: a wall stands just behind the :data:`HIPS_BACK_RIG`'s hips
+    (its face 0.02 arm lengths behind the skin, from 0.3 arm lengths under the hip joints
+    to 0.3 over them), and the 1.3-arm-length lean, which moves its hips back where
     they are free, must keep every vertex of the skin (less the reaching arm's) out of the
     wall at every frame and three instants between, as Blender evaluates them: reached
     another way, or refused with the lower body named."""
-    armature = open_rig(rig_file, "quaternius")
+    armature = open_rig(rig_file, HIPS_BACK_RIG)
     info = addon.blender.rig.build(armature, "right")
     legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
     shoulder, forward, outward, up, length = everyday.body_axes(info)

@@ -252,17 +252,19 @@ def test_a_shifted_lean_that_tips_the_body_is_not_tried_with_a_smaller_shift():
     figure.drop = lambda shift: 0.0
     counts = {}
     for cause in (BALANCE, TOUCH):
-        shifted = []
+        shifted, plain = [], []
 
-        def acceptable(lean, arm_world=None, turned=None, shifted=shifted, cause=cause):
-            if np.any(lean.shift):
-                shifted.append(lean)
+        def acceptable(lean, arm_world=None, turned=None, shifted=shifted, plain=plain,
+                       cause=cause):
+            (shifted if np.any(lean.shift) else plain).append(lean)
             return Why("refused", cause)
 
         phase, why = lean_then_reach(planner, task, failed, arm.waist,
                                      lambda a: Planner(a, obstacles({}), settings),
                                      acceptable, None, figure)
         assert phase is None and "refused" in why
-        counts[cause] = len(shifted)
+        counts[cause] = (len(shifted), len(plain))
     # each lean tried with the whole margin; a touch tries a quarter of it as well
-    assert counts[BALANCE] >= 1 and counts[TOUCH] == 2 * counts[BALANCE], counts
+    assert counts[BALANCE][0] >= 1 and counts[TOUCH][0] == 2 * counts[BALANCE][0], counts
+    # a lean refused for the balance is followed by smaller ones only, a touch by any
+    assert counts[BALANCE][1] <= counts[TOUCH][1], counts
