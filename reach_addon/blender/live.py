@@ -46,7 +46,7 @@ from mathutils import Matrix
 from ..core import Plan, ReachError, Stats
 from ..core.live import DEFAULT_BUDGET_S, LiveSession, LiveStatus
 from . import bake as bake_mod
-from . import bone_matrices, gaze, pipeline, spine_share
+from . import bone_matrices, gaze, own_keys, pipeline, spine_share
 from . import rig as rig_mod
 from .fcurves import Channels, write_channel
 from .settle import settle
@@ -373,7 +373,9 @@ def _apply(st: LiveState, armature) -> None:
 
 def key_pose(context=None) -> bake_mod.BakeResult:
     """Key the pose on screen at the current frame, through :func:`.bake.bake` (the chest
-    too when Live turned it). Raises ReachError when Live is off."""
+    too when Live turned it, and the spine bones sharing its turn, and the head): the
+    body's keys are recorded as Reach's own (:func:`.own_keys.record`), as a bake's are.
+    Raises ReachError when Live is off."""
     st = _state
     if st is None:
         raise ReachError("Live is off: turn on Live in the Reach panel, then key the pose")
@@ -391,14 +393,21 @@ def key_pose(context=None) -> bake_mod.BakeResult:
     result = bake_mod.bake(context, armature, st.info, [bake_mod.KeyedPlan(plan, frame)],
                            new_action=False)
     start = st.info.start.body_rotation
+    body = []        # the body's keys, Reach's own (a bake's own_keys.record, for its body)
     if abs(pose.config.body_rotation - start) > 1e-9:
         for name in names:
             armature.pose.bones[name].matrix_basis = shown[name]
             _key_as_posed(armature, name, frame)
         result.bones = names + [b for b in result.bones if b not in names]
+        body += list(st.spine.bones) + ([names[-1]] if st.spine.bones else [])
     if st.neck is not None:                  # the head, turned toward the target
         _key_as_posed(armature, st.neck.name, frame)
         result.bones = result.bones + [st.neck.name]
+        body.append(st.neck.name)
+    if body:
+        # so a later bake shares its turn down the spine (and turns the head) again, as
+        # after a bake, instead of taking these keys for a user's and leaving them be
+        own_keys.record(armature.animation_data.action, body, frame, frame)
     context.view_layer.update()
     return result
 

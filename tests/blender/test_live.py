@@ -220,6 +220,9 @@ def test_key_pose_keys_what_is_shown_chest_included(fresh, addon):
     total = abs(pose.config.body_rotation - info.start.body_rotation)       # degrees
     assert sum(turned[:2]) == pytest.approx(0.4 * total, abs=1.0), (turned, total)
     assert turned[2] == pytest.approx(0.6 * total, abs=1.0), (turned, total)
+    # Reach's own keys, as a bake's: a later bake still shares its turn down the spine
+    users_keys = addon.blender.own_keys.users_keys
+    assert not any(users_keys(arm, b) for b in (*spine, chest)), action.get("reach_own_keys")
     live.stop(push_undo=False)
     # the keys hold the pose: leave the frame, come back, the wrist is where it was
     bpy.context.scene.frame_set(1)
