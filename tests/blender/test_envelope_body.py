@@ -113,10 +113,12 @@ def test_without_lean_no_point_is_classed_by_the_body(addon, rig_file):  # noqa:
         assert counts["out"] > 0, counts
 
 
-def test_a_figure_not_standing_under_gravity_has_no_squat_or_step_class(addon, rig_file):  # noqa: F811
-    """Quaternius on its floor with the scene's gravity turned 50°: a reach neither squats
-    nor steps for it (``test_body_step``), so its envelope has no point of those classes,
-    where standing it has both (the test above, same rig and settings)."""
+def test_a_figure_not_standing_under_gravity_has_no_body_class(addon, rig_file):  # noqa: F811
+    """Quaternius on its floor with the scene's gravity turned 50°: a reach neither leans,
+    squats nor steps for it (``test_body_step``; a lean is refused as "only standing"), so
+    its envelope has no point of those classes, where standing it has them all (the test
+    above, same rig and settings). A point the standing envelope classes ``lean`` is
+    refused so when baked."""
     armature = open_rig(rig_file, "quaternius")
     info = addon.blender.rig.build(armature, "right")
     armature = fresh(rig_file, "quaternius", info)
@@ -126,6 +128,16 @@ def test_a_figure_not_standing_under_gravity_has_no_squat_or_step_class(addon, r
     up = -np.asarray(bpy.context.scene.gravity, float) / 9.81
     assert addon.blender.balance.legs_tilt(armature, legs, up) > 40.0
     settings = addon.core.Settings().replace(lean=True, envelope_body=True)
-    counts = envelope(addon, armature, settings).envelope.counts()
+    env = envelope(addon, armature, settings)
+    counts = env.envelope.counts()
     print(f"ENVELOPE tilted: {counts}")
-    assert counts["squat"] == counts["step"] == 0, counts
+    assert counts["lean"] == counts["squat"] == counts["step"] == 0, counts
+    # the lean a standing figure's envelope offers is refused on the tilted one
+    bpy.context.scene.gravity = (0.0, 0.0, -9.81)
+    standing = envelope(addon, armature, settings)
+    lean = np.flatnonzero(standing.envelope.classes == addon.core.envelope.LEAN)
+    assert len(lean), standing.envelope.counts()
+    bpy.context.scene.gravity = (0.0, 9.81 * np.sin(tilt), -9.81 * np.cos(tilt))
+    _ob, outcome = bake_at(addon, armature, standing.world[lean[0]], settings)
+    result = outcome.results[0]
+    assert not result.success and "only a body standing" in result.message, result.message
