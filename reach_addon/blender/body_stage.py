@@ -4,9 +4,9 @@ PipelineRun`; issue 41, stages 2–5 of ``docs/design/core.md``'s whole-body rea
 With Lean on, a single reach (or a sequence or guided reach, :mod:`..core.whole_body`)
 whose target the arm and chest could not reach is planned again with the trunk leaning
 or the figure squatting (:func:`.lean.plan`), and where that does not reach either, with a
-step toward it first (:func:`.step.plan`). A single reach the chest turned past Table 1's
-for is planned with a lean as well, which is taken where it costs the trunk less
-(:mod:`..core.effort`). What the body does not do is said in the
+step toward it first (:func:`.step.plan`). A reach to one target the chest turned past
+Table 1's for is planned with a lean as well, which is taken where it costs the trunk
+less (:mod:`..core.effort`). What the body does not do is said in the
 refused plans' messages: a target the character carries, obstacles that move, several
 reaches.
 """
@@ -47,21 +47,23 @@ def plan(run) -> None:
 
 
 def _instead_of_twist(run) -> None:
-    """Where the reach turned the chest past Table 1's to bring its target within reach
-    and a lean would cost the trunk less (:func:`~..core.effort.twist_for_reach`), the
-    lean, taken where it is planned and its :func:`~..core.effort.trunk_effort` (its lean,
-    and its own chest's turn past Table 1's) is still below the upright reach's: sets
-    ``run.lean`` (its ``spared_twist``) and ``plans[0]``; else the upright reach stays."""
+    """Where the reach (to one target: a single reach, or a sequence or guided reach with
+    one) turned the chest past Table 1's to bring its target within reach and a lean would
+    cost the trunk less (:func:`~..core.effort.twist_for_reach`), the lean (no squat: the
+    upright reach reached), taken where it is planned and its
+    :func:`~..core.effort.trunk_effort` (its lean, and its own chest's turn past Table
+    1's) is still below the upright reach's: sets ``run.lean`` (its ``spared_twist``) and
+    ``plans[0]``; else the upright reach stays, as planned."""
     upright = run.plans[0]
     costed = twist_for_reach(upright.plan)
     if costed is None:
         return
-    twist = costed[0]
+    twist, s = costed[0], run.settings
+    ceiling = trunk_effort(twist, 0.0, s)
     lean, keyed = lean_mod.plan(run.context, run.armature, run.info, run.planner, upright,
-                                aim=0)
-    s = run.settings
+                                aim=0, ceiling=ceiling)
     if lean is None or trunk_effort(twist_past_table1(keyed.plan), lean.phase.lean.angle, s) \
-            >= trunk_effort(twist, 0.0, s):
+            >= ceiling:
         return
     lean.spared_twist = twist
     run.lean, run.plans[0] = lean, keyed

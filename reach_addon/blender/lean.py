@@ -105,7 +105,8 @@ class RigLean:
         return self.lean_first + self.phase.frames
 
 
-def plan(context, armature, info, planner, keyed, aim: int | None = None):
+def plan(context, armature, info, planner, keyed, aim: int | None = None,
+         ceiling: float | None = None):
     """Try a lean where ``keyed`` (the :class:`.bake.KeyedPlan` of a single reach, a
     sequence or a guided reach) was refused as ``needs_lean`` (or as ``out_of_reach`` below
     the arm, for a squat) and ``Settings.lean`` is on, toward the target
@@ -115,8 +116,9 @@ def plan(context, armature, info, planner, keyed, aim: int | None = None):
     (:class:`RigLean`, the reach's KeyedPlan on the leaned trunk); or (None, ``keyed``)
     with its message saying why no lean was planned. ``aim``: where ``keyed`` reached its
     target with the chest turned past Table 1's (:func:`~..core.effort.twist_for_reach`),
-    the index of the target to lean toward instead; ``keyed`` is then returned as it is
-    where no lean is planned."""
+    the index of the target to lean toward instead, and ``ceiling`` the twist's trunk
+    effort, which the lean must stay below (:func:`~..core.whole_body.lean_then_reach`);
+    ``keyed`` is then returned as it is where no lean is planned."""
     made = []
 
     def make_planner(arm, settings=None):
@@ -150,7 +152,8 @@ def plan(context, armature, info, planner, keyed, aim: int | None = None):
             context, armature, info, legs, bone, check.hips, planner.settings, check)
         phase, reach_or_why = lean_then_reach(planner, task, failed, pivot, make_planner, check,
                                               trunk_skin(armature, info, bone), body,
-                                              split=bone != info.bones.keyed_chest, aim=aim)
+                                              split=bone != info.bones.keyed_chest, aim=aim,
+                                              ceiling=ceiling)
         if phase is not None:
             bases = lean_basis(armature, bone, world_rotations(info, phase.lean, phase.fractions))
             first = keyed.first_frame

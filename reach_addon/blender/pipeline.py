@@ -564,8 +564,8 @@ def envelope_steps(context, request: Request, chunk: int = 64, world=None):
         points = info.arm.to_canonical_points(np.atleast_2d(np.asarray(world, dtype=float)))
         coords = envelope_mod.canonical_to_shoulder_frame(info.arm, points)
     stance = read_stance(armature, info, s)
-    # a body that cannot lean (no legs, not standing: read_stance) has no lean class, as a
-    # reach refuses to lean there
+    # a body that cannot lean (no legs or no lean bone, not standing: read_stance) has no
+    # lean class, as a reach refuses to lean there
     lean_as_reach = s if stance is not None else s.replace(lean=False)
     planner = Planner(info.arm, obstacles, envelope_mod.exhaustive(lean_as_reach))
     env = yield from relay(envelope_mod.envelope_steps(planner.generator, points, chunk, stance),

@@ -23,10 +23,11 @@ that direction: a reach within the arm keeps it and costs nothing), ``R_t`` the 
 body's axial range (:data:`AXIAL_RANGE_DEG`), ``q_l`` the lean at the hips and ``R_l`` the
 trunk's flexion range (:data:`FLEXION_RANGE_DEG`), and ``w_t`` the weight
 ``Settings.twist_weight`` (1: the two displacements count alike, as Yang's; 0: a twist
-costs nothing, and the chest turns as far as it must before the trunk leans, the order
-before this). The squat's knees and the hips moved back are not in it: a squat is tried
-only where no standing lean reaches (:func:`~.whole_body.lean_then_reach`), and ranks its
-own postures by the same measure over its joints' limits (:func:`~.squat.effort`).
+costs nothing: an upright reach that twists is kept, and a refused one tries Table 1's
+lean and then the least, as before the costing). The squat's knees and the hips moved
+back are not in it: a squat is tried only where no standing lean reaches and never in
+place of an upright reach (:func:`~.whole_body.lean_then_reach`), and ranks its own
+postures by the same measure over its joints' limits (:func:`~.squat.effort`).
 """
 
 from __future__ import annotations
@@ -78,11 +79,12 @@ def twist_past_table1(plan) -> float:
 
 
 def twist_for_reach(plan) -> tuple | None:
-    """Whether ``plan`` (a reach to one target that reached it upright, the arm and chest
-    alone) turned the chest past Table 1's to bring the target within reach, and a lean
-    would cost less: (its twist past Table 1's, the least lean that brings the target
-    within ``Settings.lean_reach`` of the shoulder with Table 1's turn, about the arm's
-    waist: :func:`~.lean.choose_lean`), both degrees; else None. None where Table 1's
+    """Whether ``plan`` (a reach to one target, a single reach or a sequence or guided
+    reach with one, that reached it upright, the arm and chest alone) turned the chest
+    past Table 1's to bring the target within reach, and a lean would cost less: (its
+    twist past Table 1's, the least lean that brings the target within
+    ``Settings.lean_reach`` of the shoulder with Table 1's turn, about the arm's waist:
+    :func:`~.lean.choose_lean`), both degrees; else None. None where Table 1's
     shoulder is within the straight arm of the target (the turn got the arm past
     something, which a lean does not), where no lean within ``Settings.lean_max`` would
     do, where the target is more than :data:`AHEAD_DEG` off straight ahead, or where the

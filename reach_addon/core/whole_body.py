@@ -1,11 +1,15 @@
 """The whole-body reach: what the body does where the arm alone cannot reach the target.
 
 Stage 1 of the plan in ``docs/design/core.md`` (*balance.py*): **a lean, then the reach.**
-Where a reach fails as ``needs_lean`` and ``Settings.lean`` is on, the trunk leans at the
-hips toward the target, feet planted: the chest turns as the paper's Table 1 has it, and
-the lean brings the target within ``Settings.lean_reach`` arm lengths of the shoulder
-(:func:`~.lean.choose_lean`); failing that, the least lean with the chest turned as far as
-the planner may (a smaller lean, a larger twist). The arm
+Where a reach fails as ``needs_lean`` and ``Settings.lean`` is on (or reaches its one
+target only by turning the chest past Table 1's, where a lean costs the trunk less:
+:func:`~.effort.twist_for_reach`), the trunk leans at the hips toward the target, feet
+planted: the chest turns as the paper's Table 1 has it, and the lean brings the target
+within ``Settings.lean_reach`` arm lengths of the shoulder (:func:`~.lean.choose_lean`),
+or, where a little twist saves more lean than it costs, the chest turns a little farther
+(:func:`_leans_to_try`, least trunk effort first); failing those, smaller leans with the
+chest turned farther, and last the least lean with the chest turned as far as the planner
+may (a smaller lean, a larger twist). The arm
 holds its start pose on the leaning trunk (a minimum-jerk phase of its own,
 :func:`~.lean.lean_frames`); then the paper's planner plans the reach unchanged, for the
 same arm in the leaned trunk's frame (:func:`~.lean.leaned_arm`). Every instant of the
@@ -123,7 +127,7 @@ class LeanPhase:
 
 def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=None,
                     trunk: TrunkSkin | None = None, body=None, split: bool = True,
-                    aim: int | None = None):
+                    aim: int | None = None, ceiling: float | None = None):
     """Plan ``task`` (a reach, a sequence or a guided reach) with a lean toward the target
     :func:`body_target` picks, where ``failed`` (``planner``'s plan of it) was refused as
     ``needs_lean`` there: returns (:class:`LeanPhase`, the reach's plan on the
@@ -148,12 +152,16 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     lean bone is the chest it keys: the upright reaches turn the chest, which the lean's
     keys would overwrite. ``aim``: the index of the target to lean toward instead of
     :func:`body_target`'s, where ``failed`` reached every target (turning the chest past
-    Table 1's, which costs more than a lean: :func:`~.effort.twist_for_reach`).
+    Table 1's, which costs more than a lean: :func:`~.effort.twist_for_reach`), and
+    ``ceiling`` that twist's :func:`~.effort.trunk_effort`, which a lean must stay below
+    (no squat is tried there: the upright reach reached).
 
-    Recruitment, as the issue orders it: the chest turns as the paper's Table 1 has it at
-    the target, and the lean takes the rest (:func:`~.lean.choose_lean`); where that lean
-    is not acceptable or finds no way, the least lean with the chest turned as far as the
-    planner may turn it (:func:`~.lean.chest_turns`: a smaller lean, a larger twist)."""
+    Recruitment, as the issue orders it, costed (:mod:`.effort`): the leans are tried
+    least trunk effort first (:func:`_leans_to_try`): where a twist would cost more than the
+    lean it saves, the chest turns as the paper's Table 1 has it at the target and the lean
+    takes the rest (:func:`~.lean.choose_lean`); where that lean is not acceptable or finds
+    no way, smaller leans with the chest turned farther, and last the least lean with the
+    chest turned as far as the planner may turn it (:func:`~.lean.chest_turns`)."""
     s, arm = planner.settings, planner.arm
     aim = body_target(s, task, failed, arm) if aim is None else aim
     if aim is None:
@@ -165,7 +173,7 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     if split and first > 0:
         upright, rest = upright_part(planner, task, failed, first)
         phase, why = _lean_toward(planner, rest, target_c, pivot_c, make_planner, acceptable,
-                                  trunk, body, base)
+                                  trunk, body, base, ceiling)
         if phase is not None:
             # where the arm rose toward the far target before the lean (a ready reach from
             # where the upright part ends, the chest held), both are upright reaches in turn
@@ -175,7 +183,7 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
         names = ", ".join(f"'{n}'" for n in task.names[:first]) or f"{first} target(s)"
         later = f"with {names} reached upright first: {why or 'no lean'}; leaning before them: "
     phase, why = _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable,
-                              trunk, body, base)
+                              trunk, body, base, ceiling)
     return (phase, why) if phase is not None else (None, later + why)
 
 
@@ -206,32 +214,44 @@ def upright_part(planner, task, failed, first: int):
 
 
 def _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable, trunk, body,
-                 base: float):
+                 base: float, ceiling: float | None = None):
     """:func:`lean_then_reach` toward the canonical ``target_c``, for ``task`` from its
     start (``base``: the chest's turn the rig stands with, from which the body's checks
-    turn the trunk): (:class:`LeanPhase`, the reach's plan) or (None, why not)."""
+    turn the trunk): (:class:`LeanPhase`, the reach's plan) or (None, why not).
+    ``ceiling``: the :func:`~.effort.trunk_effort` a lean must stay below (an upright
+    reach's twist it would replace): no lean at or above it is tried, nor a squat."""
     s, arm = planner.settings, planner.arm
     table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
     turns = [(table1,), chest_turns(s)]
-    leans, turns_tried = _leans_to_try(arm, target_c, pivot_c, s, table1)
+    leans, turns_tried = _leans_to_try(arm, target_c, pivot_c, s, table1, ceiling)
     whys = []
     if not leans:
-        whys.append(f"no lean up to {s.lean_max:.0f}° at the hips brings it within reach")
+        whys.append(f"no lean up to {s.lean_max:.0f}° at the hips brings it within reach"
+                    if ceiling is None else "no lean costs the trunk less than the twist")
     shifting = body is not None and s.lean_hips_back
-    tipped, tries = math.inf, 0     # the least lean refused for the balance; leans tried
+    tipped, tries = math.inf, 0     # the least lean refused for its balance; leans tried
+    planned: dict = {}              # why each lean tried as it stands was refused
     for k, (lean, turn) in enumerate(zip(leans, turns_tried)):
         if k < len(leans) - 1 and (lean.angle >= tipped - 1e-9 or tries == LEAN_TRIES):
             continue       # a lean as deep tips the body as far; the last is always tried
         tries += 1
-        why = acceptable(lean) if acceptable is not None else None
-        if why is None:
-            phase, why = _balanced_reach(planner, task, lean, make_planner, trunk, acceptable,
-                                         base)
-            if phase is not None:
-                return phase, why
+        key = round(lean.angle, 9)
+        if key in planned:            # the last: tried already; only its shift is new
+            why = planned[key]
+        else:
+            why = acceptable(lean) if acceptable is not None else None
+            if getattr(why, "cause", "") == BALANCE:
+                tipped = min(tipped, lean.angle)
+            if why is None:
+                phase, why = _balanced_reach(planner, task, lean, make_planner, trunk,
+                                             acceptable, base)
+                if phase is not None:
+                    return phase, why
+            planned[key] = why
         for share in (SHIFT_SHARES if shifting and why is not None else ()):
             shifted = shifted_lean(arm, target_c, pivot_c, s, turn, body, share)
-            if shifted is None:
+            if shifted is None or (ceiling is not None and trunk_effort(
+                    0.0, shifted.angle, s) >= ceiling):
                 break
             why = acceptable(shifted)
             if why is None:
@@ -241,11 +261,9 @@ def _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable, tru
                     return phase, why
             if getattr(why, "cause", "") == BALANCE:
                 break              # a smaller shift leaves the body farther past its feet
-        if getattr(why, "cause", "") == BALANCE:
-            tipped = lean.angle
         if why not in whys:
             whys.append(why)
-    if shifting and s.squat:
+    if shifting and s.squat and ceiling is None:
         phase, why = squat_then_reach(planner, task, target_c, pivot_c, turns, body,
                                       make_planner, trunk, acceptable, base)
         if phase is not None:
@@ -254,31 +272,42 @@ def _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable, tru
     return None, "; ".join(whys)
 
 
-#: How many of :func:`_leans_to_try`'s leans :func:`_lean_toward` tries at most (a
-#: lean as deep as one refused for the balance is not tried, nor counted).
+#: How many of :func:`_leans_to_try`'s leans :func:`_lean_toward` tries at most before
+#: its last (a lean as deep as one refused for the balance is not tried, nor counted).
 LEAN_TRIES = 6
 
 
-def _leans_to_try(arm, target_c, pivot_c, s, table1: float) -> tuple:
-    """The leans :func:`_lean_toward` tries in turn, and the chest turn (a 1-tuple,
-    degrees) each was chosen with (:func:`~.hips.shifted_lean` keeps it where the lean
-    would tip the body): for Table 1's turn and each of :func:`~.lean.chest_turns`, the
-    least lean that brings ``target_c`` within reach (:func:`~.lean.choose_lean`), least
-    :func:`~.effort.trunk_effort` first (the turn past Table 1's, and the lean): Table 1's
-    lean leads where a twist would cost more than the lean it saves, as people lean before
-    they twist; a deeper lean then gives way to a smaller one with the chest turned farther
-    (Quaternius' alien, whose 16° lean for the far target tips it past its feet whatever
-    its hips do, reaches it with less lean and more twist). Last, the least lean of all,
-    its hips' shift sought with every turn (the smallest lean, the largest twist). Empty
-    where no lean reaches."""
-    turns = [table1] + [t for t in chest_turns(s) if abs(t - table1) > 1e-9]
-    found = [(abs(t - table1), lean, (t,)) for t in turns
+def _leans_to_try(arm, target_c, pivot_c, s, table1: float, ceiling: float | None = None
+                  ) -> tuple:
+    """The leans :func:`_lean_toward` tries in turn, and the chest turns (a tuple, degrees)
+    each was chosen with, among which :func:`~.hips.shifted_lean` seeks its hips' shift
+    where the lean would tip the body: for Table 1's turn and each of
+    :func:`~.lean.chest_turns`, the least lean that brings ``target_c`` within reach
+    (:func:`~.lean.choose_lean`), least :func:`~.effort.trunk_effort` first (the turn past
+    Table 1's, and the lean): Table 1's lean leads where a twist would cost more than the
+    lean it saves, as people lean before they twist; a deeper lean then gives way to a
+    smaller one with the chest turned farther (Quaternius' alien, whose 16° lean for the
+    far target tips it past its feet whatever its hips do, reaches it with less lean and
+    more twist). Last, the least lean of all, its hips' shift sought with every turn (the
+    smallest lean, the largest twist). With ``Settings.twist_weight`` 0, the two the
+    recruitment tried before the costing: Table 1's lean (where more than 0.5° deeper
+    than the least) and the least. Leans whose effort is ``ceiling`` or more are left
+    out. Empty where no lean reaches."""
+    every = [table1] + [t for t in chest_turns(s) if abs(t - table1) > 1e-9]
+    found = [(abs(t - table1), lean, (t,)) for t in every
              if (lean := choose_lean(arm, target_c, pivot_c, s, (t,))) is not None]
+    if ceiling is not None:
+        found = [f for f in found if trunk_effort(f[0], f[1].angle, s) < ceiling]
     if not found:
         return [], []
-    found.sort(key=lambda f: (trunk_effort(f[0], f[1].angle, s), f[0]))
-    least = min(found, key=lambda f: f[1].angle)[1]
-    return [f[1] for f in found] + [least], [f[2] for f in found] + [tuple(turns[1:])]
+    least = min(found, key=lambda f: f[1].angle)
+    if s.twist_weight <= 0.0:
+        first = found[0] if found[0][2] == (table1,) and \
+            found[0][1].angle > least[1].angle + 0.5 else None
+        found = [] if first is None else [first]
+    else:
+        found.sort(key=lambda f: (trunk_effort(f[0], f[1].angle, s), f[0]))
+    return [f[1] for f in found] + [least[1]], [f[2] for f in found] + [tuple(every)]
 
 
 #: The tasks the body leans (and squats) for: a single reach, a sequence and a guided

@@ -238,7 +238,7 @@ def test_a_shifted_lean_that_tips_the_body_is_not_tried_with_a_smaller_shift():
     past its feet) is not tried; where it refuses it for a touch, it is."""
     from test_squat import body
 
-    from reach_addon.core.whole_body import BALANCE, TOUCH, Why
+    from reach_addon.core.whole_body import BALANCE, LEAN_TRIES, TOUCH, Why
 
     arm = standard_arm()
     settings = Settings().replace(lean=True, squat=False)
@@ -263,8 +263,14 @@ def test_a_shifted_lean_that_tips_the_body_is_not_tried_with_a_smaller_shift():
                                      lambda a: Planner(a, obstacles({}), settings),
                                      acceptable, None, figure)
         assert phase is None and "refused" in why
-        counts[cause] = (len(shifted), len(plain))
+        counts[cause] = (len(shifted), [lean.angle for lean in plain])
     # each lean tried with the whole margin; a touch tries a quarter of it as well
     assert counts[BALANCE][0] >= 1 and counts[TOUCH][0] == 2 * counts[BALANCE][0], counts
+    # after a lean refused for its balance only smaller ones are tried; after a touch,
+    # the next by effort, deeper or not, up to LEAN_TRIES and the last; none twice
+    tipped, touched = counts[BALANCE][1], counts[TOUCH][1]
+    assert all(b < a for a, b in zip(tipped, tipped[1:])), tipped
+    assert any(b > a for a, b in zip(touched, touched[1:])), touched
+    assert len(touched) == len(set(touched)) == LEAN_TRIES + 1, touched
     # a lean refused for the balance is followed by smaller ones only, a touch by any
     assert counts[BALANCE][1] <= counts[TOUCH][1], counts
