@@ -27,6 +27,17 @@ def test_bundled_presets_are_visible(fresh, addon):
     assert {"Mixamo", "Unreal_Mannequin", "VRM_Humanoid"} <= set(menu_files("rigs"))
 
 
+def test_every_bundled_preset_sets_every_setting_of_its_kind(fresh, addon):
+    """A preset that leaves a setting out leaves it as the user had it: *AAOS Adult* would
+    not reset a setting added after it was written."""
+    presets = __import__(addon.__name__ + ".ui.presets", fromlist=["KINDS"])
+    for kind, (_group, names) in presets.KINDS.items():
+        for name, path in menu_files(kind).items():
+            text = path.read_text()
+            missing = [n for n in names if f"reach.{n} = " not in text]
+            assert not missing, (kind, name, missing)
+
+
 def test_strength_and_body_presets_set_the_planner_settings(fresh, addon):
     settings = bpy.context.scene.reach.settings
     defaults = addon.core.Settings()
