@@ -30,6 +30,7 @@ from ..core.stance import Stance
 from . import balance, viz
 from . import hips as hips_mod
 from .lean import lean_bone
+from .own_keys import users_keys
 from .lean_pose import pivot_world
 from .scene import VIZ_TAG, ObstacleCache, character_objects, rounded_bytes
 
@@ -45,7 +46,9 @@ def read_stance(armature, info, settings) -> Stance | None:
     envelope's squat and step classes; None without Lean, where Reach finds no legs or
     no bone to lean the trunk (:func:`.lean.lean_bone`), or where the legs lean past
     :data:`.balance.STANDING_TILT` off the scene's gravity
-    (:func:`.balance.standing_why_not`), as a reach would not lean, squat or step there.
+    (:func:`.balance.standing_why_not`), as a reach would not lean, squat or step there;
+    with the lean bone keyed by the user, a stance that steps only (``trunk_free``), as a
+    reach then refuses to lean.
     Its margin is a reach's: ``Settings.balance_margin`` arm lengths inside the feet, over
     the rig's own where it stands past them."""
     if not settings.lean:
@@ -69,7 +72,8 @@ def read_stance(armature, info, settings) -> Stance | None:
                                              np.asarray(info.frame.forward, float))),
         ankles=ankles, leg_length=leg_length,
         shoulder=np.asarray(info.joints_world["shoulder"], dtype=float),
-        ground=balance.ground_now(armature, legs, up))
+        ground=balance.ground_now(armature, legs, up),
+        trunk_free=not users_keys(armature, bone))
 
 
 def state_key(context, request) -> str:

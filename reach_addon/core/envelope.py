@@ -165,12 +165,15 @@ def body_class(arm, point, settings, stance=None) -> int:
     past the arm's length, :func:`~.whole_body.below_the_arm`, as for a refused reach, and
     ``Settings.squat`` is on), :data:`SQUAT` where a squat does (:func:`squattable`);
     else :data:`STEP` where steps do (:func:`steppable`); else :data:`OUT`. Without Lean,
-    or without a ``stance``, only the first; a point below the ground the feet stand on
+    or without a ``stance``, only the first; with a stance whose trunk is not free
+    (:attr:`~.stance.Stance.trunk_free`), only a step; a point below the ground the feet stand on
     is :data:`OUT`; and every one is :data:`OUT` without ``Settings.envelope_body`` (off
     by default: the body's classes take minutes on the default grid, the arm's seconds)."""
     if not settings.envelope_body:
         return OUT
-    if leanable(arm, point, settings, stance):
+    if stance is not None and not stance.trunk_free:
+        settings = settings.replace(squat=False)        # steps only (``Stance.trunk_free``)
+    elif leanable(arm, point, settings, stance):
         return LEAN
     if stance is None or not settings.lean:
         return OUT

@@ -46,7 +46,9 @@ class Stance:
     :class:`~.squat.Leg` per leg; ``ankles`` (2, 3) and ``leg_length`` (hip to ankle) for
     the step; ``shoulder``: the reaching shoulder; ``ground``: the height (along ``up``)
     the soles stand on; ``target``: the point the reaching arm
-    is held toward (:meth:`toward`)."""
+    is held toward (:meth:`toward`); ``trunk_free``: whether a reach may lean or squat
+    (False where the bone that leans the trunk has a user's keys, which a reach keeps and
+    refuses to lean: steps only, the arm alone after them)."""
 
     segments: tuple
     arm: int
@@ -63,6 +65,7 @@ class Stance:
     shoulder: np.ndarray
     ground: float
     target: np.ndarray | None = None
+    trunk_free: bool = True
 
     def drop(self, shift_world) -> float:
         """How far the hips come down for ``shift_world`` (:func:`~.hips.legs_drop`, on

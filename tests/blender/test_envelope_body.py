@@ -141,3 +141,41 @@ def test_a_figure_not_standing_under_gravity_has_no_body_class(addon, rig_file):
     _ob, outcome = bake_at(addon, armature, standing.world[lean[0]], settings)
     result = outcome.results[0]
     assert not result.success and "only a body standing" in result.message, result.message
+
+
+def test_a_trunk_the_user_keyed_has_no_lean_or_squat_class(addon, rig_file):  # noqa: F811
+    """Quaternius on its floor, the bone that leans its trunk keyed by the user: a reach
+    keeps those keys and refuses to lean or squat (``lean.plan``), so the envelope has no
+    point of those classes, where unkeyed it has both (the step class stays: a step needs
+    no lean). A point the unkeyed envelope classes ``lean`` is baked as the keyed one
+    says: by a step, or refused for the keys."""
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    armature = fresh(rig_file, "quaternius", info)
+    settings = addon.core.Settings().replace(lean=True, envelope_body=True)
+    free = envelope(addon, armature, settings)
+    counts = free.envelope.counts()
+    assert counts["lean"] and counts["squat"] and counts["step"], counts
+    legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
+    bone = addon.blender.lean.lean_bone(armature, info.bones, legs)
+    pb = armature.pose.bones[bone]
+    pb.keyframe_insert("rotation_quaternion" if pb.rotation_mode == "QUATERNION"
+                       else "rotation_euler", frame=1)
+    keyed = envelope(addon, armature, settings)
+    counts = keyed.envelope.counts()
+    print(f"ENVELOPE keyed trunk: {counts}")
+    assert counts["lean"] == counts["squat"] == 0 and counts["step"], counts
+    # a point the unkeyed envelope classes lean: baked, a step reaches it (the keyed
+    # envelope says step) or it is refused for the keys (the keyed envelope says out)
+    lean = np.flatnonzero(free.envelope.classes == addon.core.envelope.LEAN)
+    i = lean[0]
+    _ob, outcome = bake_at(addon, armature, free.world[i], settings)
+    result = outcome.results[0]
+    said = addon.core.envelope.CLASSES[keyed.envelope.classes[i]]
+    print(f"ENVELOPE keyed trunk at {free.shoulder[i]}: {said}; {result.message}")
+    assert "lean_deg" not in result.stats, result.stats
+    if said == "step":
+        assert result.success and result.stats["step_count"] >= 1, result.message
+    else:
+        assert said == "out" and not result.success, (said, result.message)
+        assert f"bone '{bone}', which leans the trunk, has keys of its own" in result.message
