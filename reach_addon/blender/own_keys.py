@@ -1,9 +1,9 @@
 """Which keys of the body's bones are Reach's own: the frames a bake keyed on a bone it
 keys only for the whole body (the lean bone, the hips and legs, the neck), recorded on the
-action, so that a bake again over them replaces them (:func:`clear_overlapping`, the whole
-earlier motion's keys on those bones) while keys a user set on those bones are kept, and
-refused (:func:`users_keys`). A key inside a span Reach keyed counts as Reach's (a user's
-edit of a baked key included).
+action, so that a bake again over them replaces them (:func:`clear_overlapping`: the
+earlier motion's keys on those bones from where the new bake starts) while keys a user set
+on those bones are kept, and refused (:func:`users_keys`). A key inside a span Reach keyed
+counts as Reach's (a user's edit of a baked key included).
 
 The record is a custom property of the action (:data:`PROPERTY`, JSON: bone → list of
 [first, last] frame ranges): it is saved with the file, copied with the action (a bake into
@@ -84,10 +84,16 @@ def overlapping(armature, lo: float, hi: float) -> dict:
 
 
 def clear_overlapping(armature, lo: float, hi: float) -> dict:
-    """Delete the keys of the spans Reach keyed that meet ``lo``..``hi`` (every channel
-    of those bones, on those spans' frames) and forget the spans: an earlier bake's whole
-    motion on the body's bones, which the bake about to run replaces. Returns the spans
-    cleared (:func:`overlapping`)."""
+    """Delete the keys of the spans Reach keyed that meet ``lo``..``hi`` from ``lo`` on
+    (every channel of those bones, after frame ``lo`` to each span's end) and forget those
+    frames: the rest of an earlier bake's motion on the body's bones, which the bake about
+    to run replaces. The keys up to ``lo`` stay, as the keys of every other bone do
+    (:func:`.fcurves.write_channel` replaces keys only on the frames it writes): a bake
+    that starts part way through an earlier lean keeps that lean's frames before it, with
+    which the earlier reach's arm keys were planned, and, where it does not key a bone of
+    the earlier lean, holds it at frame ``lo`` as it was planned from (the key on ``lo``
+    stays; the new bake overwrites it where it keys the bone). Returns the spans met
+    (:func:`overlapping`)."""
     spans = overlapping(armature, lo, hi)
     if not spans:
         return spans
@@ -100,7 +106,7 @@ def clear_overlapping(armature, lo: float, hi: float) -> dict:
             continue
         pts = fc.keyframe_points
         for i in range(len(pts) - 1, -1, -1):
-            if any(a - 0.5 <= pts[i].co[0] <= b + 0.5 for a, b in hit):
+            if any(max(a - 0.5, lo + 0.5) < pts[i].co[0] <= b + 0.5 for a, b in hit):
                 pts.remove(pts[i], fast=True)
         if len(pts):
             fc.update()
@@ -108,7 +114,9 @@ def clear_overlapping(armature, lo: float, hi: float) -> dict:
             bag.fcurves.remove(fc)          # an empty curve would hold its channel at 0
     data = _record(action)
     for bone, hit in spans.items():
-        data[bone] = [s for s in data.get(bone, []) if s not in hit]
+        kept = [s for s in data.get(bone, []) if s not in hit]
+        kept += [[a, int(np.floor(lo))] for a, _b in hit if a <= lo]
+        data[bone] = sorted(kept)
         if not data[bone]:
             del data[bone]
     action[PROPERTY] = json.dumps(data, sort_keys=True)

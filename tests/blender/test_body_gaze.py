@@ -136,7 +136,8 @@ def test_without_gaze_the_neck_is_left_alone_and_a_bake_again_turns_it_again(
     """*Look at target* off: the neck is not keyed. On: a second bake over the first
     (its neck keys Reach's own) turns the head the same way again; a key a user set on
     the neck (frame 200) makes the next bake leave the neck alone and say why: the user's
-    key stays, the earlier bakes' neck keys go with the motion they turned."""
+    key stays, the earlier bakes' neck keys go with the motion they turned (but the one on
+    the bake's first frame: the neck as the bake found it, ``own_keys.clear_overlapping``)."""
     armature = open_rig(rig_file, "quaternius")
     info = addon.blender.rig.build(armature, "right")
     neck = info.bones.neck
@@ -164,13 +165,18 @@ def test_without_gaze_the_neck_is_left_alone_and_a_bake_again_turns_it_again(
     pb.rotation_quaternion = (0.98, math.sqrt(1 - 0.98 ** 2), 0.0, 0.0)
     pb.keyframe_insert("rotation_quaternion", frame=200)
     users = [(fc.array_index, fc.evaluate(200)) for fc in curves()]
+    start = result.frame_start
+    found = {fc.array_index: fc.evaluate(start) for fc in curves()}
     bpy.data.objects.remove(target)
     _target, outcome = reach(addon, armature, info)
     stats = outcome.results[0].stats
     assert "has keys of its own" in stats["gaze_note"], stats
-    # the earlier bakes' neck keys are gone with the motion they turned; the user's stays
+    assert outcome.results[0].frame_start == start
+    # the earlier bakes' neck keys after the bake's first frame are gone with the motion
+    # they turned; the one on that frame (the neck as the bake found it) and the user's stay
     assert [(fc.array_index, [tuple(k.co) for k in fc.keyframe_points]) for fc in curves()] \
-        == [(i, [(200.0, pytest.approx(v))]) for i, v in users]
+        == [(i, [(float(start), pytest.approx(found[i])), (200.0, pytest.approx(v))])
+            for i, v in users]
 
 
 def head_skin(armature, neck):

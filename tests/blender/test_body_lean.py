@@ -460,9 +460,9 @@ def test_a_bake_again_over_a_lean_leans_the_same_way(addon, rig_file):  # noqa: 
     """The lean's keys (the lean bone, the hips, the legs) are Reach's own
     (``own_keys``): a second bake over the first, the target where it was, leans again and
     keys the same values; a third, the target now within the arm's reach, into a new
-    action, clears the earlier lean's keys from the copy (nothing holds the trunk leaned)
-    and leaves the user's action as it was; keys a user set stay
-    refused (``test_hips_with_keys_of_their_own_stay_where_the_user_keyed_them``)."""
+    action, clears the earlier lean's keys from the copy but the one on its first frame
+    (nothing holds the trunk leaned) and leaves the user's action as it was; keys a user
+    set stay refused (``test_hips_with_keys_of_their_own_stay_where_the_user_keyed_them``)."""
     ahead = reach_edge(addon, rig_file, "quaternius") + BEYOND
     armature = open_rig(rig_file, "quaternius")
     info = addon.blender.rig.build(armature, "right")
@@ -498,10 +498,55 @@ def test_a_bake_again_over_a_lean_leans_the_same_way(addon, rig_file):  # noqa: 
     result = outcome.results[0]
     assert result.success and not result.stats.get("lean_deg"), result.message
     assert armature.animation_data.action != original
-    left = [k for k in curves() if k[0].startswith(f'pose.bones["{lean_bone}"]')]
-    assert not left, left
+    # but its key on the first frame, the trunk upright as the bake found it
+    left = {k: v for k, v in curves().items() if k[0].startswith(f'pose.bones["{lean_bone}"]')}
+    assert left, curves().keys()
+    for key, points in left.items():
+        assert points == [baked[1][key][0]], (key, points)
     armature.animation_data.action = original
     assert curves() == baked[1]
+
+
+def test_a_bake_part_way_through_a_lean_keeps_the_frames_before_it(addon, rig_file):  # noqa: F811
+    """A lean baked from frame 1, then a reach to a target within the arm baked from a
+    frame half way through the lean (the chest turning alone: the lean bone is not keyed
+    again): the earlier lean's frames before it stay as they were (the earlier reach's arm
+    keys, which stay too, were planned on them), and from there on the trunk holds as it
+    stood on that frame, which the new reach was planned from: its wrist ends on target."""
+    ahead = reach_edge(addon, rig_file, "quaternius") + BEYOND
+    armature = open_rig(rig_file, "quaternius")
+    info = addon.blender.rig.build(armature, "right")
+    _target, table, outcome = run(addon, armature, info, ahead, True, True)
+    first = outcome.results[0]
+    assert first.success and first.stats["lean_deg"] > 0.0, first.message
+    bone = armature.pose.bones[first.stats["lean_bone"]]
+    middle = 1 + first.stats["lean_ready_frames"] + first.stats["lean_frames"] // 2
+    scene_ = bpy.context.scene
+
+    def basis(f):
+        scene_.frame_set(f)
+        return np.array(bone.matrix_basis)
+
+    before = [basis(f) for f in range(1, middle + 1)]
+    assert not np.allclose(before[0], before[-1], atol=1e-3)    # leaning by then
+    bpy.data.objects.remove(table)
+    near = everyday.at(info, 0.6, 0.0, -0.3)
+    ob = bpy.data.objects.new("Near Target", None)
+    ob.location = tuple(near)
+    scene_.collection.objects.link(ob)
+    pipeline = addon.blender.pipeline
+    request = pipeline.Request(armature.name, [ob.name], task="reach", side="right",
+                               frame_start=middle, draw=False, settings=addon.core.Settings(
+                                   ).replace(lean=True, spine_share=0.0))
+    second = pipeline.run(bpy.context, request, bake=True).results[0]
+    assert second.success and "lean_deg" not in second.stats, second.message
+    for f, was in zip(range(1, middle + 1), before):
+        np.testing.assert_allclose(basis(f), was, atol=1e-5, err_msg=f"frame {f}")
+    np.testing.assert_allclose(basis(second.frame_end), before[-1], atol=1e-5)
+    hand = armature.pose.bones[info.bones.arms["right"].hand]
+    wrist = np.array(armature.matrix_world @ hand.head)
+    tolerance = request.settings.goal_tolerance * info.arm.arm_length
+    assert np.linalg.norm(wrist - near) <= tolerance + 1e-4 * info.arm.arm_length
 
 
 def test_among_moving_obstacles_the_refusal_says_the_body_leans_only_among_still_ones(
