@@ -4,9 +4,9 @@ PipelineRun`; issue 41, stages 2–5 of ``docs/design/core.md``'s whole-body rea
 With Lean on, a single reach (or a sequence or guided reach, :mod:`..core.whole_body`)
 whose target the arm and chest could not reach is planned again with the trunk leaning
 or the figure squatting (:func:`.lean.plan`), and where that does not reach either, with a
-step toward it first (:func:`.step.plan`). A reach to one target the chest turned past
-Table 1's for is planned with a lean as well, which is taken where it costs the trunk
-less (:mod:`..core.effort`). What the body does not do is said in the
+step toward it first (:func:`.step.plan`). A reach that turned the chest past Table 1's
+for a target beyond the arm is planned with a lean as well, which is taken where it
+costs the trunk less (:mod:`..core.effort`). What the body does not do is said in the
 refused plans' messages: a target the character carries, obstacles that move, several
 reaches.
 """
@@ -18,7 +18,7 @@ import numpy as np
 from . import lean as lean_mod
 from . import rig as rig_mod
 from . import step as step_mod
-from ..core.effort import trunk_effort, twist_for_reach, twist_past_table1
+from ..core.effort import reach_effort, twist_for_reach
 from .carried import carrying_bone
 
 
@@ -47,23 +47,29 @@ def plan(run) -> None:
 
 
 def _instead_of_twist(run) -> None:
-    """Where the reach (to one target: a single reach, or a sequence or guided reach with
-    one) turned the chest past Table 1's to bring its target within reach and a lean would
-    cost the trunk less (:func:`~..core.effort.twist_for_reach`), the lean (no squat: the
-    upright reach reached), taken where it is planned and its
-    :func:`~..core.effort.trunk_effort` (its lean, and its own chest's turn past Table
-    1's) is still below the upright reach's: sets ``run.lean`` (its ``spared_twist``) and
-    ``plans[0]``; else the upright reach stays, as planned."""
+    """Where the reach (a single reach, or a sequence or guided reach) turned the chest
+    past Table 1's to bring one of its targets within reach and a lean would cost the
+    trunk less there (:func:`~..core.effort.twist_for_reach`), the lean toward that
+    target (no squat: the upright reach reached), held through the targets after it and
+    taken where it is planned and its :func:`~..core.effort.reach_effort` from that target
+    on (its lean, and its own chest's turns past Table 1's, at each arrival) is still
+    below the upright reach's: sets ``run.lean`` (its ``spared_twist``) and
+    ``plans[0]``; else the upright reach stays, as planned. The targets before it are
+    reached upright as they were (:func:`~..core.whole_body.upright_part`)."""
     upright = run.plans[0]
     costed = twist_for_reach(upright.plan)
     if costed is None:
         return
-    twist, s = costed[0], run.settings
-    ceiling = trunk_effort(twist, 0.0, s)
+    aim, twist = costed[0], costed[1]
+    ceiling = reach_effort(upright.plan, 0.0, aim)
     lean, keyed = lean_mod.plan(run.context, run.armature, run.info, run.planner, upright,
-                                aim=0, ceiling=ceiling)
-    if lean is None or trunk_effort(twist_past_table1(keyed.plan), lean.phase.lean.angle, s) \
-            >= ceiling:
+                                aim=aim, ceiling=ceiling)
+    if lean is None:
+        return
+    # the leaned plan's targets: from ``aim`` where the ones before it were reached upright
+    # first, else all of them (the lean before the first: compared over as many)
+    first = len(upright.plan.task.targets) - len(keyed.plan.task.targets)
+    if reach_effort(keyed.plan, lean.phase.lean.angle) >= reach_effort(upright.plan, 0.0, first):
         return
     lean.spared_twist = twist
     run.lean, run.plans[0] = lean, keyed

@@ -68,31 +68,53 @@ def trunk_effort(twist_deg: float, lean_deg: float, settings) -> float:
             + joint_displacement(lean_deg, FLEXION_RANGE_DEG))
 
 
-def twist_past_table1(plan) -> float:
-    """How far (degrees) the chest of ``plan`` (a :class:`~.results.Plan`) ends turned past
-    Table 1's turn for its last target (:func:`~.torso.body_rotation_deg`, canonical frame
-    of ``plan.arm``)."""
+def twist_past_table1(plan, index: int = -1) -> float:
+    """How far (degrees) the chest of ``plan`` (a :class:`~.results.Plan`) is turned past
+    Table 1's turn for its target ``index`` (:func:`~.torso.body_rotation_deg`, canonical
+    frame of ``plan.arm``) as it arrives there: the last target at the plan's end by
+    default."""
     arm = plan.arm
-    target = arm.to_canonical_points(np.asarray(plan.task.targets[-1], dtype=float))
+    target = arm.to_canonical_points(np.asarray(plan.task.targets[index], dtype=float))
     table = body_rotation_deg(target, arm.arm_length, arm.hand_length, plan.settings)
-    return abs(float(plan.poses[-1].config.body_rotation) - float(table))
+    pose = plan.poses[-1] if index == -1 else plan.poses[plan.segments[index].frame_end]
+    return abs(float(pose.config.body_rotation) - float(table))
+
+
+def reach_effort(plan, lean_deg: float, first: int = 0) -> float:
+    """The trunk's effort over the targets of ``plan`` from ``first`` on: the sum, over
+    each arrival, of :func:`trunk_effort` for its chest's turn past Table 1's
+    (:func:`twist_past_table1`) and the lean ``lean_deg`` the trunk holds. A sequence's
+    lean is held through the targets after it (:func:`~.whole_body.body_target`), so a
+    lean for one far target costs at each later one too."""
+    s, n = plan.settings, len(plan.task.targets)
+    return sum(trunk_effort(twist_past_table1(plan, i), lean_deg, s) for i in range(first, n))
 
 
 def twist_for_reach(plan) -> tuple | None:
-    """Whether ``plan`` (a reach to one target, a single reach or a sequence or guided
-    reach with one, that reached it upright, the arm and chest alone) turned the chest
-    past Table 1's to bring the target within reach, and a lean would cost less: (its
-    twist past Table 1's, the least lean that brings the target within
+    """Whether ``plan`` (a single reach, or a sequence or guided reach, that reached every
+    target upright, the arm and chest alone) turned the chest past Table 1's to bring one
+    of its targets within reach, and a lean would cost less there: (the index of the
+    first such target, its twist past Table 1's, the least lean that brings it within
     ``Settings.lean_reach`` of the shoulder with Table 1's turn, about the arm's waist:
-    :func:`~.lean.choose_lean`), both degrees; else None. None where Table 1's
-    shoulder is within the straight arm of the target (the turn got the arm past
-    something, which a lean does not), where no lean within ``Settings.lean_max`` would
-    do, where the target is more than :data:`AHEAD_DEG` off straight ahead, or where the
-    lean's :func:`trunk_effort` is not below the twist's."""
-    s, arm = plan.settings, plan.arm
-    if not plan.success or len(plan.task.targets) != 1 or not s.lean or s.twist_weight <= 0:
+    :func:`~.lean.choose_lean`), degrees; else None. A target does not count where Table
+    1's shoulder is within the straight arm of it (the turn got the arm past something,
+    which a lean does not), where no lean within ``Settings.lean_max`` would do, where it
+    is more than :data:`AHEAD_DEG` off straight ahead, or where the lean's
+    :func:`trunk_effort` is not below the twist's."""
+    s = plan.settings
+    if not plan.success or not s.lean or s.twist_weight <= 0:
         return None
-    target = arm.to_canonical_points(np.asarray(plan.task.targets[0], dtype=float))
+    for i in range(len(plan.task.targets)):
+        costed = _twist_at(plan, i)
+        if costed is not None:
+            return (i,) + costed
+    return None
+
+
+def _twist_at(plan, i: int) -> tuple | None:
+    """:func:`twist_for_reach` for the target ``i`` of ``plan``: (twist, lean) or None."""
+    s, arm = plan.settings, plan.arm
+    target = arm.to_canonical_points(np.asarray(plan.task.targets[i], dtype=float))
     off = target - np.asarray(arm.waist, dtype=float)
     if math.degrees(math.atan2(abs(float(off[0])), float(off[1]))) > AHEAD_DEG:
         return None
@@ -100,7 +122,7 @@ def twist_for_reach(plan) -> tuple | None:
     shoulder = rotate_about_spine(np.asarray(arm.shoulder, dtype=float), table)
     if float(np.linalg.norm(target - shoulder)) <= arm.arm_length:
         return None
-    twist = twist_past_table1(plan)
+    twist = twist_past_table1(plan, i)
     lean = choose_lean(arm, target, arm.waist, s, (table,))
     if lean is None or trunk_effort(0.0, lean.angle, s) >= trunk_effort(twist, 0.0, s):
         return None

@@ -2,10 +2,11 @@
 
 Stage 1 of the plan in ``docs/design/core.md`` (*balance.py*): **a lean, then the reach.**
 Where a reach fails as ``needs_lean`` and ``Settings.lean`` is on (or reaches its one
-target only by turning the chest past Table 1's, where a lean costs the trunk less:
-:func:`~.effort.twist_for_reach`), the trunk leans at the hips toward the target, feet
-planted: the chest turns as the paper's Table 1 has it, and the lean brings the target
-within ``Settings.lean_reach`` arm lengths of the shoulder (:func:`~.lean.choose_lean`),
+target, or one of its sequence's, only by turning the chest past Table 1's, where a
+lean costs the trunk less: :func:`~.effort.twist_for_reach`), the trunk leans at the
+hips toward the target, feet planted: the chest turns as the paper's Table 1 has it,
+and the lean brings the target within ``Settings.lean_reach`` arm lengths of the
+shoulder (:func:`~.lean.choose_lean`),
 or, where a little twist saves more lean than it costs, the chest turns a little farther
 (:func:`_leans_to_try`, least trunk effort first); failing those, smaller leans with the
 chest turned farther, and last the least lean with the chest turned as far as the planner
@@ -153,7 +154,8 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     keys would overwrite. ``aim``: the index of the target to lean toward instead of
     :func:`body_target`'s, where ``failed`` reached every target (turning the chest past
     Table 1's, which costs more than a lean: :func:`~.effort.twist_for_reach`), and
-    ``ceiling`` that twist's :func:`~.effort.trunk_effort`, which a lean must stay below
+    ``ceiling`` the upright reach's trunk effort from there on
+    (:func:`~.effort.reach_effort`), which a lean must stay below
     (no squat is tried there: the upright reach reached).
 
     Recruitment, as the issue orders it, costed (:mod:`.effort`): the leans are tried

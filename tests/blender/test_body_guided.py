@@ -80,7 +80,7 @@ def test_without_lean_a_guided_reach_past_the_arm_is_refused_as_before(addon, ri
     assert addon.ui.operators.body_lines(result.stats) == []
 
 
-@pytest.mark.parametrize("kind", RIGS + ("gomakehuman",))
+@pytest.mark.parametrize("kind", RIGS + ("gomakehuman", "alien", "malebase"))
 @pytest.mark.parametrize("task", ("sequence", "guided"))
 def test_two_targets_in_turn_reach_the_near_upright_then_lean_for_the_far(
         addon, rig_file, kind, task):  # noqa: F811

@@ -10,8 +10,8 @@ import pytest
 from geometry import HANGING, obstacles, standard_arm
 
 from reach_addon.core import Planner, Settings, Task
-from reach_addon.core.effort import (AXIAL_RANGE_DEG, FLEXION_RANGE_DEG, trunk_effort,
-                                     twist_for_reach, twist_past_table1)
+from reach_addon.core.effort import (AXIAL_RANGE_DEG, FLEXION_RANGE_DEG, reach_effort,
+                                     trunk_effort, twist_for_reach, twist_past_table1)
 from reach_addon.core.lean import least_lean
 from reach_addon.core.whole_body import _leans_to_try, lean_then_reach
 
@@ -53,7 +53,8 @@ def test_a_target_reached_by_twisting_past_table1_is_reached_leaning_instead():
     assert costed is not None
     plain = least_lean(arm.shoulder, arm.waist, arm.to_canonical_points(target),
                        s.lean_reach * arm.arm_length, s.lean_max)
-    assert costed[1] == pytest.approx(plain, abs=1e-6)        # Table 1's turn is 0 ahead
+    assert costed[0] == 0 and costed[1] == pytest.approx(twist)
+    assert costed[2] == pytest.approx(plain, abs=1e-6)        # Table 1's turn is 0 ahead
     obst = obstacles({})
     phase, reach = lean_then_reach(planner, task, plan, arm.waist,
                                    lambda a, st=None: Planner(a, obst, st or s), aim=0)
@@ -63,6 +64,33 @@ def test_a_target_reached_by_twisting_past_table1_is_reached_leaning_instead():
         trunk_effort(twist, 0.0, s) / 4
     wrist = reach.world_joints()[-1, 3]
     assert np.linalg.norm(wrist - target) <= s.goal_tolerance * arm.arm_length + 1e-9
+
+
+def test_a_sequence_leans_for_its_far_target_after_the_near_one():
+    """A sequence to a near target (0.8 ahead) and the far one (1.15): reached upright, the
+    chest turned past Table 1's at the far one only; there a lean costs less, and the
+    lean, planned after the near target (reached upright as before), costs the trunk less
+    over the far target than the twist did."""
+    arm = standard_arm()
+    s = Settings().replace(lean=True)
+    targets = np.array([ahead(arm, 0.8, 0.3), ahead(arm, 1.15, 0.3)])
+    planner = Planner(arm, obstacles({}), s)
+    task = Task("sequence", targets, HANGING, names=("Near", "Far"))
+    plan = planner.plan(task)
+    assert plan.success, plan.message
+    assert twist_past_table1(plan, 0) == pytest.approx(0.0, abs=1e-9)
+    assert twist_past_table1(plan, 1) == pytest.approx(twist_past_table1(plan))
+    assert twist_past_table1(plan) >= 30.0
+    aim, twist, _lean = twist_for_reach(plan)
+    assert aim == 1 and twist == pytest.approx(twist_past_table1(plan, 1))
+    assert reach_effort(plan, 0.0) == pytest.approx(reach_effort(plan, 0.0, 1))
+    obst = obstacles({})
+    phase, reach = lean_then_reach(planner, task, plan, arm.waist,
+                                   lambda a, st=None: Planner(a, obst, st or s), aim=aim,
+                                   ceiling=reach_effort(plan, 0.0, aim))
+    assert phase is not None and reach.success, reach
+    assert phase.ready_reaches == 1 and list(reach.task.names) == ["Far"]
+    assert reach_effort(reach, phase.lean.angle) < reach_effort(plan, 0.0, 1) / 4
 
 
 def test_table1_holds_within_the_arm_and_a_free_twist_keeps_the_upright_reach():
