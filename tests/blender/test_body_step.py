@@ -1,6 +1,7 @@
-"""The step (issue "Reach past the arm", *Step*): on every rig with legs a target
-:data:`SIDE` arm lengths to the reaching side of the shoulder, :data:`BELOW` under it, on a
-counter (:func:`scene`), is reached by stepping toward it, then reaching. Baked as a user's Bake is, with
+"""The step (issue "Reach past the arm", *Step*): on every rig with legs, standing on a
+floor (:func:`floor`), a target :data:`SIDE` arm lengths to the reaching side of the
+shoulder, :data:`BELOW` under it, on a counter (:func:`scene`), is reached by stepping
+toward it, then reaching. Baked as a user's Bake is, with
 *Lean* on (the step comes with it), and measured on what Blender evaluates, with code that
 shares nothing with the planner:
 
@@ -10,7 +11,8 @@ shares nothing with the planner:
   moves less than :data:`GROUND` along it; it is in the air (higher than that) only while
   the other stands; both stand at the end, moved toward the target;
 - the reaching arm keeps the planner's clearance from the counter at every frame and
-  three instants between (``clearance.Arm``), and the rest of the skin stays out of it;
+  three instants between (``clearance.Arm``), and the rest of the skin stays out of it
+  and out of the floor (but for the soles' share of the clearance);
 - the centre of mass stays over the feet on the ground (the report's least margin over
   every frame, read again wherever a foot moves, not below 0 nor the rig's own).
 
@@ -24,6 +26,7 @@ import clearance
 import everyday
 import numpy as np
 import pytest
+import rigs
 from test_body_lean import (attach_loose_parts, bone_heads, box_signed_distance, open_rig,
                             skin_vertices)
 from test_every_rig import KINDS, obstacle_triangles, rig_file  # noqa: F401  (the fixture)
@@ -56,6 +59,21 @@ def scene(armature, info):
     return ob, pedestal
 
 
+def floor(armature, info):
+    """A floor under the figure, level under the scene's gravity (a step moves the feet
+    along the ground it sets), its top the lowest point of the skin
+    (``test_body_squat.floor_top``), 8 arm lengths square about the shoulder."""
+    from test_body_squat import floor_top
+    length = info.arm.arm_length
+    up = everyday.gravity_up()
+    shoulder = np.asarray(info.joints_world["shoulder"], float)
+    centre = shoulder - (float(shoulder @ up) - floor_top(armature, info) + 0.1 * length) * up
+    side = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    side /= np.linalg.norm(side)
+    axes = np.column_stack([side, np.cross(up, side), up])
+    return rigs.add_box("Floor", centre, length * np.array([8.0, 8.0, 0.2]), axes)
+
+
 def run(addon, armature, info, step=True, bake=True):
     target, pedestal = scene(armature, info)
     pipeline = addon.blender.pipeline
@@ -85,7 +103,26 @@ def feet_bones(armature, info):
     return sides
 
 
-@pytest.mark.parametrize("kind", KINDS)
+#: Rigs that do not step on a floor yet, each with its measured cause.
+STEP_XFAIL = {
+    "goblin": "on a floor, each of the three steps tried (1.50, 1.35, 1.19 arm lengths) is "
+              "refused on its frame 2, the first shift of the weight, the skin below the "
+              "ankles going past the feet's quarter clearance from the floor (not measured "
+              "further; likely its squat's cause, the ankle's skin blended between the "
+              "shank and the foot going down as the shank tips over the planted foot)",
+    "knight": "on a floor, the 1.50 and 1.19 arm-length steps are refused on frame 43, a "
+              "foot's landing (a heel point 0.26 clearances into the floor where the feet "
+              "keep a quarter: skin blended with the shank), the 1.35 one on frame 24 "
+              "(the skin above the ankle within the clearance of the floor)",
+    "alien": "on a floor, the 1.35 and 1.19 arm-length steps are refused on frame 12, the "
+             "skin above its short legs' ankles coming within the clearance of the floor "
+             "as the weight shifts; the 1.50 one brings the hand to the counter",
+}
+
+
+@pytest.mark.parametrize("kind", [
+    pytest.param(k, marks=[pytest.mark.xfail(strict=True, reason=STEP_XFAIL[k])]
+                 if k in STEP_XFAIL else []) for k in KINDS])
 def test_a_target_two_arm_lengths_to_the_side_is_reached_with_a_step(addon, rig_file, kind,  # noqa: F811
                                                                      tmp_path):
     armature = open_rig(rig_file, kind)
@@ -96,6 +133,9 @@ def test_a_target_two_arm_lengths_to_the_side_is_reached_with_a_step(addon, rig_
     bpy.context.scene.frame_set(1)
     feet = feet_bones(armature, info)
     start = bone_heads(armature)
+    ground = floor(armature, info)
+    soles = skin_vertices(armature, {ground.name})
+    soles = float(box_signed_distance(soles, ground).min()) if len(soles) else 0.0
     target, pedestal, outcome = run(addon, armature, info)
     result = outcome.results[0]
     assert result.success, result.message
@@ -110,6 +150,7 @@ def test_a_target_two_arm_lengths_to_the_side_is_reached_with_a_step(addon, rig_
     arm_bones = {a.upper_arm, a.forearm, a.hand} | {
         c.name for c in armature.pose.bones[a.forearm].children_recursive}
     before, worst_slide, worst_skin, worst_at = None, 0.0, np.inf, None
+    worst_floor = np.inf
     for f in range(result.frame_start, result.frame_end + 1):
         for k in range(INSTANTS if f < result.frame_end else 1):
             bpy.context.scene.frame_set(f, subframe=k / INSTANTS)
@@ -130,6 +171,7 @@ def test_a_target_two_arm_lengths_to_the_side_is_reached_with_a_step(addon, rig_
             skin = skin_vertices(armature, {pedestal.name}, arm_bones)
             if len(skin):
                 worst_skin = min(worst_skin, float(box_signed_distance(skin, pedestal).min()))
+                worst_floor = min(worst_floor, float(box_signed_distance(skin, ground).min()))
     assert worst_slide < GROUND, (kind, worst_slide, worst_at)
     assert all(before[1]), f"{kind}: a foot ends in the air"
     out = np.asarray(everyday.body_axes(info)[2])
@@ -137,6 +179,11 @@ def test_a_target_two_arm_lengths_to_the_side_is_reached_with_a_step(addon, rig_
              for i in range(2)]
     assert min(moved) > 0.3, (kind, moved)
     assert worst_skin > 0.0, (kind, worst_skin / length)
+    # no skin deeper in the floor than the soles stand, but for the feet's share of the
+    # clearance the planner allows them (``lean_balance.FEET_CLEARANCE``)
+    sink = addon.blender.lean_balance.FEET_CLEARANCE * outcome.request.settings.clearance
+    if np.isfinite(worst_floor):
+        assert worst_floor >= min(0.0, soles) - sink * length, (kind, worst_floor / length)
     # on the target
     bpy.context.scene.frame_set(result.frame_end)
     wrist = bone_heads(armature)[a.hand]
