@@ -2,7 +2,8 @@
 for each ``LEAN_TRIES`` (:data:`reach_addon.core.whole_body.LEAN_TRIES`).
 
 ``python bench/lean_tries.py [--tries 1,2,4,6] [--rigs ...] [--out FILE]`` plans, on each
-rig of the test suite read from a file and Blender's metarig, standing on a floor, the
+rig of the test suite read from a file and Blender's metarig, standing on a floor (its
+top the lowest point of the skin), the
 scenes below, built in the rig's own body frame and sized by its arm (positions are
 (forward, outward, up) arm lengths from the reaching shoulder), with *Lean* on, once for
 each number of tries; prints a table and writes ``out/lean_tries.json``:
@@ -44,14 +45,14 @@ SCENES = ("far", "table", "low shelf", "beyond")
 
 def scene(name, armature, info):
     """The target empty of scene ``name`` (module docstring), and its obstacles, added to
-    the current file; a floor under the rig's lowest bone head."""
+    the current file; a floor whose top is the lowest point of the rig's skin (of its
+    bones where it has none: ``test_body_squat.floor_top``)."""
     import everyday
+    from test_body_squat import floor_top
     up = np.asarray(info.frame.up, float)
     length = info.arm.arm_length
     shoulder = np.asarray(info.joints_world["shoulder"], float)
-    heads = [np.asarray(armature.matrix_world @ b.head_local, float)
-             for b in armature.data.bones]
-    floor = (min(float(h @ up) for h in heads) - float(shoulder @ up)) / length
+    floor = (floor_top(armature, info) - float(shoulder @ up)) / length
     everyday.box(info, "Floor", (-1.5, -1.5, floor - 0.2), (3.0, 1.5, floor))
     if name == "far":
         where = (1.3, 0.0, -0.1)
