@@ -61,7 +61,10 @@ def _instead_of_twist(run) -> None:
     if costed is None:
         return
     aim, twist = costed[0], costed[1]
-    ceiling = reach_effort(upright.plan, 0.0, aim)
+    # the leans tried are weighed one arrival at a time: the upright effort per arrival it
+    # would be held through (the whole sum decides, below)
+    held = len(upright.plan.task.targets) - aim
+    ceiling = reach_effort(upright.plan, 0.0, aim) / held
     lean, keyed = lean_mod.plan(run.context, run.armature, run.info, run.planner, upright,
                                 aim=aim, ceiling=ceiling)
     if lean is None:
@@ -71,7 +74,7 @@ def _instead_of_twist(run) -> None:
     first = len(upright.plan.task.targets) - len(keyed.plan.task.targets)
     if reach_effort(keyed.plan, lean.phase.lean.angle) >= reach_effort(upright.plan, 0.0, first):
         return
-    lean.spared_twist = twist
+    lean.spared_twist, lean.spared_at = twist, aim - lean.phase.ready_reaches
     run.lean, run.plans[0] = lean, keyed
 
 

@@ -4,7 +4,8 @@ are the core's (:mod:`reach_addon.core.envelope`); the viewport overlay is the U
 (:mod:`reach_addon.ui.envelope`).
 
 **Cache.** An envelope is kept per scene with a key of everything it depends on: the
-armature's world matrix and every pose bone's matrix, the obstacles' signature
+armature's world matrix and every pose bone's matrix, the frames its action keys (a key
+on the lean bone takes the lean and squat classes away), the obstacles' signature
 (:class:`~.scene.ObstacleCache`: each obstacle's matrix, data and geometry edits), the
 settings, the arm, the bone map and the obstacle collection. :func:`cached` returns it only
 while that key is unchanged: once the rig's pose, the scene or the settings change, the
@@ -30,6 +31,8 @@ from ..core.stance import Stance
 from . import balance, viz
 from . import hips as hips_mod
 from .lean import lean_bone
+from . import own_keys
+from .fcurves import Channels
 from .own_keys import users_keys
 from .lean_pose import pivot_world
 from .scene import VIZ_TAG, ObstacleCache, character_objects, rounded_bytes
@@ -90,9 +93,28 @@ def state_key(context, request) -> str:
     h.update(rounded_bytes(np.array(armature.matrix_world), 6))
     h.update(rounded_bytes(pose, 6))
     h.update(repr(signature).encode())
+    _keys_digest(h, armature)
     h.update(json.dumps([request.settings.to_dict(), request.side, request.overrides,
                          request.obstacles, targets], sort_keys=True, default=str).encode())
     return h.hexdigest()
+
+
+def _keys_digest(h, armature) -> None:
+    """Feed ``h`` the frames the armature's action keys on each channel and Reach's record
+    of its own (:mod:`.own_keys`): a key a user sets on the bone that leans the trunk, the
+    pose unchanged, takes the lean and squat classes away (:func:`read_stance`)."""
+    ad = armature.animation_data
+    action = ad.action if ad else None
+    if action is None:
+        return
+    h.update(action.name_full.encode())
+    h.update(str(action.get(own_keys.PROPERTY, "")).encode())
+    for fc in Channels(armature, action).bag.fcurves:
+        pts = fc.keyframe_points
+        co = np.empty(2 * len(pts), np.float32)
+        pts.foreach_get("co", co)
+        h.update(f"{fc.data_path}[{fc.array_index}]".encode())
+        h.update(co[0::2].tobytes())
 
 
 def store(context, outcome, key: str) -> None:

@@ -93,6 +93,9 @@ class RigLean:
     #: where the lean was taken instead of an upright reach that turned the chest past
     #: Table 1's (:func:`~..core.effort.twist_for_reach`), that twist (degrees), else None
     spared_twist: float | None = None
+    #: the index, among the reaches after the upright ones (``phase.ready_reaches``), of the
+    #: target that twist was at
+    spared_at: int = 0
 
     @property
     def lean_first(self) -> int:
@@ -114,10 +117,11 @@ def plan(context, armature, info, planner, keyed, aim: int | None = None,
     lean_then_reach`), among ``planner``'s obstacles and
     settings, each lean held to the balance (:class:`.lean_balance.BalanceCheck`). Returns
     (:class:`RigLean`, the reach's KeyedPlan on the leaned trunk); or (None, ``keyed``)
-    with its message saying why no lean was planned. ``aim``: where ``keyed`` reached its
+    with its message saying why no lean was planned. ``aim``: where ``keyed`` reached a
     target with the chest turned past Table 1's (:func:`~..core.effort.twist_for_reach`),
-    the index of the target to lean toward instead, and ``ceiling`` the twist's trunk
-    effort, which the lean must stay below (:func:`~..core.whole_body.lean_then_reach`);
+    the index of the target to lean toward instead, and ``ceiling`` the upright reach's
+    trunk effort per arrival from there on, which a lean must stay below
+    (:func:`~..core.whole_body.lean_then_reach`);
     ``keyed`` is then returned as it is where no lean is planned."""
     made = []
 
@@ -436,7 +440,8 @@ def report(results, lean: RigLean | None, length: float) -> None:
     (the worst leg's flexion, dorsiflexion and thigh flexion at the full lean), and
     ``lean_spared_twist_deg`` where the lean was taken instead of a twist; its message
     says so, and its frames start with the lean's. In a sequence the lean comes before the
-    first target refused upright (:func:`~..core.whole_body.upright_part`; the targets
+    first target refused upright, or the first reached upright only by a twist it replaces
+    (:func:`~..core.whole_body.upright_part`; the targets
     before it, reached upright, are left as they are): the later targets' frames are their
     own, and their messages say the body held its lean."""
     if lean is None:
@@ -477,7 +482,7 @@ def report(results, lean: RigLean | None, length: float) -> None:
                 f", the hips {back:.2f} arm lengths back" if back > 0.0 else "")
         if raised and k == 0:
             r.message += ", the arm raised toward it before the lean"
-        if lean.spared_twist is not None and k == 0:
+        if lean.spared_twist is not None and k == lean.spared_at:
             r.stats.update(lean_spared_twist_deg=round(lean.spared_twist, 1))
             r.message += (f" (instead of turning the chest {lean.spared_twist:.0f}° past "
                           "Table 1's, which costs the trunk more)")

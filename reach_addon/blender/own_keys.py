@@ -85,9 +85,10 @@ def overlapping(armature, lo: float, hi: float) -> dict:
 
 def clear_overlapping(armature, lo: float, hi: float) -> dict:
     """Delete the keys of the spans Reach keyed that meet ``lo``..``hi`` from ``lo`` on
-    (every channel of those bones, after frame ``lo`` to each span's end) and forget those
-    frames: the rest of an earlier bake's motion on the body's bones, which the bake about
-    to run replaces. The keys up to ``lo`` stay, as the keys of every other bone do
+    (every channel of those bones, after frame ``lo`` to each span's end, past ``hi`` too:
+    an earlier lean's tail would hold the trunk in a lean the new bake does not plan, where
+    other bones keep their keys after ``hi``) and forget those frames. The keys up to
+    ``lo`` stay, as the keys of every other bone do
     (:func:`.fcurves.write_channel` replaces keys only on the frames it writes): a bake
     that starts part way through an earlier lean keeps that lean's frames before it, with
     which the earlier reach's arm keys were planned, and, where it does not key a bone of

@@ -154,8 +154,9 @@ def lean_then_reach(planner, task, failed, pivot_c, make_planner, acceptable=Non
     keys would overwrite. ``aim``: the index of the target to lean toward instead of
     :func:`body_target`'s, where ``failed`` reached every target (turning the chest past
     Table 1's, which costs more than a lean: :func:`~.effort.twist_for_reach`), and
-    ``ceiling`` the upright reach's trunk effort from there on
-    (:func:`~.effort.reach_effort`), which a lean must stay below
+    ``ceiling`` the upright reach's trunk effort per arrival from there on
+    (:func:`~.effort.reach_effort` over the targets the lean is held through), which a
+    lean's (:func:`~.effort.trunk_effort`, one arrival) must stay below
     (no squat is tried there: the upright reach reached).
 
     Recruitment, as the issue orders it, costed (:mod:`.effort`): the leans are tried
@@ -221,7 +222,8 @@ def _lean_toward(planner, task, target_c, pivot_c, make_planner, acceptable, tru
     start (``base``: the chest's turn the rig stands with, from which the body's checks
     turn the trunk): (:class:`LeanPhase`, the reach's plan) or (None, why not).
     ``ceiling``: the :func:`~.effort.trunk_effort` a lean must stay below (an upright
-    reach's twist it would replace): no lean at or above it is tried, nor a squat."""
+    reach's twist it would replace, per arrival the lean is held through): no lean at or
+    above it is tried, nor a squat."""
     s, arm = planner.settings, planner.arm
     table1 = body_rotation_deg(target_c, arm.arm_length, arm.hand_length, s)
     turns = [(table1,), chest_turns(s)]

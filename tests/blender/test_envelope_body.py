@@ -159,8 +159,12 @@ def test_a_trunk_the_user_keyed_has_no_lean_or_squat_class(addon, rig_file):  # 
     legs = addon.blender.balance.find_legs(armature, info.bones, info.frame)
     bone = addon.blender.lean.lean_bone(armature, info.bones, legs)
     pb = armature.pose.bones[bone]
+    request = addon.blender.pipeline.Request(armature.name, [], side="right", settings=settings)
+    before = addon.blender.envelope.state_key(bpy.context, request)
     pb.keyframe_insert("rotation_quaternion" if pb.rotation_mode == "QUATERNION"
                        else "rotation_euler", frame=1)
+    # the pose is as it was, but the panel's cached envelope no longer holds
+    assert addon.blender.envelope.state_key(bpy.context, request) != before
     keyed = envelope(addon, armature, settings)
     counts = keyed.envelope.counts()
     print(f"ENVELOPE keyed trunk: {counts}")
