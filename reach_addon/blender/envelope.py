@@ -33,7 +33,6 @@ from . import hips as hips_mod
 from .lean import lean_bone
 from . import own_keys
 from .fcurves import Channels
-from .own_keys import users_keys
 from .lean_pose import pivot_world
 from .scene import VIZ_TAG, ObstacleCache, character_objects, rounded_bytes
 
@@ -76,7 +75,7 @@ def read_stance(armature, info, settings) -> Stance | None:
         ankles=ankles, leg_length=leg_length,
         shoulder=np.asarray(info.joints_world["shoulder"], dtype=float),
         ground=balance.ground_now(armature, legs, up),
-        trunk_free=not users_keys(armature, bone))
+        trunk_free=not own_keys.users_keys(armature, bone))
 
 
 def state_key(context, request) -> str:

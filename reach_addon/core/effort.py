@@ -71,12 +71,12 @@ def trunk_effort(twist_deg: float, lean_deg: float, settings) -> float:
 def twist_past_table1(plan, index: int = -1) -> float:
     """How far (degrees) the chest of ``plan`` (a :class:`~.results.Plan`) is turned past
     Table 1's turn for its target ``index`` (:func:`~.torso.body_rotation_deg`, canonical
-    frame of ``plan.arm``) as it arrives there: the last target at the plan's end by
-    default."""
+    frame of ``plan.arm``) as it arrives there (its segment's last pose): the last
+    target by default."""
     arm = plan.arm
     target = arm.to_canonical_points(np.asarray(plan.task.targets[index], dtype=float))
     table = body_rotation_deg(target, arm.arm_length, arm.hand_length, plan.settings)
-    pose = plan.poses[-1] if index == -1 else plan.poses[plan.segments[index].frame_end]
+    pose = plan.poses[plan.segments[index].frame_end]
     return abs(float(pose.config.body_rotation) - float(table))
 
 
