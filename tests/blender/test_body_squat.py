@@ -45,9 +45,10 @@ FEET_HOLD = 0.02
 SOLES_SINK = 0.002
 
 
-def floor_top(armature, info) -> float:
-    """The height (along up) of the lowest point of the skin, else of the bones."""
-    up = np.asarray(info.frame.up, dtype=float)
+def floor_top(armature, info, up=None) -> float:
+    """The height along ``up`` (the body's up by default) of the lowest point of the skin,
+    else of the bones."""
+    up = np.asarray(info.frame.up if up is None else up, dtype=float)
     skin = skin_vertices(armature, set())
     if len(skin):
         return float((skin @ up).min())
